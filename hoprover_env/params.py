@@ -1,0 +1,137 @@
+"""Physical parameters of the rover and the contest rules, as a frozen dataclass.
+
+`RoverParams()` holds the contest values (MODEL.md section 1). Every field can be set
+(domain randomisation builds new instances with `dataclasses.replace`); the constructor
+validates the set and raises `ValueError` naming the offending field.
+
+The numba kernel never sees this object: `as_array()` packs it into a flat float64
+vector whose layout is given by the `P_*` indices below.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+# Layout of the flat parameter vector used by the jitted kernel.
+P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN, P_VYMIN, P_TMIN, P_TMAX, \
+    P_BAND, P_DWELL = range(15)
+N_PARAMS = 15
+
+
+@dataclasses.dataclass(frozen=True)
+class RoverParams:
+    """Rover, ground and judge parameters (SI units). Defaults: the 2015 contest."""
+
+    mass: float = 1.0                 # m [kg]
+    inertia: float = 0.0017           # I about the c.m. [kg m^2]
+    half_width: float = 0.05          # r [m]
+    half_height: float = 0.05         # h [m]
+    gravity: float = 9.8e-5           # g [m/s^2]
+    mu_static: float = 0.6            # mu_s
+    mu_dynamic: float = 0.5           # mu_d
+    restitution_x: float = 0.8        # e_x, horizontal, of the contact point
+    restitution_y: float = 0.2        # e_y, vertical
+    v_xmin: float = 1e-6              # post-impact horizontal speed zeroed below this [m/s]
+    v_ymin: float = 1e-6              # post-impact vertical speed zeroed below this [m/s]
+    torque_min: float = -5e-4         # T_min [N m]
+    torque_max: float = 5e-4          # T_max [N m]
+    band_half_width: float = 0.05     # judge: |x_P - x_T| <= this [m]
+    dwell_time: float = 5.0           # judge: time the band must be held [s]
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                raise ValueError(f"RoverParams.{f.name} must be a real number, got {v!r}")
+            if not math.isfinite(float(v)):
+                raise ValueError(f"RoverParams.{f.name} must be finite, got {v!r}")
+            object.__setattr__(self, f.name, float(v))
+        for name in ("mass", "inertia", "half_width", "half_height", "gravity",
+                     "band_half_width", "dwell_time"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"RoverParams.{name} must be positive, got {getattr(self, name)!r}")
+        for name in ("mu_static", "mu_dynamic", "restitution_x", "restitution_y"):
+            v = getattr(self, name)
+            if not 0.0 <= v <= 1.0:
+                raise ValueError(f"RoverParams.{name} must lie in [0, 1], got {v!r}")
+        if self.mu_dynamic > self.mu_static:
+            # Kinetic friction above static friction makes every slip stop at once and
+            # restart: a stick-slip chatter with no physical meaning.
+            raise ValueError(f"RoverParams.mu_dynamic ({self.mu_dynamic}) must not exceed "
+                             f"mu_static ({self.mu_static})")
+        for name in ("v_xmin", "v_ymin"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"RoverParams.{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.torque_min > self.torque_max:
+            raise ValueError(f"RoverParams.torque_min ({self.torque_min}) exceeds "
+                             f"torque_max ({self.torque_max})")
+        d_min = self.min_slide_denominator()
+        if d_min <= 1e-12 * (self.inertia + self.mass * self.corner_distance ** 2):
+            raise ValueError(
+                "RoverParams: Painleve regime, the sliding-state denominator "
+                f"I + m dx (dx + sigma mu_d dy) reaches {d_min:.3g} <= 0 for some attitude "
+                f"(mu_dynamic={self.mu_dynamic}, inertia={self.inertia}, mass={self.mass}, "
+                f"half_width={self.half_width}, half_height={self.half_height}); the rigid "
+                "model has no unique solution there")
+
+    # ---- derived quantities -------------------------------------------------------
+    @property
+    def corner_distance(self) -> float:
+        """l = sqrt(r^2 + h^2): c.m. to any corner."""
+        return math.hypot(self.half_width, self.half_height)
+
+    @property
+    def alpha(self) -> float:
+        """atan(h / r)."""
+        return math.atan2(self.half_height, self.half_width)
+
+    @property
+    def tipping_torque(self) -> float:
+        """|T| above which the rover at rest on both corners lifts one (m g r)."""
+        return self.mass * self.gravity * self.half_width
+
+    @property
+    def slip_torque(self) -> float:
+        """|T| above which the rover leaves F straight into a slide (C or E).
+
+        At the tipping instant (theta = 0, omega = 0) the pivot needs
+        f_x = m h thdd and f_y = m (g + r thdd) with thdd = (T - m g r) / J,
+        J = I + m l^2. Slip when f_x > mu_s f_y, i.e. thdd (h - mu_s r) > mu_s g.
+        Infinite when h <= mu_s r (the pivot never slips at the start).
+        """
+        denom = self.half_height - self.mu_static * self.half_width
+        if denom <= 0.0:
+            return math.inf
+        j = self.inertia + self.mass * self.corner_distance ** 2
+        return self.tipping_torque + j * self.mu_static * self.gravity / denom
+
+    def min_slide_denominator(self) -> float:
+        """Smallest D = I + m dx (dx + sigma mu_d dy) over the attitudes a single contact
+        can take (theta in [0, pi/2] on corner A; B is its mirror) and both sigma.
+
+        With dx = r cos t - h sin t, dy = -r sin t - h cos t, D is
+        I + m l^2 / 2 + m (a cos 2t + b sin 2t); its minimum over 2t in [0, pi] is taken
+        at an end point or at the stationary point of the sinusoid.
+        """
+        r, h, mu = self.half_width, self.half_height, self.mu_dynamic
+        base = self.inertia + self.mass * (r * r + h * h) / 2.0
+        best = math.inf
+        for sigma in (-1.0, 1.0):
+            a = (r * r - h * h) / 2.0 - sigma * mu * r * h
+            b = -r * h - sigma * mu * (r * r - h * h) / 2.0
+            cands = [a, -a]                        # psi = 0 and psi = pi
+            psi = math.atan2(-b, -a) % (2 * math.pi)   # minimiser of a cos + b sin
+            if psi <= math.pi:
+                cands.append(-math.hypot(a, b))
+            best = min(best, base + self.mass * min(cands))
+        return best
+
+    def as_array(self) -> np.ndarray:
+        """Flat float64 vector for the kernel (layout: the P_* indices)."""
+        return np.array([self.mass, self.inertia, self.half_width, self.half_height,
+                         self.gravity, self.mu_static, self.mu_dynamic, self.restitution_x,
+                         self.restitution_y, self.v_xmin, self.v_ymin, self.torque_min,
+                         self.torque_max, self.band_half_width, self.dwell_time],
+                        dtype=np.float64)

@@ -1,0 +1,287 @@
+"""`simulate`: run the rover model under a torque schedule or a contest controller.
+
+>>> from hoprover_env import simulate
+>>> roll = simulate(np.full(50, 3e-4), t_end=600.0, control_dt=0.1, target_x=0.5)
+>>> roll.ttrtp, roll.state[-1], len(roll.events)
+
+The controller is either a 1-D array of torques (element k held on
+[k control_dt, (k+1) control_dt); zero torque after the array ends) or a callable with
+the contest signature ``control(pos, vel, the, omg, posT, t, smt, state) -> torque``,
+called at every control instant with the state at that instant (no delay). The torque
+is clipped to [T_min, T_max] and held (zero-order hold). A NaN or infinite torque raises
+``ValueError``; it never reaches the state.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Callable, Sequence
+
+import numpy as np
+
+from . import core
+from .params import RoverParams
+
+INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
+IMPACT_LAWS = {"contest": core.LAW_CONTEST, "dissipative": core.LAW_DISSIPATIVE}
+DEFAULT_RTOL = 1e-11
+
+_INIT_ERRORS = {
+    core.INIT_PENETRATION: "a bottom corner is below the ground",
+    core.INIT_TOP_DOWN: "a top corner is on or below the ground (the rover starts broken)",
+    core.INIT_MOVING_DOWN: "a corner on the ground is moving down into it (an impact, "
+                           "not a state)",
+    core.INIT_NOT_FLAT: "both bottom corners are on the ground but the rover is "
+                        "rotating or tilted",
+}
+
+
+def make_options(integrator: str = "event", impact_law: str = "contest",
+                 rtol: float = DEFAULT_RTOL, euler_dt: float = 1e-3) -> np.ndarray:
+    """The kernel's option vector, with the names checked."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
+    if impact_law not in IMPACT_LAWS:
+        raise ValueError(f"impact_law must be one of {sorted(IMPACT_LAWS)}, got {impact_law!r}")
+    if not (math.isfinite(rtol) and 1e-15 <= rtol <= 1e-2):
+        raise ValueError(f"rtol must lie in [1e-15, 1e-2], got {rtol!r}")
+    if not (math.isfinite(euler_dt) and euler_dt > 0.0):
+        raise ValueError(f"euler_dt must be a positive number, got {euler_dt!r}")
+    o = np.zeros(core.N_OPTIONS)
+    o[core.O_INTEGRATOR] = INTEGRATORS[integrator]
+    o[core.O_LAW] = IMPACT_LAWS[impact_law]
+    o[core.O_RTOL] = rtol
+    o[core.O_EULER_DT] = euler_dt
+    return o
+
+
+def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
+    """A kernel state vector at t = 0: the upright rest of MODEL.md section 9, or
+    `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
+    if not math.isfinite(target_x):
+        raise ValueError(f"target_x must be finite, got {target_x!r}")
+    if initial_state is None:
+        initial_state = (0.0, params.half_height, 0.0, 0.0, 0.0, 0.0)
+    st = np.asarray(initial_state, dtype=np.float64)
+    if st.shape != (6,) or not np.all(np.isfinite(st)):
+        raise ValueError("initial_state must be 6 finite numbers (x, y, theta, vx, vy, "
+                         f"omega), got {initial_state!r}")
+    s = np.zeros(core.N_STATE)
+    code = core.init_state(s, params.as_array(), *st, float(target_x))
+    if code != core.INIT_OK:
+        raise ValueError(f"initial_state {tuple(st)} is not consistent with a contact "
+                         f"state: {_INIT_ERRORS[code]}")
+    return s
+
+
+def check_torque(torque, what="torque") -> float:
+    """A finite float, or ValueError naming the bad value."""
+    try:
+        value = float(torque)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be a real number, got {torque!r}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return value
+
+
+@dataclasses.dataclass
+class Rollout:
+    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
+    the controller saw, before its new torque acts) and at the end of the run."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    omega: np.ndarray
+    state: np.ndarray            # letters 'A'..'G'
+    torque: np.ndarray           # applied torque from each sample on (clipped)
+    torque_cmd: np.ndarray       # what the controller asked for
+    events: list                 # (time, kind, state before, state after)
+    ttrtp: float | None
+    broken: bool
+    target_x: float
+    params: RoverParams
+    impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
+    n_events: int
+    sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
+
+    @property
+    def success(self) -> bool:
+        return self.ttrtp is not None
+
+    def corner(self, which: str):
+        """World position (x, y) and velocity (vx, vy) arrays of corner 'A' or 'B'."""
+        k = {"A": 0, "B": 1}[which]
+        bx = self.params.half_width * (1.0 if k == 0 else -1.0)
+        by = -self.params.half_height
+        c, s = np.cos(self.theta), np.sin(self.theta)
+        dx, dy = bx * c + by * s, -bx * s + by * c
+        return (self.x + dx, self.y + dy,
+                self.vx + self.omega * dy, self.vy - self.omega * dx)
+
+    def contact_forces(self):
+        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied."""
+        p = self.params.as_array()
+        out = np.zeros((len(self.t), 4))
+        s = np.zeros(core.N_STATE)
+        for i in range(len(self.t)):
+            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
+                     self.omega[i])
+            s[core.S_MODE] = "ABCDEFG".index(self.state[i])
+            s[core.S_TORQUE] = self.torque[i]
+            s[core.S_SIGMA] = self.sigma[i]
+            out[i] = core.contact_forces(s, p)
+        return out
+
+
+class RoverSim:
+    """A stateful handle on the kernel: hold a torque to a time, optionally stopping at
+    the first event of a kind, and copy the whole state (for look-ahead planning).
+
+    >>> sim = RoverSim(target_x=0.5)
+    >>> sim.advance(3e-4, 10.0, stop_on="liftoff")   # -> events; sim.t is the lift-off time
+    """
+
+    def __init__(self, params: RoverParams | None = None, target_x: float = 0.5,
+                 initial_state=None, integrator: str = "event",
+                 impact_law: str = "contest", rtol: float = DEFAULT_RTOL,
+                 euler_dt: float = 1e-3):
+        self.params = RoverParams() if params is None else params
+        if not isinstance(self.params, RoverParams):
+            raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
+        self.p = self.params.as_array()
+        self.o = make_options(integrator, impact_law, rtol, euler_dt)
+        self.s = make_state(self.params, target_x, initial_state)
+        self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
+
+    def copy(self) -> "RoverSim":
+        new = object.__new__(RoverSim)
+        new.params, new.p, new.o = self.params, self.p, self.o
+        new.s = self.s.copy()
+        new._ev = np.zeros_like(self._ev)
+        return new
+
+    def advance(self, torque: float, t_stop: float, stop_on: str | None = None) -> list:
+        """Hold `torque` from now to `t_stop` (or to the first `stop_on` event).
+        Returns the events as (time, kind, state before, state after, value)."""
+        torque = check_torque(torque)
+        self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
+        n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev)
+        if self.s[core.S_ERROR] == 1.0:
+            raise RuntimeError(f"event budget of one control interval exhausted at "
+                               f"t = {self.t:.9g} s (more than {core.MAX_EVENTS} events); "
+                               "please report this state")
+        ev = self._ev
+        return [(float(ev[i, 0]), core.EVENT_NAMES[int(ev[i, 1])],
+                 core.MODE_LETTERS[int(ev[i, 2])], core.MODE_LETTERS[int(ev[i, 3])],
+                 float(ev[i, 4])) for i in range(min(n, ev.shape[0]))]
+
+    @property
+    def t(self) -> float:
+        return float(self.s[core.S_T])
+
+    @property
+    def mode(self) -> str:
+        return core.MODE_LETTERS[int(self.s[core.S_MODE])]
+
+    @property
+    def state(self) -> np.ndarray:
+        """(x, y, theta, vx, vy, omega) of the c.m."""
+        return self.s[:6].copy()
+
+    @property
+    def stopped(self) -> bool:
+        return bool(self.s[core.S_STOPPED])
+
+    @property
+    def broken(self) -> bool:
+        return bool(self.s[core.S_BROKEN])
+
+    @property
+    def ttrtp(self) -> float | None:
+        v = self.s[core.S_TTRTP]
+        return None if math.isnan(v) else float(v)
+
+    def contact_forces(self):
+        """(fAx, fAy, fBx, fBy) now, under the torque last applied."""
+        return core.contact_forces(self.s, self.p)
+
+
+def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float = 600.0,
+             control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
+             impact_law: str = "contest", params: RoverParams | None = None,
+             initial_state=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
+             sample_dt: float | None = None) -> Rollout:
+    """Simulate one run to `t_end` (or until the rover breaks).
+
+    Parameters mirror the contest: `control_dt` is the control period, `target_x` the
+    target point, `integrator` 'event' (default, exact events) or 'euler' (contest-style
+    fixed step `euler_dt`), `impact_law` 'contest' or 'dissipative', `rtol` the
+    relative tolerance of the event integrator's DOP853 contact phases. `sample_dt`
+    adds samples between control instants (for plots); the physics is unchanged.
+    """
+    params = RoverParams() if params is None else params
+    if not isinstance(params, RoverParams):
+        raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
+    for name, v in (("t_end", t_end), ("control_dt", control_dt)):
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+    if sample_dt is not None and not (math.isfinite(sample_dt) and sample_dt > 0):
+        raise ValueError(f"sample_dt must be a positive finite number, got {sample_dt!r}")
+    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt)
+    s = sim.s
+    if callable(controller):
+        schedule = None
+    else:
+        schedule = np.asarray(controller, dtype=np.float64)
+        if schedule.ndim != 1:
+            raise ValueError(f"a torque schedule must be 1-D, got shape {schedule.shape}")
+        bad = np.flatnonzero(~np.isfinite(schedule))
+        if bad.size:
+            raise ValueError(f"torque schedule element {bad[0]} is {schedule[bad[0]]!r}; "
+                             "torques must be finite")
+    n_ctrl = max(1, int(math.ceil(t_end / control_dt - 1e-9)))
+    rows, cmds, applied, events = [], [], [], []
+    ratios = []
+    pos_t = np.array([float(target_x), 0.0])
+    sub = 1 if sample_dt is None else max(1, int(math.ceil(control_dt / sample_dt - 1e-9)))
+    for k in range(n_ctrl):
+        t_k = k * control_dt
+        t_next = min((k + 1) * control_dt, t_end)
+        if schedule is not None:
+            cmd = schedule[k] if k < schedule.size else 0.0
+        else:
+            cmd = check_torque(controller(
+                s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
+                pos_t.copy(), float(s[core.S_T]), float(t_end),
+                core.MODE_LETTERS[int(s[core.S_MODE])]), "the controller's torque")
+        for j in range(sub):
+            t_stop = t_next if j == sub - 1 else min(t_k + (j + 1) * control_dt / sub, t_next)
+            rows.append(s[:core.S_SIGMA + 1].copy())
+            cmds.append(cmd)
+            applied.append(min(max(cmd, params.torque_min), params.torque_max))
+            for (te, kind, before, after, value) in sim.advance(cmd, t_stop):
+                events.append((te, kind, before, after))
+                if kind == "impact":
+                    ratios.append(value)
+            if s[core.S_BROKEN]:
+                break
+        if s[core.S_BROKEN]:
+            break
+    rows.append(s[:core.S_SIGMA + 1].copy())
+    cmds.append(cmds[-1])
+    applied.append(applied[-1])
+    a = np.array(rows)
+    ttrtp = s[core.S_TTRTP]
+    return Rollout(
+        t=a[:, core.S_T], x=a[:, core.S_X], y=a[:, core.S_Y], theta=a[:, core.S_TH],
+        vx=a[:, core.S_VX], vy=a[:, core.S_VY], omega=a[:, core.S_W],
+        state=np.array([core.MODE_LETTERS[int(m)] for m in a[:, core.S_MODE]]),
+        torque=np.array(applied), torque_cmd=np.array(cmds), events=events,
+        ttrtp=None if math.isnan(ttrtp) else float(ttrtp), broken=bool(s[core.S_BROKEN]),
+        target_x=float(target_x), params=params, impact_energy_ratios=np.array(ratios),
+        n_events=int(s[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA])
