@@ -65,7 +65,8 @@ S_MAXGAIN = 19   # largest relative kinetic-energy gain of one impact
 S_ERROR = 20     # 0 = fine; 1 = event budget of one advance exhausted; 2 = bad torque
 S_STOP_ON = 21   # event kind that ends `advance` early (-1: none), for look-ahead tools
 S_STOPPED = 22   # set when that event happened in the last `advance`
-N_STATE = 23
+S_MIN_HEIGHT = 23  # diagnostics: lowest bottom-corner height seen after any event
+N_STATE = 24
 
 MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G = 0, 1, 2, 3, 4, 5, 6
 MODE_LETTERS = "ABCDEFG"
@@ -971,6 +972,77 @@ def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
 
 
 @njit(cache=True)
+def _force_guards(P, k, sliding, sigma, T, th, w):
+    """The two force guards (lift-off, slip) as functions of (theta, omega)."""
+    mg = P[P_M] * P[P_G]
+    if sliding:
+        _, fx, fy, _, _ = slide_dynamics(P, k, sigma, T, th, w)
+        return fy / mg, 0.0
+    _, fx, fy, _, _ = pivot_dynamics(P, k, T, th, w)
+    return fy / mg, (P[P_MUS] * fy - abs(fx)) / mg
+
+
+@njit(cache=True)
+def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
+    """Time derivatives of the guards at u (du = f(u)): analytic for the heights, the
+    stick and the band guards, central differences in (theta, omega) for the forces."""
+    th = u[0]
+    w = u[1]
+    eps_t = 1e-6
+    eps_w = 1e-6 * (abs(w) + 1e-3)
+    a_tp, b_tp = _force_guards(P, k, sliding, sigma, T, th + eps_t, w)
+    a_tm, b_tm = _force_guards(P, k, sliding, sigma, T, th - eps_t, w)
+    a_wp, b_wp = _force_guards(P, k, sliding, sigma, T, th, w + eps_w)
+    a_wm, b_wm = _force_guards(P, k, sliding, sigma, T, th, w - eps_w)
+    gr[0] = (a_tp - a_tm) / (2 * eps_t) * du[0] + (a_wp - a_wm) / (2 * eps_w) * du[1]
+    dxk, dyk = corner_offset(P, k, th)
+    if sliding:
+        # sigma * d/dt v_Px = sigma * (ax + thdd dy - w^2 dx)
+        gr[1] = sigma * (du[3] + du[1] * dyk - w * w * dxk)
+        gr[5] = -sigma * (u[3] + w * dyk)
+    else:
+        gr[1] = (b_tp - b_tm) / (2 * eps_t) * du[0] + (b_wp - b_wm) / (2 * eps_w) * du[1]
+        gr[5] = 0.0
+    for c in range(3):
+        dxc, _ = corner_offset(P, (1 - k) if c == 0 else c + 1, th)
+        gr[2 + c] = w * (dxk - dxc)       # vertical speed of that corner (vy = w dx_k)
+
+
+@njit(cache=True)
+def _hermite_dip(g0, g1, d0, d1):
+    """Where the cubic Hermite interpolant of a guard over a step (values g0, g1 and
+    slopes d0, d1 per unit step) is lowest inside (0, 1): returns (tau, value)."""
+    # p(t) = g0 h00 + d0 h10 + g1 h01 + d1 h11 ; p'(t) = a t^2 + b t + c
+    a = 6.0 * g0 + 3.0 * d0 - 6.0 * g1 + 3.0 * d1
+    b = -6.0 * g0 - 4.0 * d0 + 6.0 * g1 - 2.0 * d1
+    c = d0
+    best_t = 0.5
+    best_v = np.inf
+    if abs(a) > 1e-300:
+        disc = b * b - 4.0 * a * c
+        if disc >= 0.0:
+            sq = math.sqrt(disc)
+            for r in ((-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)):
+                if 0.0 < r < 1.0:
+                    t2 = r * r
+                    t3 = t2 * r
+                    v = (g0 * (2 * t3 - 3 * t2 + 1) + d0 * (t3 - 2 * t2 + r)
+                         + g1 * (-2 * t3 + 3 * t2) + d1 * (t3 - t2))
+                    if v < best_v:
+                        best_v = v
+                        best_t = r
+    elif abs(b) > 1e-300:
+        r = -c / b
+        if 0.0 < r < 1.0:
+            t2 = r * r
+            t3 = t2 * r
+            best_v = (g0 * (2 * t3 - 3 * t2 + 1) + d0 * (t3 - 2 * t2 + r)
+                      + g1 * (-2 * t3 + 3 * t2) + d1 * (t3 - t2))
+            best_t = r
+    return best_t, best_v
+
+
+@njit(cache=True)
 def contact_phase(S, P, O, t_stop):
     """Advance a single-contact phase (B, C, D, E) to t_stop or its first event.
 
@@ -1028,7 +1100,12 @@ def contact_phase(S, P, O, t_stop):
     ytmp = np.empty(4)
     unew = np.empty(4)
     utry = np.empty(4)
+    f1 = np.empty(4)
+    rate0 = np.empty(N_GUARDS)
+    rate1 = np.empty(N_GUARDS)
+    gtry = np.empty(N_GUARDS)
     _rhs(P, k, sliding, sigma, T, u, f0)
+    _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
     if not (h_prop > 0.0):
         h_prop = 1e-3
@@ -1046,7 +1123,10 @@ def contact_phase(S, P, O, t_stop):
             if h_prop < 1e-14 * (1.0 + abs(t)):
                 break                       # cannot happen for a smooth, bounded field
             continue
+        for j in range(4):
+            f1[j] = kst[12, j]          # kst is scratch for the searches below
         _guards(P, k, sliding, sigma, T, xpiv, xt, unew, gnew)
+        _guard_rates(P, k, sliding, sigma, T, unew, f1, rate1)
         first = -1
         s_first = h
         for i in range(N_GUARDS):
@@ -1056,6 +1136,24 @@ def contact_phase(S, P, O, t_stop):
                 if first < 0 or s_i < s_first:
                     first = i
                     s_first = s_i
+        # A guard positive at both ends may still have dipped through its level inside
+        # the step (the body rocking through theta = 0 and back): look where its cubic
+        # Hermite interpolant is lowest and confirm there with the step itself.
+        for i in range(N_GUARDS):
+            if gnew[i] - level[i] > 0.0 and rate0[i] * rate1[i] < 0.0 and rate0[i] < 0.0:
+                tau, low = _hermite_dip(gv[i] - level[i], gnew[i] - level[i],
+                                        rate0[i] * h, rate1[i] * h)
+                if low < 0.0:
+                    _dop853_step(P, k, sliding, sigma, T, u, tau * h, f0, kst, ytmp, utry,
+                                 rtol, atol)
+                    _guards(P, k, sliding, sigma, T, xpiv, xt, utry, gtry)
+                    if gtry[i] - level[i] <= 0.0:
+                        s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, tau * h, f0, kst,
+                                      ytmp, utry, rtol, atol, i, level[i], gv[i] - level[i],
+                                      gtry[i] - level[i])
+                        if first < 0 or s_i < s_first:
+                            first = i
+                            s_first = s_i
         if first >= 0:
             _dop853_step(P, k, sliding, sigma, T, u, s_first, f0, kst, ytmp, unew, rtol, atol)
             for j in range(4):
@@ -1074,9 +1172,10 @@ def contact_phase(S, P, O, t_stop):
             break
         for j in range(4):
             u[j] = unew[j]
-            f0[j] = kst[12, j]
+            f0[j] = f1[j]
         for i in range(N_GUARDS):
             gv[i] = gnew[i]
+            rate0[i] = rate1[i]
             if not armed[i] and gv[i] > tol[i]:
                 armed[i] = True
                 level[i] = 0.0
@@ -1147,6 +1246,15 @@ def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, rtol, 
 # Event integrator: the loop over phases
 # ----------------------------------------------------------------------------------
 @njit(cache=True)
+def _track_min_height(S, P):
+    _, dy0 = corner_offset(P, 0, S[S_TH])
+    _, dy1 = corner_offset(P, 1, S[S_TH])
+    low = S[S_Y] + min(dy0, dy1)
+    if low < S[S_MIN_HEIGHT]:
+        S[S_MIN_HEIGHT] = low
+
+
+@njit(cache=True)
 def _band_status_ahead(S, P, sigma):
     """Band membership just past the current position in direction sigma: decides a
     crossing unambiguously even where two corners' intervals meet (r = w)."""
@@ -1169,6 +1277,7 @@ def _after_phase(S, P, O, ev, n, kind):
     t = S[S_T]
     if kind == PH_NONE:
         return n
+    _track_min_height(S, P)
     if kind == PH_BROKEN:
         S[S_BROKEN] = 1.0
         n = _judge_set(S, P, ev, n, False)
@@ -1197,6 +1306,7 @@ def _after_phase(S, P, O, ev, n, kind):
         S[S_SIGMA] = 0.0
         n = _log(S, ev, n, t, EV_STOP, mode, MODE_F, 0.0)
     n = settle(S, P, ev, n)
+    _track_min_height(S, P)
     return _judge_update(S, P, ev, n)
 
 
@@ -1370,6 +1480,7 @@ def advance(S, P, O, torque_cmd, t_stop, ev):
         n = _advance_euler(S, P, O, t_stop, ev, n)
     else:
         n = _advance_event(S, P, O, t_stop, ev, n)
+    _track_min_height(S, P)
     return _judge_check(S, P, ev, n)
 
 
@@ -1396,6 +1507,7 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     S[S_XT] = xt
     S[S_TTRTP] = np.nan
     S[S_STOP_ON] = -1.0
+    S[S_MIN_HEIGHT] = np.inf
     S[S_MODE] = MODE_A
     on0 = False
     on1 = False

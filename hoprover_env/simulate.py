@@ -108,6 +108,7 @@ class Rollout:
     impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
     n_events: int
     sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
+    min_corner_height: float     # lowest bottom-corner height after any event or interval
 
     @property
     def success(self) -> bool:
@@ -242,7 +243,7 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
             raise ValueError(f"a torque schedule must be 1-D, got shape {schedule.shape}")
         bad = np.flatnonzero(~np.isfinite(schedule))
         if bad.size:
-            raise ValueError(f"torque schedule element {bad[0]} is {schedule[bad[0]]!r}; "
+            raise ValueError(f"torque schedule element {bad[0]} is {float(schedule[bad[0]])!r}; "
                              "torques must be finite")
     n_ctrl = max(1, int(math.ceil(t_end / control_dt - 1e-9)))
     rows, cmds, applied, events = [], [], [], []
@@ -284,4 +285,5 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         torque=np.array(applied), torque_cmd=np.array(cmds), events=events,
         ttrtp=None if math.isnan(ttrtp) else float(ttrtp), broken=bool(s[core.S_BROKEN]),
         target_x=float(target_x), params=params, impact_energy_ratios=np.array(ratios),
-        n_events=int(s[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA])
+        n_events=int(s[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
+        min_corner_height=float(s[core.S_MIN_HEIGHT]))

@@ -1,0 +1,47 @@
+"""`euler` approaches `event` as its step shrinks (MODEL.md section 11)."""
+import math
+
+import numpy as np
+import pytest
+
+from hoprover_env import RoverSim
+from helpers import launch_then_hold
+
+
+def first_landing(integrator, euler_dt=1e-3, torque=3e-4, control_dt=0.1):
+    """Time and contact-point x of the first touchdown after a launch + attitude hold."""
+    sim = RoverSim(target_x=0.5, integrator=integrator, euler_dt=euler_dt)
+    control = launch_then_hold(torque)
+    for k in range(10000):
+        s = sim.s
+        cmd = control(s[0:2], s[3:5], s[2], s[5], np.array([0.5, 0.0]), sim.t, 600.0, sim.mode)
+        sim.advance(cmd, (k + 1) * control_dt, stop_on="impact")
+        if sim.stopped:
+            x, y, th = sim.state[:3]
+            # the corner that touched: the lower one (A for th > 0)
+            bx = 0.05 if th >= 0 else -0.05
+            return sim.t, x + bx * math.cos(th) - 0.05 * math.sin(th)
+    raise AssertionError("no landing")
+
+
+@pytest.mark.parametrize("torque", [3e-4, 1e-4])
+def test_euler_converges_to_event_at_first_order(torque, capsys):
+    t_ref, x_ref = first_landing("event", torque=torque)
+    dts = [1e-2, 3e-3, 1e-3, 3e-4, 1e-4]
+    errs = []
+    for dt in dts:
+        t, x = first_landing("euler", dt, torque=torque)
+        errs.append((abs(t - t_ref), abs(x - x_ref)))
+    errs = np.array(errs)
+    orders = np.log(errs[:-1] / errs[1:]) / np.log(np.array(dts[:-1]) / np.array(dts[1:]))[:, None]
+    with capsys.disabled():
+        print(f"\n  first landing, launch torque {torque:g} N m: event t = {t_ref:.9f} s, "
+              f"x = {x_ref:.9f} m")
+        for dt, (et, ex) in zip(dts, errs):
+            print(f"    euler dt {dt:7.0e}: |dt_land| {et:9.2e} s  |dx_land| {ex:9.2e} m")
+        print(f"    observed orders (time, point): {np.round(orders, 2).tolist()}")
+    assert np.all(np.diff(errs[:, 0]) < 0) and np.all(np.diff(errs[:, 1]) < 0)
+    # first order overall: the error falls ~ dt across the two decades
+    overall = np.log(errs[0] / errs[-1]) / np.log(dts[0] / dts[-1])
+    assert np.all((overall > 0.8) & (overall < 1.3)), overall
+    assert errs[-1, 0] < 1e-2 * t_ref and errs[-1, 1] < 5e-3
