@@ -382,6 +382,21 @@ def _judge_update(S, P, ev, n):
 # ----------------------------------------------------------------------------------
 # Instantaneous transitions (MODEL.md section 5)
 # ----------------------------------------------------------------------------------
+@njit(_F(_V, _V, _I, _F), cache=True)
+def _consistent_slide_direction(S, P, k, T):
+    """A slide direction sigma of corner k, at rest horizontally, that is consistent:
+    compressive normal force and the point accelerating along sigma (0 if none)."""
+    m = P[P_M]
+    ftol = F_TOL * m * P[P_G]
+    w = S[S_W]
+    for sigma in (1.0, -1.0):
+        thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, S[S_TH], w)
+        apx = fx / m + thdd * dy - w * w * dx
+        if fy >= -ftol and sigma * apx > 0.0:
+            return sigma
+    return 0.0
+
+
 @njit(_I(_V, _V, _M, _I), cache=True)
 def settle(S, P, ev, n):
     """Resolve every transition due at the current instant, in a bounded loop.
@@ -419,9 +434,22 @@ def settle(S, P, ev, n):
             k = contact_corner(mode)
             _, fx, fy, _, _ = pivot_dynamics(P, k, T, S[S_TH], S[S_W])
             if fy < -ftol:
-                S[S_MODE] = MODE_A
-                S[S_SIGMA] = 0.0
-                n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                # Sticking would need a pull. If the free corner would rise, it lifts
+                # off; if the flight dynamics still press it down (the pivot's
+                # friction couples into the vertical through the rotation), neither
+                # stick nor separation is consistent and the corner slides.
+                sigma = 0.0
+                if _resting_corner_driven_down(S, P, k):
+                    sigma = _consistent_slide_direction(S, P, k, T)
+                if sigma == 0.0:
+                    S[S_MODE] = MODE_A
+                    S[S_SIGMA] = 0.0
+                    n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                else:
+                    new = MODE_C if k == 0 else MODE_E
+                    S[S_MODE] = new
+                    S[S_SIGMA] = sigma
+                    n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
                 continue
             if abs(fx) > P[P_MUS] * fy + ftol:
                 new = MODE_C if k == 0 else MODE_E
