@@ -24,6 +24,10 @@ body coordinates (bx, by): A = (r, -h), B = (-r, -h), TR = (r, h), TL = (-r, h),
 world offset dx = bx cos(th) + by sin(th), dy = -bx sin(th) + by cos(th).
 
 Decisions beyond MODEL.md are documented in docs/PHYSICS.md and marked "Decision" here.
+The kernel allocates nothing: scratch space comes in a workspace row ``W`` (N_WORK floats).
+All kernels use numba's numpy error model: a float division never raises (every divisor
+here is a positive physical quantity), which keeps calls cheap (the Python model costs
+~70 ns per call through its exception path).
 """
 import math
 
@@ -88,6 +92,15 @@ EV_COLS = 5      # t, kind, mode before, mode after, value (impacts: KE after / 
 # this means a modelling failure; the run stops with S_ERROR = 1 instead of hanging.
 MAX_EVENTS = 2000
 
+# Scratch memory. The kernel allocates nothing and runs without numba's reference-counted
+# runtime (_nrt=False): with it, every call that passes arrays pays atomic increments and
+# decrements (~50 ns a call, and contention between threads). Callers pass a row of
+# N_WORK floats per thread (RoverSim and the environments own theirs).
+N_WORK = 192
+W_IMP = 0        # impacts: 22 floats
+W_FLT = 24       # flight: 8
+W_RK = 32        # contact phases: 134
+
 # ----------------------------------------------------------------------------------
 # Tolerances. Round-off must not make a contact state chatter (MODEL.md section 5).
 # Scales: lengths ~0.05 m, speeds 1e-6..1e-2 m/s, accelerations ~1e-4 m/s^2.
@@ -107,7 +120,7 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------
-@njit(_F2(_V, _I), cache=True)
+@njit(_F2(_V, _I), cache=True, error_model="numpy", _nrt=False)
 def corner_body(P, k):
     """Body coordinates (bx, by) of corner k: 0 A, 1 B (bottom), 2 TR, 3 TL (top)."""
     bx = P[P_R] if (k == 0 or k == 2) else -P[P_R]
@@ -115,7 +128,7 @@ def corner_body(P, k):
     return bx, by
 
 
-@njit(_F2(_V, _I, _F), cache=True)
+@njit(_F2(_V, _I, _F), cache=True, error_model="numpy", _nrt=False)
 def corner_offset(P, k, th):
     """World offset (dx, dy) of corner k from the c.m. at attitude th."""
     bx, by = corner_body(P, k)
@@ -124,19 +137,19 @@ def corner_offset(P, k, th):
     return bx * c + by * s, -bx * s + by * c
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def wrap_angle(th):
     """Attitude in (-pi, pi]."""
     w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)   # exact for th in range
     return math.pi if w == -math.pi else w
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def kinetic_energy(S, P):
     return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2
 
 
-@njit(_I(_I), cache=True)
+@njit(_I(_I), cache=True, error_model="numpy", _nrt=False)
 def contact_corner(mode):
     """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
     return 0 if (mode == MODE_B or mode == MODE_C) else 1
@@ -145,7 +158,7 @@ def contact_corner(mode):
 # ----------------------------------------------------------------------------------
 # Forces (MODEL.md section 4), written once for a generic contact corner.
 # ----------------------------------------------------------------------------------
-@njit(_F5(_V, _I, _F, _F, _F), cache=True)
+@njit(_F5(_V, _I, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
 def pivot_dynamics(P, k, T, th, w):
     """Pivot on corner k (state B for A, D for B).
 
@@ -162,7 +175,7 @@ def pivot_dynamics(P, k, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit(_F5(_V, _I, _F, _F, _F, _F), cache=True)
+@njit(_F5(_V, _I, _F, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
 def slide_dynamics(P, k, sigma, T, th, w):
     """Slide on corner k in direction sigma (state C for A, E for B).
 
@@ -181,7 +194,7 @@ def slide_dynamics(P, k, sigma, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def double_contact_forces(P, sigma, T):
     """States F (sigma = 0) and G: both corners on the ground, theta = 0, omega = 0.
 
@@ -196,7 +209,7 @@ def double_contact_forces(P, sigma, T):
     return -sigma * P[P_MUD] * fay, fay, -sigma * P[P_MUD] * fby, fby
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def contact_forces(S, P):
     """Contact forces (fAx, fAy, fBx, fBy) of the current state and torque."""
     mode = int(S[S_MODE])
@@ -217,7 +230,7 @@ def contact_forces(S, P):
     return 0.0, 0.0, fx, fy
 
 
-@njit(nt.void(_V, _V, _I), cache=True)
+@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
 def _set_single_contact(S, P, k):
     """Make the c.m. state satisfy corner k's constraint exactly: y_k = 0, vy_k = 0.
 
@@ -235,7 +248,7 @@ def _set_single_contact(S, P, k):
         S[S_W] += -dx * lam * inv_i
 
 
-@njit(nt.void(_V, _V, _I), cache=True)
+@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
 def _pin_corner(S, P, k):
     """Bring corner k's whole velocity to zero by one impulse there (a projection)."""
     m = P[P_M]
@@ -256,7 +269,7 @@ def _pin_corner(S, P, k):
     S[S_Y] = -dy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _set_double_contact(S, P):
     """Both corners on the ground: theta = 0, omega = 0, vy = 0, y = h; F or G.
 
@@ -281,7 +294,7 @@ def _set_double_contact(S, P):
 # ----------------------------------------------------------------------------------
 # Flight (state A) in closed form
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def flight_at(S, P, tau):
     """State after a flight of duration tau under the held torque."""
     g = P[P_G]
@@ -292,7 +305,7 @@ def flight_at(S, P, tau):
     return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
 
 
-@njit(nt.boolean(_V, _V, _I), cache=True)
+@njit(nt.boolean(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
 def _resting_corner_driven_down(S, P, k):
     """A corner on the ground at rest vertically, in flight: is it pressed down?
 
@@ -315,7 +328,7 @@ def _resting_corner_driven_down(S, P, k):
 # ----------------------------------------------------------------------------------
 # Event log and judge (MODEL.md section 8)
 # ----------------------------------------------------------------------------------
-@njit(_I(_V, _M, _I, _F, _F, _F, _F, _F), cache=True)
+@njit(_I(_V, _M, _I, _F, _F, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
 def _log(S, ev, n, t, kind, before, after, value):
     S[S_NEVENTS] += 1.0
     if kind == S[S_STOP_ON]:
@@ -329,7 +342,7 @@ def _log(S, ev, n, t, kind, before, after, value):
     return n + 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def in_band(S, P):
     """Is a contact point within the band? (A, B in F/G; none in flight)."""
     mode = int(S[S_MODE])
@@ -347,7 +360,7 @@ def in_band(S, P):
     return abs(S[S_X] + dx - xt) <= w + tol
 
 
-@njit(_I(_V, _V, _M, _I), cache=True)
+@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
 def _judge_check(S, P, ev, n):
     """Record TTRTP once the current stay in the band has lasted the dwell time."""
     if S[S_INBAND] == 1.0 and math.isnan(S[S_TTRTP]):
@@ -359,7 +372,7 @@ def _judge_check(S, P, ev, n):
     return n
 
 
-@njit(_I(_V, _V, _M, _I, nt.boolean), cache=True)
+@njit(_I(_V, _V, _M, _I, nt.boolean), cache=True, error_model="numpy", _nrt=False)
 def _judge_set(S, P, ev, n, status):
     """The band status becomes `status` at the current time."""
     if status and S[S_INBAND] == 0.0:
@@ -373,7 +386,7 @@ def _judge_set(S, P, ev, n, status):
     return n
 
 
-@njit(_I(_V, _V, _M, _I), cache=True)
+@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
 def _judge_update(S, P, ev, n):
     n = _judge_set(S, P, ev, n, in_band(S, P))
     return _judge_check(S, P, ev, n)
@@ -382,7 +395,7 @@ def _judge_update(S, P, ev, n):
 # ----------------------------------------------------------------------------------
 # Instantaneous transitions (MODEL.md section 5)
 # ----------------------------------------------------------------------------------
-@njit(_F(_V, _V, _I, _F), cache=True)
+@njit(_F(_V, _V, _I, _F), cache=True, error_model="numpy", _nrt=False)
 def _consistent_slide_direction(S, P, k, T):
     """A slide direction sigma of corner k, at rest horizontally, that is consistent:
     compressive normal force and the point accelerating along sigma (0 if none)."""
@@ -397,7 +410,7 @@ def _consistent_slide_direction(S, P, k, T):
     return 0.0
 
 
-@njit(_I(_V, _V, _M, _I), cache=True)
+@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
 def settle(S, P, ev, n):
     """Resolve every transition due at the current instant, in a bounded loop.
 
@@ -532,7 +545,7 @@ def settle(S, P, ev, n):
 # ----------------------------------------------------------------------------------
 # Impacts (MODEL.md section 6)
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     """Solve a symmetric 3x3 system by Cramer's rule (well conditioned here)."""
     c00 = a11 * a22 - a12 * a12
@@ -547,7 +560,7 @@ def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
             (c02 * b0 + c12 * b1 + c22 * b2) / det)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def contest_impulses(P, dxs, dys, part, dv, lx, ly):
     """The contest law's impulses: K Lambda = dv over the taking-part corners.
 
@@ -564,7 +577,7 @@ def contest_impulses(P, dxs, dys, part, dv, lx, ly):
     lx[1] = 0.0
     ly[0] = 0.0
     ly[1] = 0.0
-    if part[0] and part[1]:
+    if part[0] != 0.0 and part[1] != 0.0:
         dxa, dya, dxb, dyb = dxs[0], dys[0], dxs[1], dys[1]
         # J^T J
         a02 = dya + dyb
@@ -582,7 +595,7 @@ def contest_impulses(P, dxs, dys, part, dv, lx, ly):
         ly[1] = y1 - dxb * y2
         return
     for k in range(2):
-        if part[k]:
+        if part[k] != 0.0:
             dx = dxs[k]
             dy = dys[k]
             k11 = 1.0 / m + dy * dy / inertia
@@ -593,7 +606,7 @@ def contest_impulses(P, dxs, dys, part, dv, lx, ly):
             ly[k] = (dv[2 * k + 1] * k11 - dv[2 * k] * k12) / det
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def frictionless_impulses(P, dxs, on, vpy, target, ly):
     """Vertical impulses only, as a complementarity problem over the grounded corners.
 
@@ -613,7 +626,7 @@ def frictionless_impulses(P, dxs, on, vpy, target, ly):
     ra = target[0] - vpy[0]
     rb = target[1] - vpy[1]
     tol = 1e-14 * (abs(ra) + abs(rb) + 1e-300)
-    if on[0] and on[1]:
+    if on[0] != 0.0 and on[1] != 0.0:
         det = kaa * kbb - kab * kab
         la = (ra * kbb - rb * kab) / det
         lb = (rb * kaa - ra * kab) / det
@@ -631,12 +644,12 @@ def frictionless_impulses(P, dxs, on, vpy, target, ly):
             return
         return
     for k in range(2):
-        if on[k]:
+        if on[k] != 0.0:
             kk = kaa if k == 0 else kbb
             ly[k] = max(0.0, (target[k] - vpy[k]) / kk)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _apply_impulses(S, P, dxs, dys, lx, ly):
     m = P[P_M]
     inv_i = 1.0 / P[P_I]
@@ -645,8 +658,8 @@ def _apply_impulses(S, P, dxs, dys, lx, ly):
     S[S_W] += (dys[0] * lx[0] - dxs[0] * ly[0] + dys[1] * lx[1] - dxs[1] * ly[1]) * inv_i
 
 
-@njit(cache=True)
-def resolve_impact(S, P, law):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
 
     Returns the kinetic energy ratio (after / before) of the impact, after the
@@ -655,23 +668,28 @@ def resolve_impact(S, P, law):
     m = P[P_M]
     S[S_TH] = wrap_angle(S[S_TH])
     th = S[S_TH]
-    dxs = np.empty(2)
-    dys = np.empty(2)
-    vpx = np.empty(2)
-    vpy = np.empty(2)
-    on = np.zeros(2, dtype=np.bool_)
-    part = np.zeros(2, dtype=np.bool_)
-    dv = np.zeros(4)
-    tgt_y = np.zeros(2)
+    o = W_IMP
+    dxs = W[o:o + 2]
+    dys = W[o + 2:o + 4]
+    vpx = W[o + 4:o + 6]
+    vpy = W[o + 6:o + 8]
+    on = W[o + 8:o + 10]          # 1.0 / 0.0 flags
+    part = W[o + 10:o + 12]
+    dv = W[o + 12:o + 16]
+    tgt_y = W[o + 16:o + 18]
+    lx = W[o + 18:o + 20]
+    ly = W[o + 20:o + 22]
+    for j in range(22):
+        W[o + j] = 0.0
     for k in range(2):
         dx, dy = corner_offset(P, k, th)
         dxs[k] = dx
         dys[k] = dy
-        on[k] = S[S_Y] + dy <= H_TOL
+        on[k] = 1.0 if S[S_Y] + dy <= H_TOL else 0.0
         vpx[k] = S[S_VX] + S[S_W] * dy
         vpy[k] = S[S_VY] - S[S_W] * dx
-        part[k] = on[k] and vpy[k] <= V_TOL
-        if part[k]:
+        part[k] = 1.0 if (on[k] != 0.0 and vpy[k] <= V_TOL) else 0.0
+        if part[k] != 0.0:
             tx = P[P_EX] * vpx[k]
             if abs(tx) < P[P_VXMIN]:
                 tx = 0.0
@@ -682,22 +700,20 @@ def resolve_impact(S, P, law):
             dv[2 * k + 1] = ty - vpy[k]
             tgt_y[k] = ty
     ke0 = kinetic_energy(S, P)
-    if part[0] or part[1]:
+    if part[0] != 0.0 or part[1] != 0.0:
         v0x = S[S_VX]
         v0y = S[S_VY]
         w0 = S[S_W]
-        lx = np.zeros(2)
-        ly = np.zeros(2)
         contest_impulses(P, dxs, dys, part, dv, lx, ly)
         _apply_impulses(S, P, dxs, dys, lx, ly)
         lam_scale = abs(lx[0]) + abs(lx[1]) + abs(ly[0]) + abs(ly[1])
         ok = True
         for k in range(2):
-            if part[k] and ly[k] < -1e-12 * lam_scale:
+            if part[k] != 0.0 and ly[k] < -1e-12 * lam_scale:
                 ok = False               # the exact law would pull on the ground
-            if on[k] and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
+            if on[k] != 0.0 and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
                 ok = False               # a grounded corner would end moving down
-            if law == LAW_DISSIPATIVE and part[k] and \
+            if law == LAW_DISSIPATIVE and part[k] != 0.0 and \
                     abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale:
                 ok = False               # outside the friction cone
         if ok and law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
@@ -721,8 +737,8 @@ def resolve_impact(S, P, law):
                 frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
                 _apply_impulses(S, P, dxs, dys, lx, ly)
     # Post-impact classification: a grounded corner slower than v_ymin is in contact.
-    c0 = on[0] and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
-    c1 = on[1] and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]
+    c0 = on[0] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
+    c1 = on[1] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]
     if c0 and c1:
         _set_double_contact(S, P)
     elif c0 or c1:
@@ -753,10 +769,10 @@ def resolve_impact(S, P, law):
     return ratio
 
 
-@njit(_I(_V, _V, _V, _M, _I), cache=True)
-def _impact_event(S, P, O, ev, n):
+@njit(_I(_V, _V, _V, _M, _I, _V), cache=True, error_model="numpy", _nrt=False)
+def _impact_event(S, P, O, ev, n, W):
     before = S[S_MODE]
-    ratio = resolve_impact(S, P, int(O[O_LAW]))
+    ratio = resolve_impact(S, P, int(O[O_LAW]), W)
     return _log(S, ev, n, S[S_T], EV_IMPACT, before, S[S_MODE], ratio)
 
 
@@ -766,7 +782,7 @@ def _impact_event(S, P, O, ev, n):
 PH_NONE, PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN, PH_BAND, PH_STOP = range(8)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _commit_flight(S, P, tau):
     x, y, th, vx, vy, w = flight_at(S, P, tau)
     S[S_X] = x
@@ -778,8 +794,8 @@ def _commit_flight(S, P, tau):
     S[S_T] += tau
 
 
-@njit(cache=True)
-def flight_phase(S, P, t_stop):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def flight_phase(S, P, t_stop, W):
     """Advance a flight under constant torque to t_stop or the first touchdown.
 
     Each corner height h_k(t) = y(t) + dy_k(theta(t)) is known in closed form, with
@@ -800,8 +816,11 @@ def flight_phase(S, P, t_stop):
     w1 = w0 + beta * tau_end
     wmax = max(abs(w0), abs(w1))
     kbound = g + ell * (abs(beta) + wmax * wmax)
-    level = np.zeros(4)
-    armed = np.ones(4, dtype=np.bool_)
+    level = W[W_FLT:W_FLT + 4]
+    armed = W[W_FLT + 4:W_FLT + 8]        # 1.0 / 0.0 flags
+    for k in range(4):
+        level[k] = 0.0
+        armed[k] = 1.0
     for k in range(4):
         dx, dy = corner_offset(P, k, S[S_TH])
         hk = S[S_Y] + dy
@@ -812,7 +831,7 @@ def flight_phase(S, P, t_stop):
         elif hk <= H_TOL:
             if vk < -V_TOL:
                 return PH_TOUCH, k
-            armed[k] = False
+            armed[k] = 0.0
             level[k] = min(hk, 0.0) - H_TOL
     tau = 0.0
     for _ in range(MAX_CA_ITER):
@@ -828,8 +847,8 @@ def flight_phase(S, P, t_stop):
             dx = bx * c + by * s
             hk = y - bx * s + by * c
             vk = vy - w * dx
-            if not armed[k] and hk > H_TOL:
-                armed[k] = True
+            if armed[k] == 0.0 and hk > H_TOL:
+                armed[k] = 1.0
                 level[k] = 0.0
             fk = hk - level[k]
             if fk <= CA_TOL and vk <= V_TOL:
@@ -862,7 +881,7 @@ def flight_phase(S, P, t_stop):
 # ----------------------------------------------------------------------------------
 # Event integrator: state G in closed form
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _next_band_boundary(xp, sigma, xt, w, offset):
     """Nearest boundary of the band (for a point at c.m. offset `offset`) strictly ahead
     of xp in direction sigma, as a c.m. position; NaN when none is ahead."""
@@ -874,7 +893,7 @@ def _next_band_boundary(xp, sigma, xt, w, offset):
     return best
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def g_phase(S, P, t_stop):
     """Slide on both corners: x(t) quadratic, decelerating at mu_d g to a stop.
 
@@ -917,7 +936,7 @@ def g_phase(S, P, t_stop):
 N_GUARDS = 6
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _rhs(P, k, sliding, sigma, T, u, out):
     if sliding:
         thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, u[0], u[1])
@@ -929,7 +948,7 @@ def _rhs(P, k, sliding, sigma, T, u, out):
     out[3] = fx / P[P_M]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol):
     """One DOP853 step of length h from u (f0 = f(u)); returns the scaled error norm."""
     for j in range(4):
@@ -963,7 +982,7 @@ def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
     return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     """Guard functions of a single-contact phase (positive = no event yet).
 
@@ -999,7 +1018,7 @@ def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     gv[4] = y + dy3
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _force_guards(P, k, sliding, sigma, T, th, w):
     """The two force guards (lift-off, slip) as functions of (theta, omega)."""
     mg = P[P_M] * P[P_G]
@@ -1010,7 +1029,7 @@ def _force_guards(P, k, sliding, sigma, T, th, w):
     return fy / mg, (P[P_MUS] * fy - abs(fx)) / mg
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
     """Time derivatives of the guards at u (du = f(u)): analytic for the heights, the
     stick and the band guards, central differences in (theta, omega) for the forces."""
@@ -1036,7 +1055,7 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
         gr[2 + c] = w * (dxk - dxc)       # vertical speed of that corner (vy = w dx_k)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _hermite_dip(g0, g1, d0, d1):
     """Where the cubic Hermite interpolant of a guard over a step (values g0, g1 and
     slopes d0, d1 per unit step) is lowest inside (0, 1): returns (tau, value)."""
@@ -1070,8 +1089,8 @@ def _hermite_dip(g0, g1, d0, d1):
     return best_t, best_v
 
 
-@njit(cache=True)
-def contact_phase(S, P, O, t_stop):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def contact_phase(S, P, O, t_stop, W):
     """Advance a single-contact phase (B, C, D, E) to t_stop or its first event.
 
     Adaptive DOP853 on u = (theta, omega, x, vx). After each accepted step the guards
@@ -1090,21 +1109,33 @@ def contact_phase(S, P, O, t_stop):
     xt = S[S_XT]
     dx0, dy0 = corner_offset(P, k, S[S_TH])
     xpiv = S[S_X] + dx0          # pivot point (fixed when pivoting)
-    u = np.empty(4)
+    o = W_RK
+    u = W[o:o + 4]
+    atol = W[o + 4:o + 8]
+    gv = W[o + 8:o + 14]
+    gnew = W[o + 14:o + 20]
+    level = W[o + 20:o + 26]
+    tol = W[o + 26:o + 32]
+    armed = W[o + 32:o + 38]               # 1.0 / 0.0 flags
+    f0 = W[o + 38:o + 42]
+    kst = W[o + 42:o + 94].reshape((13, 4))
+    ytmp = W[o + 94:o + 98]
+    unew = W[o + 98:o + 102]
+    utry = W[o + 102:o + 106]
+    f1 = W[o + 106:o + 110]
+    rate0 = W[o + 110:o + 116]
+    rate1 = W[o + 116:o + 122]
+    gtry = W[o + 122:o + 128]
+    gtmp = W[o + 128:o + 134]
     u[0] = S[S_TH]
     u[1] = S[S_W]
     u[2] = S[S_X]
     u[3] = S[S_VX]
     # absolute tolerances from the problem's natural scales
-    atol = np.empty(4)
     atol[0] = rtol * 1.0
     atol[1] = rtol * 0.1
     atol[2] = rtol * 1.0
     atol[3] = rtol * 0.01
-    gv = np.empty(N_GUARDS)
-    gnew = np.empty(N_GUARDS)
-    level = np.zeros(N_GUARDS)
-    tol = np.empty(N_GUARDS)
     tol[0] = F_TOL
     tol[1] = V_TOL if sliding else F_TOL
     tol[2] = H_TOL
@@ -1119,19 +1150,9 @@ def contact_phase(S, P, O, t_stop):
         return PH_TOUCH
     if gv[3] <= 0.0 or gv[4] <= 0.0:
         return PH_BROKEN
-    armed = np.empty(N_GUARDS, dtype=np.bool_)
     for i in range(N_GUARDS):
-        armed[i] = gv[i] > tol[i]
-        level[i] = 0.0 if armed[i] else min(gv[i], 0.0) - tol[i]
-    f0 = np.empty(4)
-    kst = np.empty((13, 4))
-    ytmp = np.empty(4)
-    unew = np.empty(4)
-    utry = np.empty(4)
-    f1 = np.empty(4)
-    rate0 = np.empty(N_GUARDS)
-    rate1 = np.empty(N_GUARDS)
-    gtry = np.empty(N_GUARDS)
+        armed[i] = 1.0 if gv[i] > tol[i] else 0.0
+        level[i] = 0.0 if armed[i] != 0.0 else min(gv[i], 0.0) - tol[i]
     _rhs(P, k, sliding, sigma, T, u, f0)
     _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
@@ -1160,7 +1181,8 @@ def contact_phase(S, P, O, t_stop):
         for i in range(N_GUARDS):
             if gnew[i] - level[i] <= 0.0:
                 s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp,
-                              utry, rtol, atol, i, level[i], gv[i] - level[i], gnew[i] - level[i])
+                              utry, gtmp, rtol, atol, i, level[i], gv[i] - level[i],
+                              gnew[i] - level[i])
                 if first < 0 or s_i < s_first:
                     first = i
                     s_first = s_i
@@ -1177,8 +1199,8 @@ def contact_phase(S, P, O, t_stop):
                     _guards(P, k, sliding, sigma, T, xpiv, xt, utry, gtry)
                     if gtry[i] - level[i] <= 0.0:
                         s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, tau * h, f0, kst,
-                                      ytmp, utry, rtol, atol, i, level[i], gv[i] - level[i],
-                                      gtry[i] - level[i])
+                                      ytmp, utry, gtmp, rtol, atol, i, level[i],
+                                      gv[i] - level[i], gtry[i] - level[i])
                         if first < 0 or s_i < s_first:
                             first = i
                             s_first = s_i
@@ -1204,8 +1226,8 @@ def contact_phase(S, P, O, t_stop):
         for i in range(N_GUARDS):
             gv[i] = gnew[i]
             rate0[i] = rate1[i]
-            if not armed[i] and gv[i] > tol[i]:
-                armed[i] = True
+            if armed[i] == 0.0 and gv[i] > tol[i]:
+                armed[i] = 1.0
                 level[i] = 0.0
         t = t_stop if last else t + h
         fac = RK_MAX_FACTOR if err == 0.0 else min(RK_MAX_FACTOR, max(
@@ -1233,13 +1255,12 @@ def contact_phase(S, P, O, t_stop):
     return kind
 
 
-@njit(cache=True)
-def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, rtol, atol,
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, rtol, atol,
             gi, lev, fa, fb):
     """Smallest s in (0, h] where guard gi - lev changes sign: Illinois regula falsi on
     the step length (the DOP853 step re-taken from u). Returns the right end of the
     final bracket, so the event has happened at the returned length."""
-    gtmp = np.empty(N_GUARDS)
     a = 0.0
     b = h
     side = 0
@@ -1273,7 +1294,7 @@ def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, rtol, 
 # ----------------------------------------------------------------------------------
 # Event integrator: the loop over phases
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _track_min_height(S, P):
     _, dy0 = corner_offset(P, 0, S[S_TH])
     _, dy1 = corner_offset(P, 1, S[S_TH])
@@ -1282,7 +1303,7 @@ def _track_min_height(S, P):
         S[S_MIN_HEIGHT] = low
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _band_status_ahead(S, P, sigma):
     """Band membership just past the current position in direction sigma: decides a
     crossing unambiguously even where two corners' intervals meet (r = w)."""
@@ -1298,8 +1319,8 @@ def _band_status_ahead(S, P, sigma):
     return abs(S[S_X] + dx + probe - xt) <= w
 
 
-@njit(_I(_V, _V, _V, _M, _I, _I), cache=True)
-def _after_phase(S, P, O, ev, n, kind):
+@njit(_I(_V, _V, _V, _M, _I, _I, _V), cache=True, error_model="numpy", _nrt=False)
+def _after_phase(S, P, O, ev, n, kind, W):
     """Carry out the transition that ended a phase, then settle and update the judge."""
     mode = int(S[S_MODE])
     t = S[S_T]
@@ -1313,7 +1334,7 @@ def _after_phase(S, P, O, ev, n, kind):
     if kind == PH_BAND:
         return _judge_set(S, P, ev, n, _band_status_ahead(S, P, S[S_SIGMA]))
     if kind == PH_TOUCH:
-        n = _impact_event(S, P, O, ev, n)
+        n = _impact_event(S, P, O, ev, n, W)
     elif kind == PH_LIFTOFF:
         S[S_MODE] = MODE_A
         S[S_SIGMA] = 0.0
@@ -1338,8 +1359,8 @@ def _after_phase(S, P, O, ev, n, kind):
     return _judge_update(S, P, ev, n)
 
 
-@njit(cache=True)
-def _advance_event(S, P, O, t_stop, ev, n):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _advance_event(S, P, O, t_stop, ev, n, W):
     n_start = n
     while S[S_T] < t_stop and S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
         if n - n_start > MAX_EVENTS:
@@ -1350,19 +1371,19 @@ def _advance_event(S, P, O, t_stop, ev, n):
             S[S_T] = t_stop                 # at rest: nothing to integrate
             break
         if mode == MODE_A:
-            kind, _ = flight_phase(S, P, t_stop)
+            kind, _ = flight_phase(S, P, t_stop, W)
         elif mode == MODE_G:
             kind = g_phase(S, P, t_stop)
         else:
-            kind = contact_phase(S, P, O, t_stop)
-        n = _after_phase(S, P, O, ev, n, kind)
+            kind = contact_phase(S, P, O, t_stop, W)
+        n = _after_phase(S, P, O, ev, n, kind, W)
     return n
 
 
 # ----------------------------------------------------------------------------------
 # Euler integrator: the contest-style fixed-step baseline (MODEL.md section 10)
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _euler_contact_step(S, P, dt):
     """Explicit Euler on (theta, omega, x, vx) of a single-contact state; y, vy (and
     x, vx for a pivot) from the constraint."""
@@ -1392,7 +1413,7 @@ def _euler_contact_step(S, P, dt):
     S[S_VY] = w * dx
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _euler_ground_check(S, P):
     """End-of-step geometry check of the Euler baseline (it locates no events).
 
@@ -1432,8 +1453,8 @@ def _euler_ground_check(S, P):
     return PH_NONE
 
 
-@njit(cache=True)
-def _advance_euler(S, P, O, t_stop, ev, n):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
     g = P[P_G]
@@ -1472,7 +1493,7 @@ def _advance_euler(S, P, O, t_stop, ev, n):
                 if S[S_SIGMA] * (S[S_VX] + S[S_W] * dy) <= 0.0:
                     kind = PH_STICK
         if kind != PH_NONE:
-            n = _after_phase(S, P, O, ev, n, kind)
+            n = _after_phase(S, P, O, ev, n, kind, W)
         else:
             n = settle(S, P, ev, n)
             n = _judge_update(S, P, ev, n)
@@ -1482,13 +1503,14 @@ def _advance_euler(S, P, O, t_stop, ev, n):
 # ----------------------------------------------------------------------------------
 # Entry points
 # ----------------------------------------------------------------------------------
-@njit(cache=True)
-def advance(S, P, O, torque_cmd, t_stop, ev):
+@njit(cache=True, error_model="numpy", _nrt=False)
+def advance(S, P, O, torque_cmd, t_stop, ev, W):
     """Hold `torque_cmd` (clipped to [T_min, T_max]) from S[S_T] to t_stop.
 
     Resolves the transitions the new torque causes at once, integrates with the
     integrator O[O_INTEGRATOR], updates the judge, and writes events into `ev`
-    (rows beyond its length are counted, not written). Returns the number of events.
+    (rows beyond its length are counted, not written); W is scratch (N_WORK floats).
+    Returns the number of events.
     If S[S_STOP_ON] names an event kind, the call returns right after the first such
     event, with S[S_STOPPED] = 1 and the time S[S_T] of the event.
     A non-finite torque sets S[S_ERROR] = 2 and leaves the state untouched.
@@ -1505,9 +1527,9 @@ def advance(S, P, O, torque_cmd, t_stop, ev):
     if S[S_STOPPED] != 0.0:
         return n
     if int(O[O_INTEGRATOR]) == INTEGRATOR_EULER:
-        n = _advance_euler(S, P, O, t_stop, ev, n)
+        n = _advance_euler(S, P, O, t_stop, ev, n, W)
     else:
-        n = _advance_event(S, P, O, t_stop, ev, n)
+        n = _advance_event(S, P, O, t_stop, ev, n, W)
     _track_min_height(S, P)
     return _judge_check(S, P, ev, n)
 
@@ -1516,7 +1538,7 @@ INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT = rang
 INIT_GROUND_TOL = 1e-9   # m: how far a given initial corner may be from the ground
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", _nrt=False)
 def init_state(S, P, x, y, th, vx, vy, w, xt):
     """Fill S from a c.m. state and classify its contact state from the kinematics.
 

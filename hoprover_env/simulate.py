@@ -158,12 +158,14 @@ class RoverSim:
         self.o = make_options(integrator, impact_law, rtol, euler_dt)
         self.s = make_state(self.params, target_x, initial_state)
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
+        self._w = np.zeros(core.N_WORK)
 
     def copy(self) -> "RoverSim":
         new = object.__new__(RoverSim)
         new.params, new.p, new.o = self.params, self.p, self.o
         new.s = self.s.copy()
         new._ev = np.zeros_like(self._ev)
+        new._w = np.zeros_like(self._w)
         return new
 
     def advance(self, torque: float, t_stop: float, stop_on: str | None = None) -> list:
@@ -171,7 +173,7 @@ class RoverSim:
         Returns the events as (time, kind, state before, state after, value)."""
         torque = check_torque(torque)
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
-        n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev)
+        n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev, self._w)
         if self.s[core.S_ERROR] == 1.0:
             raise RuntimeError(f"event budget of one control interval exhausted at "
                                f"t = {self.t:.9g} s (more than {core.MAX_EVENTS} events); "

@@ -1,0 +1,216 @@
+"""HopRover: hop a 1 kg cube across an asteroid to a target, by spinning a torquer.
+
+## Description
+
+The 8th Spacecraft Control System Design Contest (2015) problem. A cube of side 0.1 m
+stands upright on flat ground under g = 9.8e-5 m/s^2. Its only actuator is an internal
+torquer (|T| <= 5e-4 N m). Torque tips the rover about a bottom corner, which pivots or
+slides, until the contact force vanishes and the rover hops; it flies for tens to
+hundreds of seconds, bounces (restitution 0.8 horizontal, 0.2 vertical), slides and
+stops. The goal: keep a bottom corner within +-0.05 m of the target for 5 s, as early as
+possible (the contest's "time to reach the target point", TTRTP). Physics:
+`docs/PHYSICS.md` and MODEL.md; every event (lift-off, impact, band crossing) is
+located exactly, so TTRTP is exact.
+
+## Action space
+
+`Box(-1, 1, (1,), float32)`, mapped linearly onto [T_min, T_max] = [-5e-4, 5e-4] N m and
+held for one control period (`control_dt`, default 0.5 s). Out-of-range actions are
+clipped; a NaN or infinite action raises `ValueError`.
+
+## Observation space
+
+`Box(float32, (19,))`. Every component is of order one:
+
+| Num | Observation | Scaling | Min | Max |
+|-----|-------------|---------|-----|-----|
+| 0 | c.m. x relative to the target | / 1 m, clipped | -5 | 5 |
+| 1 | c.m. height above its resting height h | / 0.5 m, clipped | -1 | 10 |
+| 2 | c.m. horizontal velocity | / 0.01 m/s, clipped | -10 | 10 |
+| 3 | c.m. vertical velocity | / 0.01 m/s, clipped | -10 | 10 |
+| 4 | sin(theta) (theta clockwise-positive) | | -1 | 1 |
+| 5 | cos(theta) | | -1 | 1 |
+| 6 | angular rate omega | / 0.3 rad/s, clipped | -10 | 10 |
+| 7-13 | contact state A..G, one-hot | | 0 | 1 |
+| 14 | time / episode time | | 0 | 1 |
+| 15 | judge: time in the band / 5 s (0 when out) | | 0 | 1 |
+| 16 | contact point (nearest bottom corner in flight) minus target | / 0.05 m (band half-widths), clipped | -20 | 20 |
+| 17 | ballistic landing point of the c.m. minus target (current x when not flying) | / 1 m, clipped | -5 | 5 |
+| 18 | torque applied during the last period | / T_max | -1 | 1 |
+
+Components 0-6, 14 and the state are what the contest controller saw (position,
+velocity, attitude, rate, target, time, state); 15-18 are closed forms of them.
+
+## Rewards
+
+Per step: `gamma * Phi(s') - Phi(s) - time_cost * control_dt`, plus `success_bonus`
+when the judge's TTRTP is reached and minus `break_penalty` when a top corner hits the
+ground. `Phi(s) = -dist_weight * |x_ref - x_T| / 1 m` is a potential (so the shaping
+leaves the optimal policy unchanged, Ng et al. 1999), with x_ref the contact point, or in
+flight the bottom corner nearest the target (`shaping="contact"`) or the ballistic
+landing point (`shaping="landing"`); Phi = 0 at termination. Defaults: dist_weight 1,
+time_cost 1/600 per second (-1 over a full episode), success_bonus 10, break_penalty 10,
+gamma 0.99 (set it to your algorithm's discount).
+
+## Starting state
+
+Upright at rest at x = 0 (state F). The target is drawn uniformly from `target_range`
+(default [-1, 1] m) each episode, unless `target_x` is fixed (HopRoverContest-v0: 0.5 m)
+or given as `reset(options={"target_x": ...})`. With `randomize`, the physical
+parameters are re-drawn each episode from the env's own generator.
+
+## Episode end
+
+* Termination: success (TTRTP reached; `info["ttrtp"]` records it) or the rover broke.
+* Truncation: the simulated time reaches `episode_time` (default 600 s, the contest's).
+
+## Info
+
+`is_success` (bool), `ttrtp` (float, None until reached; NaN in the vector env's array),
+`state` (letter), `target_x`,
+`broken`, `n_events` (events located during the step). `info_level="full"` adds the c.m.
+state and the contact forces.
+
+## Arguments
+
+| Argument | Default | Description |
+|---|---|---|
+| `control_dt` | 0.5 | control period [s] |
+| `episode_time` | 600.0 | truncation time [s] |
+| `target_range` | (-1, 1) | targets drawn from U(low, high) [m] |
+| `target_x` | None | a fixed target instead [m] |
+| `integrator` | "event" | "event" (exact events) or "euler" (contest-style fixed step) |
+| `impact_law` | "contest" | "contest" or "dissipative" |
+| `rtol`, `euler_dt` | 1e-11, 1e-3 | integrator accuracy |
+| `params` | RoverParams() | physical parameters (a RoverParams or a dict) |
+| `randomize` | None | relative half-ranges, e.g. {"mu_static": 0.2, "gravity": 0.3} |
+| `dist_weight`, `time_cost`, `success_bonus`, `break_penalty`, `gamma` | 1, 1/600, 10, 10, 0.99 | reward |
+| `shaping` | "contact" | potential in flight: "contact" or "landing" |
+| `info_level` | "basic" | "full" adds state and forces to info |
+| `render_mode` | None | "rgb_array" or "human" |
+
+## Vectorized environment
+
+`gym.make_vec("HopRover-v0", num_envs=N)` returns `HopRoverVectorEnv`, which steps all
+sub-envs in one jitted call; `hoprover_env.sb3.HopRoverSB3VecEnv` is the same for
+Stable-Baselines3.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from . import core, rl_kernel
+from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+
+_NO_LOG = np.zeros((0, core.EV_COLS))
+
+
+def check_actions(action, shape, what="action") -> np.ndarray:
+    """float64 array of the expected shape, or ValueError naming the problem."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be numeric, got {action!r}") from None
+    if a.size != int(np.prod(shape)):
+        raise ValueError(f"{what} must have shape {shape}, got shape {a.shape}")
+    a = a.reshape(shape)
+    if not np.all(np.isfinite(a)):
+        bad = np.flatnonzero(~np.isfinite(a.ravel()))
+        raise ValueError(f"{what} must be finite, got {a.ravel()[bad[0]]!r} "
+                         f"(flat index {bad[0]})")
+    return a
+
+
+class HopRoverEnv(gym.Env):
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any):
+        self.config = EnvConfig.from_kwargs(**kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, "
+                             f"got {render_mode!r}")
+        self.render_mode = render_mode
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
+                                            dtype=np.float32)
+        self._o = self.config.options_vector()
+        self._e = self.config.reward_vector()
+        self._obs = np.zeros(rl_kernel.OBS_DIM, dtype=np.float32)
+        self._w = np.zeros(core.N_WORK)
+        self._s = None
+        self._p = None
+        self.params = self.config.params
+        self.target_x = 0.0
+        self._renderer = None
+        self._trace: list = []
+
+    # ------------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.target_x, self.params, self._s, self._p = sample_episode(
+            self.config, self.np_random, options)
+        rl_kernel.observe(self._s, self._p, self._e, self._obs)
+        self._trace = []
+        if self.render_mode is not None:
+            self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
+            if self.render_mode == "human":
+                self.render()
+        return self._obs.copy(), self._info(0)
+
+    def step(self, action):
+        if self._s is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        if type(action) is np.ndarray and action.shape == (1,):
+            a = float(action[0])                    # the common case, kept cheap
+            if not math.isfinite(a):
+                raise ValueError(f"action must be finite, got {a!r}")
+        else:
+            a = float(check_actions(action, (1,))[0])
+        reward, terminated, truncated, _, n_ev = rl_kernel.env_step(
+            self._s, self._p, self._o, self._e, a, self._obs, _NO_LOG, self._w)
+        if self.render_mode is not None:
+            self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
+            if self.render_mode == "human":
+                self.render()
+        return self._obs.copy(), float(reward), bool(terminated), bool(truncated), \
+            self._info(n_ev)
+
+    def _info(self, n_events: int) -> dict:
+        s = self._s
+        ttrtp = float(s[core.S_TTRTP])
+        reached = ttrtp == ttrtp                      # not NaN
+        info = {"is_success": reached, "ttrtp": ttrtp if reached else None,
+                "state": core.MODE_LETTERS[int(s[core.S_MODE])],
+                "target_x": self.target_x, "broken": bool(s[core.S_BROKEN] != 0.0),
+                "n_events": n_events}
+        if self.config.info_level == "full":
+            info["t"] = float(s[core.S_T])
+            info["rover_state"] = s[:6].copy()
+            info["contact_forces"] = np.array(core.contact_forces(s, self._p))
+        return info
+
+    # ------------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; "
+                            'e.g. gym.make("HopRover-v0", render_mode="rgb_array")')
+            return None
+        if self._s is None:
+            raise gym.error.ResetNeeded("call reset() before render()")
+        if self._renderer is None:
+            from .rendering import Renderer
+            self._renderer = Renderer(mode=self.render_mode, fps=self.metadata["render_fps"])
+        s = self._s
+        return self._renderer.draw(s, self.params, self.target_x, self._trace,
+                                   float(s[core.S_T]), STATE_LETTERS[int(s[core.S_MODE])],
+                                   float(s[core.S_TORQUE]))
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

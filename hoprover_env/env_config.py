@@ -1,0 +1,172 @@
+"""Configuration of the RL environments and the per-episode sampling they share.
+
+`EnvConfig` validates every argument once (with errors that name the argument). The
+single env, the vector env and the SB3 adapter all draw an episode's target and
+(randomised) parameters with `sample_episode` from a per-env numpy Generator, in the
+same order, so that sub-env i of a vector env seeded with s replays a single env seeded
+with s + i bit for bit.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Mapping
+
+import numpy as np
+
+from . import core, rl_kernel
+from .params import RoverParams
+from .simulate import make_options, make_state, DEFAULT_RTOL
+
+# Parameters that domain randomisation may scale, and the bounds they are clipped to.
+RANDOMIZABLE = {
+    "mass": (1e-6, math.inf), "inertia": (1e-9, math.inf), "gravity": (1e-12, math.inf),
+    "half_width": (1e-6, math.inf), "half_height": (1e-6, math.inf),
+    "mu_static": (0.0, 1.0), "mu_dynamic": (0.0, 1.0),
+    "restitution_x": (0.0, 1.0), "restitution_y": (0.0, 1.0),
+}
+SHAPINGS = {"contact": rl_kernel.SHAPING_CONTACT, "landing": rl_kernel.SHAPING_LANDING}
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig:
+    """Arguments of HopRoverEnv / HopRoverVectorEnv (see the table in env.py)."""
+
+    control_dt: float = 0.5
+    episode_time: float = 600.0
+    target_range: tuple = (-1.0, 1.0)
+    target_x: float | None = None
+    integrator: str = "event"
+    impact_law: str = "contest"
+    rtol: float = DEFAULT_RTOL
+    euler_dt: float = 1e-3
+    params: RoverParams = dataclasses.field(default_factory=RoverParams)
+    randomize: Mapping[str, float] | None = None
+    dist_weight: float = 1.0
+    time_cost: float = 1.0 / 600.0
+    success_bonus: float = 10.0
+    break_penalty: float = 10.0
+    gamma: float = 0.99
+    shaping: str = "contact"
+    info_level: str = "basic"
+
+    def __post_init__(self):
+        def positive(name):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+
+        positive("control_dt")
+        positive("episode_time")
+        if self.control_dt > self.episode_time:
+            raise ValueError(f"control_dt ({self.control_dt}) exceeds episode_time "
+                             f"({self.episode_time})")
+        lo, hi = (tuple(self.target_range) + (None, None))[:2]
+        if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float))
+                and math.isfinite(lo) and math.isfinite(hi) and lo <= hi
+                and len(tuple(self.target_range)) == 2):
+            raise ValueError(f"target_range must be (low, high) with low <= high, got "
+                             f"{self.target_range!r}")
+        object.__setattr__(self, "target_range", (float(lo), float(hi)))
+        if self.target_x is not None and not math.isfinite(self.target_x):
+            raise ValueError(f"target_x must be finite or None, got {self.target_x!r}")
+        make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
+        if isinstance(self.params, Mapping):
+            object.__setattr__(self, "params", RoverParams(**self.params))
+        if not isinstance(self.params, RoverParams):
+            raise ValueError(f"params must be a RoverParams or a dict of its fields, got "
+                             f"{type(self.params).__name__}")
+        rand = dict(self.randomize or {})
+        for key, rel in rand.items():
+            if key not in RANDOMIZABLE:
+                raise ValueError(f"randomize: unknown parameter {key!r}; choose from "
+                                 f"{sorted(RANDOMIZABLE)}")
+            if not (isinstance(rel, (int, float)) and 0.0 <= rel < 1.0):
+                raise ValueError(f"randomize[{key!r}] must be a relative half-range in "
+                                 f"[0, 1), got {rel!r}")
+        object.__setattr__(self, "randomize", dict(sorted(rand.items())))
+        for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a non-negative number, got {v!r}")
+        if not (isinstance(self.gamma, (int, float)) and 0.0 < self.gamma <= 1.0):
+            raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
+        if self.shaping not in SHAPINGS:
+            raise ValueError(f"shaping must be one of {sorted(SHAPINGS)}, got {self.shaping!r}")
+        if self.info_level not in ("basic", "full"):
+            raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> "EnvConfig":
+        names = {f.name for f in dataclasses.fields(cls)}
+        bad = sorted(set(kwargs) - names)
+        if bad:
+            raise TypeError(f"unknown environment argument(s) {bad}; valid: {sorted(names)}")
+        return cls(**kwargs)
+
+    def options_vector(self) -> np.ndarray:
+        return make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
+
+    def reward_vector(self) -> np.ndarray:
+        e = np.zeros(rl_kernel.N_ECONFIG)
+        e[rl_kernel.E_CONTROL_DT] = self.control_dt
+        e[rl_kernel.E_T_TOTAL] = self.episode_time
+        e[rl_kernel.E_W_DIST] = self.dist_weight
+        e[rl_kernel.E_W_TIME] = self.time_cost
+        e[rl_kernel.E_SUCCESS] = self.success_bonus
+        e[rl_kernel.E_BREAK] = self.break_penalty
+        e[rl_kernel.E_GAMMA] = self.gamma
+        e[rl_kernel.E_SHAPING] = SHAPINGS[self.shaping]
+        return e
+
+    @property
+    def max_steps(self) -> int:
+        """Control steps in a full episode."""
+        return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
+
+
+def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
+    """The base parameters, each randomised field scaled by U(1 - r, 1 + r)."""
+    if not cfg.randomize:
+        return cfg.params
+    base = cfg.params
+    for _ in range(100):
+        values = {}
+        for key, rel in cfg.randomize.items():
+            lo, hi = RANDOMIZABLE[key]
+            values[key] = float(np.clip(getattr(base, key) * rng.uniform(1 - rel, 1 + rel),
+                                        lo, hi))
+        mu_s = values.get("mu_static", base.mu_static)
+        if values.get("mu_dynamic", base.mu_dynamic) > mu_s:
+            values["mu_dynamic"] = mu_s
+        try:
+            return dataclasses.replace(base, **values)
+        except ValueError:                  # a Painleve draw: draw again
+            continue
+    raise ValueError("randomize: 100 draws in a row gave invalid parameters; narrow the "
+                     f"ranges {cfg.randomize}")
+
+
+def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
+                   options: Mapping[str, Any] | None = None):
+    """Target and parameters of a new episode, and its initial kernel state and
+    parameter vectors. `options` may fix 'target_x' and 'initial_state'."""
+    options = dict(options or {})
+    bad = sorted(set(options) - {"target_x", "initial_state"})
+    if bad:
+        raise ValueError(f"unknown reset option(s) {bad}; valid: ['initial_state', 'target_x']")
+    # draw in a fixed order whatever the options say, so seeded streams stay aligned
+    lo, hi = cfg.target_range
+    drawn = float(rng.uniform(lo, hi))
+    params = randomized_params(cfg, rng)
+    if "target_x" in options:
+        target = float(options["target_x"])
+        if not math.isfinite(target):
+            raise ValueError(f"options['target_x'] must be finite, got {options['target_x']!r}")
+    else:
+        target = cfg.target_x if cfg.target_x is not None else drawn
+    state = make_state(params, target, options.get("initial_state"))
+    return target, params, state, params.as_array()
+
+
+STATE_LETTERS = np.array(list(core.MODE_LETTERS))

@@ -1,0 +1,164 @@
+"""The reinforcement-learning step, jitted: one function for one env, looped for many.
+
+`env_step` advances one rover by one control period with the torque an action maps to,
+then writes the reward and the observation. `batch_step` (serial) and
+`batch_step_threaded` (numba prange over the cores) loop it over the rows of 2-D state
+and parameter arrays: the single env, the Gymnasium vector env and the SB3 adapter all
+run this same code, so their numbers agree bit for bit.
+
+Config vector ``E`` (layout ``E_*``): control period, episode length, reward weights.
+"""
+import math
+
+import numpy as np
+from numba import get_thread_id, njit, prange
+
+from . import core
+from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT, S_BROKEN,
+                   S_INBAND, S_TIN, S_TTRTP, S_NEVENTS, S_ERROR, MODE_A, MODE_F, MODE_G,
+                   MODE_B, MODE_C)
+from .params import P_H, P_R, P_G, P_TMIN, P_TMAX, P_BAND, P_DWELL
+
+E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAPING = range(8)
+N_ECONFIG = 8
+SHAPING_CONTACT, SHAPING_LANDING = 0, 1
+
+# Observation layout and scales (documented in env.py's table).
+OBS_DIM = 19
+POS_SCALE = 1.0        # m
+HEIGHT_SCALE = 0.5     # m
+VEL_SCALE = 0.01       # m/s
+RATE_SCALE = 0.3       # rad/s
+OBS_LOW = np.array([-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -1],
+                   dtype=np.float32)
+OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtype=np.float32)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _clip(v, lo, hi):
+    return lo if v < lo else (hi if v > hi else v)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def reference_point(S, P):
+    """x of the contact point (the one nearer the target in F/G), or of the bottom corner
+    nearest the target in flight: what the distance reward measures."""
+    mode = int(S[S_MODE])
+    xt = S[S_XT]
+    if mode == MODE_F or mode == MODE_G:
+        xa = S[S_X] + P[P_R]
+        xb = S[S_X] - P[P_R]
+        return xa if abs(xa - xt) <= abs(xb - xt) else xb
+    dxa, _ = core.corner_offset(P, 0, S[S_TH])
+    dxb, _ = core.corner_offset(P, 1, S[S_TH])
+    if mode == MODE_B or mode == MODE_C:
+        return S[S_X] + dxa
+    if mode != MODE_A:
+        return S[S_X] + dxb
+    xa = S[S_X] + dxa
+    xb = S[S_X] + dxb
+    return xa if abs(xa - xt) <= abs(xb - xt) else xb
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def landing_x(S, P):
+    """Where the c.m. will come down to rest height in a ballistic flight (the current x
+    when not flying): a closed form any contest controller could compute."""
+    if int(S[S_MODE]) != MODE_A:
+        return S[S_X]
+    g = P[P_G]
+    vy = S[S_VY]
+    drop = max(S[S_Y] - P[P_H], 0.0)
+    t_fall = (vy + math.sqrt(vy * vy + 2.0 * g * drop)) / g
+    return S[S_X] + S[S_VX] * t_fall
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def potential(S, P, E):
+    """Phi(s) = -w_dist |x_ref - x_T| / 1 m, with x_ref the contact point (or nearest
+    bottom corner in flight), or with E_SHAPING = landing, the ballistic landing point in
+    flight (constant along a flight, so a hop is credited at its launch)."""
+    if int(E[E_SHAPING]) == SHAPING_LANDING and int(S[S_MODE]) == MODE_A:
+        x = landing_x(S, P)
+    else:
+        x = reference_point(S, P)
+    return -E[E_W_DIST] * abs(x - S[S_XT]) / POS_SCALE
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def observe(S, P, E, obs):
+    """Write the float32 observation (see the table in env.py)."""
+    xt = S[S_XT]
+    obs[0] = _clip((S[S_X] - xt) / POS_SCALE, -5.0, 5.0)
+    obs[1] = _clip((S[S_Y] - P[P_H]) / HEIGHT_SCALE, -1.0, 10.0)
+    obs[2] = _clip(S[S_VX] / VEL_SCALE, -10.0, 10.0)
+    obs[3] = _clip(S[S_VY] / VEL_SCALE, -10.0, 10.0)
+    obs[4] = math.sin(S[S_TH])
+    obs[5] = math.cos(S[S_TH])
+    obs[6] = _clip(S[S_W] / RATE_SCALE, -10.0, 10.0)
+    mode = int(S[S_MODE])
+    for i in range(7):
+        obs[7 + i] = 1.0 if i == mode else 0.0
+    obs[14] = _clip(S[S_T] / E[E_T_TOTAL], 0.0, 1.0)
+    dwell = 0.0
+    if S[S_INBAND] == 1.0:
+        dwell = _clip((S[S_T] - S[S_TIN]) / P[P_DWELL], 0.0, 1.0)
+    obs[15] = dwell
+    obs[16] = _clip((reference_point(S, P) - xt) / P[P_BAND], -20.0, 20.0)
+    obs[17] = _clip((landing_x(S, P) - xt) / POS_SCALE, -5.0, 5.0)
+    obs[18] = S[S_TORQUE] / max(abs(P[P_TMIN]), abs(P[P_TMAX]), 1e-300)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def action_to_torque(a, P):
+    """Box(-1, 1) onto [T_min, T_max], linearly; out-of-range actions are clipped."""
+    a = _clip(a, -1.0, 1.0)
+    return P[P_TMIN] + 0.5 * (a + 1.0) * (P[P_TMAX] - P[P_TMIN])
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def env_step(S, P, O, E, action, obs, ev, W):
+    """One control period. Returns (reward, terminated, truncated, success, n_events)."""
+    phi0 = potential(S, P, E)
+    had_ttrtp = not math.isnan(S[S_TTRTP])
+    t_stop = min(S[S_T] + E[E_CONTROL_DT], E[E_T_TOTAL])
+    nev0 = S[S_NEVENTS]
+    core.advance(S, P, O, action_to_torque(action, P), t_stop, ev, W)
+    success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
+    broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
+    terminated = success or broken
+    truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
+    phi1 = 0.0 if terminated else potential(S, P, E)
+    reward = E[E_GAMMA] * phi1 - phi0 - E[E_W_TIME] * E[E_CONTROL_DT]
+    if success:
+        reward += E[E_SUCCESS]
+    if broken:
+        reward -= E[E_BREAK]
+    observe(S, P, E, obs)
+    return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def batch_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
+    """env_step over the rows where `active` is set, one after the other."""
+    w = W[0]
+    for i in range(S.shape[0]):
+        if active[i]:
+            rew[i], term[i], trunc[i], succ[i], nev[i] = env_step(
+                S[i], P[i], O, E, actions[i], obs[i], ev, w)
+
+
+@njit(cache=True, parallel=True, error_model="numpy", _nrt=False)
+def batch_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
+    """env_step over the rows where `active` is set, spread over numba's threads; each
+    thread uses its own workspace row W[thread id]."""
+    for i in prange(S.shape[0]):
+        if active[i]:
+            rew[i], term[i], trunc[i], succ[i], nev[i] = env_step(
+                S[i], P[i], O, E, actions[i], obs[i], ev, W[get_thread_id()])
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def batch_observe(S, P, E, obs):
+    for i in range(S.shape[0]):
+        observe(S[i], P[i], E, obs[i])

@@ -1,0 +1,103 @@
+"""Stable-Baselines3 VecEnv over the native batched core: SB3 trains on N rovers with
+no subprocesses and no per-env Python objects.
+
+    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    venv = VecNormalize(VecMonitor(HopRoverSB3VecEnv(64, seed=0)), norm_reward=False)
+    PPO("MlpPolicy", venv).learn(100_000)
+
+It follows SB3's VecEnv contract: same-step reset, `terminal_observation` and
+`TimeLimit.truncated` in the info of an env that ended, `is_success` (read by SB3's
+success-rate logging and EvalCallback) and the judge's `ttrtp`. Environment arguments
+are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does.
+"""
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv
+
+from .vector_env import HopRoverVectorEnv
+
+
+class HopRoverSB3VecEnv(VecEnv):
+    def __init__(self, num_envs: int = 1, seed: int | None = None, threads: bool | None = None,
+                 render_mode: str | None = None, **env_kwargs: Any):
+        self.venv = HopRoverVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
+                                      threads=threads, render_mode=render_mode, **env_kwargs)
+        self.config = self.venv.config
+        super().__init__(num_envs, self.venv.single_observation_space,
+                         self.venv.single_action_space)
+        if seed is not None:
+            self.seed(seed)
+        self._actions = None
+
+    # ---- the VecEnv contract ------------------------------------------------------
+    def reset(self):
+        seeds = None if all(s is None for s in self._seeds) else list(self._seeds)
+        targets = [o.get("target_x") for o in self._options]
+        options = None
+        if any(t is not None for t in targets):
+            if any(t is None for t in targets):
+                raise ValueError("set_options: give 'target_x' for every env or for none")
+            options = {"target_x": np.array(targets, dtype=float)}
+        obs, _ = self.venv.reset(seed=seeds, options=options)
+        self._reset_seeds()
+        self._reset_options()
+        self.reset_infos = [{} for _ in range(self.num_envs)]
+        return obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self):
+        actions = np.asarray(self._actions, dtype=np.float64).reshape(self.num_envs, 1)
+        obs, rew, term, trunc, infos = self.venv.step(actions)
+        dones = term | trunc
+        out = [{} for _ in range(self.num_envs)]
+        if dones.any():
+            fin, final_obs = infos["final_info"], infos["final_obs"]
+            for i in np.flatnonzero(dones):
+                ttrtp = float(fin["ttrtp"][i])
+                out[i] = {"terminal_observation": final_obs[i],
+                          "TimeLimit.truncated": bool(trunc[i] and not term[i]),
+                          "is_success": bool(fin["is_success"][i]),
+                          "ttrtp": None if np.isnan(ttrtp) else ttrtp,
+                          "broken": bool(fin["broken"][i]),
+                          "target_x": float(fin["target_x"][i]),
+                          "state": str(fin["state"][i])}
+        return obs, rew.astype(np.float32), dones, out
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def get_attr(self, attr_name: str, indices=None) -> list:
+        idx = self._get_indices(indices)
+        if attr_name == "render_mode":
+            return [self.venv.render_mode for _ in idx]
+        if attr_name in ("target_x", "targets"):
+            return [float(self.venv.targets[i]) for i in idx]
+        if attr_name == "params":
+            return [self.venv.params[i] for i in idx]
+        return [getattr(self.venv, attr_name) for _ in idx]
+
+    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        setattr(self.venv, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list:
+        idx = self._get_indices(indices)
+        if method_name == "render":
+            frames = self.venv.render()
+            return [frames[i] if frames else None for i in idx]
+        result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
+        return [result for _ in idx]
+
+    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        frames = self.venv.render()
+        return list(frames) if frames else [None] * self.num_envs

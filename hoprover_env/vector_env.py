@@ -1,0 +1,214 @@
+"""HopRoverVectorEnv: N rovers stepped in one jitted call over flat arrays.
+
+    envs = gym.make_vec("HopRover-v0", num_envs=4096)            # this class
+    envs = HopRoverVectorEnv(256, autoreset_mode="SameStep", threads=True)
+
+Every sub-env runs `rl_kernel.env_step`, the code the single `HopRoverEnv` runs, on a
+row of a 2-D state array; resets draw from a per-sub-env numpy Generator exactly as the
+single env does (seed s gives sub-env i the seed s + i, as Gymnasium's SyncVectorEnv).
+So sub-env i and `HopRoverEnv` seeded with s + i agree bit for bit.
+
+Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, the
+default, or SameStep), `max_episode_steps` (an extra step limit per episode) and
+`threads` (None: threaded from 64 sub-envs on; True/False to force). Infos follow
+Gymnasium's dict-of-arrays convention (each key with its `_key` mask); with SameStep,
+`final_obs` and `final_info` carry the ended episodes' last observation and info.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numba
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from . import core, rl_kernel
+from .env import check_actions
+from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+from .params import N_PARAMS
+
+THREAD_THRESHOLD = 64
+
+
+class HopRoverVectorEnv(VectorEnv):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
+                "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
+                 max_episode_steps: int | None = None, threads: bool | None = None,
+                 render_mode: str | None = None, **kwargs: Any):
+        if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.config = EnvConfig.from_kwargs(**kwargs)
+        self.num_envs = int(num_envs)
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = AutoresetMode[str(autoreset_mode).upper()] if str(autoreset_mode).upper() \
+                in AutoresetMode.__members__ else None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NextStep or SameStep, got {autoreset_mode!r}")
+        self.autoreset_mode = mode
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        if max_episode_steps is not None and not (isinstance(max_episode_steps, (int, np.integer))
+                                                  and max_episode_steps >= 1):
+            raise ValueError(f"max_episode_steps must be a positive integer or None, got "
+                             f"{max_episode_steps!r}")
+        self.max_episode_steps = max_episode_steps
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
+        self.render_mode = render_mode
+        self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
+        self._kernel = rl_kernel.batch_step_threaded if self.threads else rl_kernel.batch_step
+
+        self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self.single_observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
+                                                   dtype=np.float32)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        n = self.num_envs
+        self._o = self.config.options_vector()
+        self._e = self.config.reward_vector()
+        self.S = np.zeros((n, core.N_STATE))
+        self.P = np.zeros((n, N_PARAMS))
+        self._obs = np.zeros((n, rl_kernel.OBS_DIM), dtype=np.float32)
+        self._rew = np.zeros(n)
+        self._term = np.zeros(n, dtype=np.bool_)
+        self._trunc = np.zeros(n, dtype=np.bool_)
+        self._succ = np.zeros(n, dtype=np.bool_)
+        self._nev = np.zeros(n, dtype=np.int64)
+        self._autoreset = np.zeros(n, dtype=np.bool_)
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._all = np.ones(n, dtype=np.bool_)
+        self._log = np.zeros((0, core.EV_COLS))
+        self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
+        self.targets = np.zeros(n)
+        self.params = [self.config.params] * n
+        self._rngs: list = [None] * n
+        self._traces: list = [[] for _ in range(n)] if render_mode else []
+        self._renderers: list = []
+        self._ready = False
+
+    # ------------------------------------------------------------------------------
+    def _reset_one(self, i: int, options=None):
+        target, params, s, p = sample_episode(self.config, self._rngs[i], options)
+        self.S[i] = s
+        self.P[i] = p
+        self.targets[i] = target
+        self.params[i] = params
+        self._steps[i] = 0
+        rl_kernel.observe(self.S[i], self.P[i], self._e, self._obs[i])
+        if self.render_mode:
+            self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
+
+    def reset(self, *, seed: int | list | None = None, options: dict | None = None):
+        super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed list has {len(seeds)} entries for {n} envs")
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", self._all), dtype=np.bool_)
+        if mask.shape != (n,):
+            raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
+        per_env = {}
+        if "target_x" in options:
+            per_env["target_x"] = np.broadcast_to(np.asarray(options.pop("target_x"), float), (n,))
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
+                             "['reset_mask', 'target_x']")
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(seeds[i])
+            opt = {k: float(v[i]) for k, v in per_env.items()}
+            self._reset_one(i, opt)
+        self._autoreset[mask] = False
+        self._ready = True
+        return self._obs.copy(), self._infos(np.zeros(n, dtype=np.int64))
+
+    def step(self, actions):
+        if not self._ready:
+            raise RuntimeError("call reset() before step()")
+        a = check_actions(actions, (self.num_envs, 1), "actions")[:, 0]
+        n = self.num_envs
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
+            done = np.flatnonzero(self._autoreset)
+            active = ~self._autoreset
+            for i in done:
+                self._reset_one(i)
+        else:
+            done = np.zeros(0, dtype=np.int64)
+            active = self._all
+        self._kernel(self.S, self.P, self._o, self._e, a, active, self._obs, self._rew,
+                     self._term, self._trunc, self._succ, self._nev, self._log, self._work)
+        if done.size:
+            self._rew[done] = 0.0
+            self._term[done] = False
+            self._trunc[done] = False
+            self._nev[done] = 0
+        self._steps[active] += 1
+        if self.max_episode_steps is not None:
+            self._trunc |= (self._steps >= self.max_episode_steps) & ~self._term
+        if self.render_mode:
+            for i in range(n):
+                self._traces[i].append((float(self.S[i, core.S_X]), float(self.S[i, core.S_Y])))
+        ended = self._term | self._trunc
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+            idx = np.flatnonzero(ended)
+            final_info = self._infos(self._nev, mask=ended)
+            final_obs = np.full(n, None, dtype=object)
+            for i in idx:
+                final_obs[i] = self._obs[i].copy()
+                self._reset_one(i)
+            infos = self._infos(self._nev)
+            infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
+            infos["final_info"], infos["_final_info"] = final_info, ended.copy()
+        else:
+            infos = self._infos(self._nev)
+            self._autoreset = ended.copy()
+        return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(),
+                infos)
+
+    def _infos(self, nev, mask=None) -> dict:
+        n = self.num_envs
+        mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
+        ttrtp = self.S[:, core.S_TTRTP].copy()
+        info = {"is_success": ~np.isnan(ttrtp), "ttrtp": ttrtp,
+                "state": STATE_LETTERS[self.S[:, core.S_MODE].astype(np.int64)],
+                "target_x": self.targets.copy(), "broken": self.S[:, core.S_BROKEN] != 0.0,
+                "n_events": nev.copy()}
+        if self.config.info_level == "full":
+            info["t"] = self.S[:, core.S_T].copy()
+            info["rover_state"] = self.S[:, :6].copy()
+        for key in list(info):
+            info["_" + key] = mask.copy()
+        return info
+
+    # ------------------------------------------------------------------------------
+    def render(self):
+        if self.render_mode is None:
+            return None
+        from .rendering import Renderer
+        while len(self._renderers) < self.num_envs:
+            self._renderers.append(Renderer(mode="rgb_array"))
+        frames = []
+        for i in range(self.num_envs):
+            s = self.S[i]
+            frames.append(self._renderers[i].draw(
+                s, self.params[i], self.targets[i], self._traces[i], float(s[core.S_T]),
+                STATE_LETTERS[int(s[core.S_MODE])], float(s[core.S_TORQUE])))
+        return tuple(frames)
+
+    def close_extras(self, **kwargs):
+        for r in self._renderers:
+            r.close()
+        self._renderers = []
