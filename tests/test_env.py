@@ -1,0 +1,300 @@
+"""HopRoverEnv, HopRoverVectorEnv and the SB3 adapter."""
+import math
+import os
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from gymnasium.vector import AutoresetMode
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import hoprover_env
+from hoprover_env import RoverParams
+from hoprover_env.env import HopRoverEnv
+from hoprover_env.vector_env import HopRoverVectorEnv
+
+IDS = ["HopRover-v0", "HopRoverContest-v0"]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_checkers_pass(env_id):
+    gym_check_env(gym.make(env_id).unwrapped)
+    gym_check_env(gym.make(env_id, render_mode="rgb_array").unwrapped)
+    sb3_check_env(gym.make(env_id).unwrapped)
+
+
+def test_registration_and_defaults():
+    env = gym.make("HopRoverContest-v0")
+    _, info = env.reset(seed=3)
+    assert info["target_x"] == 0.5 and info["state"] == "F"
+    envs = gym.make_vec("HopRover-v0", num_envs=3)
+    assert isinstance(envs.unwrapped, HopRoverVectorEnv)
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert envs.observation_space.shape == (3, 19)
+
+
+def rollout_actions(n, seed):
+    rng = np.random.default_rng(seed)
+    # bursts of torque with rests, so that episodes contain hops, landings and ends
+    a = rng.uniform(-1, 1, n) * (rng.random(n) < 0.3)
+    return a.astype(np.float32)
+
+
+def run_single(seed, actions, **kw):
+    """A single env driven with NEXT_STEP semantics: after an episode ends, the next
+    call is a reset (reward 0) and that step's action is not used."""
+    env = HopRoverEnv(**kw)
+    obs, info = env.reset(seed=seed)
+    out = [(obs, 0.0, False, False)]
+    pending = False
+    for a in actions:
+        if pending:
+            obs, info = env.reset()
+            r, te, tr, pending = 0.0, False, False, False
+        else:
+            obs, r, te, tr, info = env.step(np.array([a], dtype=np.float32))
+            pending = te or tr
+        out.append((obs, r, te, tr))
+    return out
+
+
+ENV_KW = dict(episode_time=60.0, control_dt=1.0, target_range=(-0.3, 0.3))
+
+
+@pytest.mark.parametrize("threads", [False, True])
+def test_vector_sub_env_equals_single_env_next_step(threads):
+    n, steps = 4, 150
+    acts = np.stack([rollout_actions(steps, 10 + i) for i in range(n)], axis=1)
+    envs = HopRoverVectorEnv(n, threads=threads, **ENV_KW)
+    obs, _ = envs.reset(seed=100)
+    traj = [[(obs[i], 0.0, False, False)] for i in range(n)]
+    for k in range(steps):
+        obs, r, te, tr, _ = envs.step(acts[k][:, None])
+        for i in range(n):
+            traj[i].append((obs[i], r[i], te[i], tr[i]))
+    n_ends = 0
+    for i in range(n):
+        single = run_single(100 + i, acts[:, i], **ENV_KW)
+        assert len(single) == len(traj[i])
+        for (o1, r1, te1, tr1), (o2, r2, te2, tr2) in zip(traj[i], single):
+            assert np.array_equal(o1, o2)
+            assert r1 == r2 and te1 == te2 and tr1 == tr2
+            n_ends += te2 or tr2
+    assert n_ends > 0
+
+
+def test_vector_same_step_autoreset_matches_single():
+    n, steps = 3, 120
+    acts = np.stack([rollout_actions(steps, 20 + i) for i in range(n)], axis=1)
+    envs = HopRoverVectorEnv(n, autoreset_mode="SameStep", **ENV_KW)
+    assert envs.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+    obs, _ = envs.reset(seed=7)
+    singles = [HopRoverEnv(**ENV_KW) for _ in range(n)]
+    s_obs = [e.reset(seed=7 + i)[0] for i, e in enumerate(singles)]
+    assert all(np.array_equal(obs[i], s_obs[i]) for i in range(n))
+    ended = 0
+    for k in range(steps):
+        obs, r, te, tr, info = envs.step(acts[k][:, None])
+        for i, e in enumerate(singles):
+            o, rr, t1, t2, inf = e.step(np.array([acts[k, i]], np.float32))
+            assert rr == r[i] and t1 == te[i] and t2 == tr[i]
+            if t1 or t2:
+                ended += 1
+                assert info["_final_obs"][i] and np.array_equal(info["final_obs"][i], o)
+                assert info["final_info"]["is_success"][i] == inf["is_success"]
+                o, _ = e.reset()
+            assert np.array_equal(obs[i], o)
+    assert ended > 0
+
+
+def test_vector_max_episode_steps_and_infos():
+    envs = gym.make_vec("HopRover-v0", num_envs=2, max_episode_steps=5)
+    envs.reset(seed=0)
+    for k in range(5):
+        obs, r, te, tr, info = envs.step(np.zeros((2, 1)))
+    assert tr.all() and not te.any()
+    for key in ("is_success", "ttrtp", "state", "target_x", "broken", "n_events"):
+        assert info[key].shape == (2,) and info["_" + key].all()
+    obs, r, te, tr, info = envs.step(np.zeros((2, 1)))      # NEXT_STEP: the reset
+    assert (r == 0).all() and not tr.any() and (info["state"] == "F").all()
+
+
+def test_seeding_is_bit_for_bit():
+    a, b = run_single(5, rollout_actions(200, 1)), run_single(5, rollout_actions(200, 1))
+    assert all(np.array_equal(x[0], y[0]) and x[1:] == y[1:] for x, y in zip(a, b))
+    c = run_single(6, rollout_actions(200, 1))
+    assert not all(np.array_equal(x[0], y[0]) for x, y in zip(a, c))
+
+
+def test_reset_options_and_errors():
+    env = HopRoverEnv()
+    _, info = env.reset(seed=0, options={"target_x": -0.7})
+    assert info["target_x"] == -0.7
+    with pytest.raises(ValueError, match="unknown reset option"):
+        env.reset(options={"tarrget_x": 1.0})
+    with pytest.raises(TypeError, match="unknown environment argument"):
+        HopRoverEnv(contol_dt=0.1)
+    with pytest.raises(ValueError, match="control_dt must be a positive number"):
+        HopRoverEnv(control_dt=-1.0)
+
+
+@pytest.mark.parametrize("bad", [np.array([np.nan], np.float32), np.array([np.inf]),
+                                 [float("-inf")], np.array([[0.1, 0.2]])])
+def test_bad_actions_raise(bad):
+    env = HopRoverEnv()
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="action"):
+        env.step(bad)
+    envs = HopRoverVectorEnv(2)
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match="actions"):
+        envs.step(np.array([[0.0], [np.nan]]))
+
+
+def test_out_of_range_actions_are_clipped():
+    a, b = HopRoverEnv(), HopRoverEnv()
+    a.reset(seed=1)
+    b.reset(seed=1)
+    for _ in range(20):
+        oa = a.step(np.array([7.0], np.float32))
+        ob = b.step(np.array([1.0], np.float32))
+        assert np.array_equal(oa[0], ob[0]) and oa[1] == ob[1]
+
+
+def test_observations_stay_in_bounds_and_types_are_strict():
+    env = HopRoverEnv(episode_time=300.0)
+    obs, _ = env.reset(seed=2)
+    for a in rollout_actions(600, 3):
+        obs, r, te, tr, info = env.step(np.array([a], np.float32))
+        assert env.observation_space.contains(obs)
+        assert type(r) is float and type(te) is bool and type(tr) is bool
+        assert type(info["is_success"]) is bool and type(info["broken"]) is bool
+        if te or tr:
+            obs, _ = env.reset()
+
+
+def test_idle_at_target_succeeds_at_five_seconds_with_bonus():
+    env = HopRoverEnv(control_dt=0.5)
+    env.reset(seed=0, options={"target_x": 0.0})
+    total = 0.0
+    for k in range(10):
+        obs, r, te, tr, info = env.step(np.zeros(1, np.float32))
+        total += r
+    assert te and info["is_success"] and info["ttrtp"] == 5.0
+    # the last step: bonus + gamma * 0 - Phi(s) - time cost; Phi(s) = -0.05 (corner at 0.05 m)
+    assert r == pytest.approx(10.0 + 0.05 - 0.5 / 600.0, rel=1e-12)
+
+
+def test_reward_is_the_documented_shaping():
+    env = HopRoverEnv(control_dt=1.0, gamma=0.9, time_cost=0.01, dist_weight=2.0)
+    env.reset(seed=0, options={"target_x": 0.8})
+    obs, r, te, tr, info = env.step(np.zeros(1, np.float32))       # at rest: Phi unchanged
+    phi = -2.0 * abs(0.05 - 0.8)
+    assert r == pytest.approx(0.9 * phi - phi - 0.01 * 1.0, rel=1e-12)
+
+
+def test_breaking_terminates_with_penalty():
+    env = HopRoverEnv(control_dt=10.0, break_penalty=7.0)
+    env.reset(seed=0, options={"target_x": 0.0, "initial_state": (0.0, 0.2, math.pi, 0, 0, 0)})
+    for _ in range(10):
+        obs, r, te, tr, info = env.step(np.zeros(1, np.float32))
+        if te:
+            break
+    assert te and info["broken"] and not info["is_success"] and r < -6.9
+
+
+def test_domain_randomisation_ranges():
+    rel = {"mu_static": 0.2, "restitution_y": 0.5, "gravity": 0.3, "mass": 0.1, "inertia": 0.1}
+    env = HopRoverEnv(randomize=rel)
+    base = RoverParams()
+    seen = []
+    for seed in range(60):
+        env.reset(seed=seed)
+        p = env.params
+        seen.append(p.gravity)
+        for key, r in rel.items():
+            v, v0 = getattr(p, key), getattr(base, key)
+            assert v0 * (1 - r) - 1e-15 <= v <= min(v0 * (1 + r), 1.0 if key.startswith(("mu", "rest")) else np.inf)
+        assert p.mu_dynamic <= p.mu_static
+    assert np.std(seen) > 0.05 * base.gravity       # really random
+    env.reset(seed=3)
+    p3 = env.params
+    env.reset(seed=3)
+    assert env.params == p3                           # from the env's own seeded RNG
+    with pytest.raises(ValueError, match="unknown parameter 'friction'"):
+        HopRoverEnv(randomize={"friction": 0.1})
+    with pytest.raises(ValueError, match=r"relative half-range in \[0, 1\)"):
+        HopRoverEnv(randomize={"mass": 1.5})
+
+
+def test_rgb_render_and_human_render():
+    env = gym.make("HopRover-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    frames = [env.render()]
+    for _ in range(8):
+        env.step(np.array([0.7], np.float32))
+        frames.append(env.render())
+    f = frames[-1]
+    assert f.dtype == np.uint8 and f.shape == (360, 640, 3)
+    assert not np.array_equal(frames[0], f)
+    human = gym.make("HopRover-v0", render_mode="human")
+    human.reset(seed=0)
+    human.step(np.zeros(1, np.float32))
+    human.close()
+    venv = HopRoverVectorEnv(2, render_mode="rgb_array")
+    venv.reset(seed=0)
+    assert [fr.shape for fr in venv.render()] == [(360, 640, 3)] * 2
+
+
+def test_record_video(tmp_path):
+    from gymnasium.wrappers import RecordVideo
+    env = RecordVideo(gym.make("HopRover-v0", render_mode="rgb_array", episode_time=20.0),
+                      str(tmp_path), episode_trigger=lambda e: True, disable_logger=True)
+    env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, te, tr, _ = env.step(np.array([0.5], np.float32))
+        done = te or tr
+    env.close()
+    videos = [p for p in os.listdir(tmp_path) if p.endswith(".mp4")]
+    assert videos and os.path.getsize(tmp_path / videos[0]) > 1000
+
+
+def test_rendering_is_off_unless_asked():
+    env = HopRoverEnv()
+    env.reset(seed=0)
+    env.step(np.zeros(1, np.float32))
+    assert env._renderer is None and env._trace == []
+
+
+def test_sb3_adapter_contract():
+    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    venv = HopRoverSB3VecEnv(3, seed=0, **ENV_KW)
+    obs = venv.reset()
+    assert obs.shape == (3, 19)
+    ended = 0
+    for k in range(200):
+        obs, rew, dones, infos = venv.step(np.full((3, 1), 0.9 if k % 10 < 4 else 0.0))
+        assert rew.dtype == np.float32 and dones.dtype == np.bool_ and len(infos) == 3
+        for i in np.flatnonzero(dones):
+            ended += 1
+            assert infos[i]["terminal_observation"].shape == (19,)
+            assert isinstance(infos[i]["TimeLimit.truncated"], bool)
+            assert isinstance(infos[i]["is_success"], bool)
+    assert ended > 0
+    assert venv.get_attr("render_mode") == [None] * 3
+
+
+def test_sb3_ppo_trains_on_the_adapter(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    venv = VecNormalize(VecMonitor(HopRoverSB3VecEnv(8, seed=0, **ENV_KW)), norm_reward=False)
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=2, seed=0, verbose=0)
+    model.learn(3000)
+    assert model.num_timesteps >= 3000
+    assert len(model.ep_info_buffer) > 0            # VecMonitor saw whole episodes
+    model.save(tmp_path / "m")
+    venv.save(str(tmp_path / "vn.pkl"))
+    assert (tmp_path / "m.zip").exists()
