@@ -45,10 +45,13 @@ velocity, attitude, rate, target, time, state); 15-18 are closed forms of them.
 
 Per step: `gamma * Phi(s') - Phi(s) - time_cost * control_dt`, plus `success_bonus`
 when the judge's TTRTP is reached and minus `break_penalty` when a top corner hits the
-ground. `Phi(s) = -dist_weight * |x_ref - x_T| / 1 m` is a potential (so the shaping
-leaves the optimal policy unchanged, Ng et al. 1999), with x_ref the contact point, or in
-flight the bottom corner nearest the target (`shaping="contact"`) or the ballistic
-landing point (`shaping="landing"`); Phi = 0 at termination. Defaults: dist_weight 1,
+ground. `Phi(s) = -dist_weight * |x_ref - x_T| / 1 m - attitude_weight * a(s)` is a
+potential (so the shaping leaves the optimal policy unchanged, Ng et al. 1999), with
+x_ref the contact point, or in flight the bottom corner nearest the target
+(`shaping="contact"`) or the ballistic landing point (`shaping="landing"`), and
+a(s) = (1 - cos theta) + (omega / 0.3 rad/s)^2 / 2 in flight (0 in contact): it rewards
+keeping the rover upright and still in the air, long before a bad landing would be
+penalised. Phi = 0 at termination. Defaults: dist_weight 1, attitude_weight 0,
 time_cost 1/600 per second (-1 over a full episode), success_bonus 10, break_penalty 10,
 gamma 0.99 (set it to your algorithm's discount).
 
@@ -86,6 +89,7 @@ state and the contact forces.
 | `randomize` | None | relative half-ranges, e.g. {"mu_static": 0.2, "gravity": 0.3} |
 | `dist_weight`, `time_cost`, `success_bonus`, `break_penalty`, `gamma` | 1, 1/600, 10, 10, 0.99 | reward |
 | `shaping` | "contact" | potential in flight: "contact" or "landing" |
+| `attitude_weight` | 0.0 | weight of the flight-attitude potential |
 | `info_level` | "basic" | "full" adds state and forces to info |
 | `render_mode` | None | "rgb_array" or "human" |
 

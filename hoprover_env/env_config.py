@@ -48,6 +48,7 @@ class EnvConfig:
     break_penalty: float = 10.0
     gamma: float = 0.99
     shaping: str = "contact"
+    attitude_weight: float = 0.0
     info_level: str = "basic"
 
     def __post_init__(self):
@@ -85,7 +86,8 @@ class EnvConfig:
                 raise ValueError(f"randomize[{key!r}] must be a relative half-range in "
                                  f"[0, 1), got {rel!r}")
         object.__setattr__(self, "randomize", dict(sorted(rand.items())))
-        for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty"):
+        for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
+                     "attitude_weight"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {v!r}")
@@ -117,6 +119,7 @@ class EnvConfig:
         e[rl_kernel.E_BREAK] = self.break_penalty
         e[rl_kernel.E_GAMMA] = self.gamma
         e[rl_kernel.E_SHAPING] = SHAPINGS[self.shaping]
+        e[rl_kernel.E_W_ATT] = self.attitude_weight
         return e
 
     @property

@@ -19,8 +19,9 @@ from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT,
                    MODE_B, MODE_C)
 from .params import P_H, P_R, P_G, P_TMIN, P_TMAX, P_BAND, P_DWELL
 
-E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAPING = range(8)
-N_ECONFIG = 8
+E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAPING, \
+    E_W_ATT = range(9)
+N_ECONFIG = 9
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 
 # Observation layout and scales (documented in env.py's table).
@@ -75,14 +76,24 @@ def landing_x(S, P):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def potential(S, P, E):
-    """Phi(s) = -w_dist |x_ref - x_T| / 1 m, with x_ref the contact point (or nearest
-    bottom corner in flight), or with E_SHAPING = landing, the ballistic landing point in
-    flight (constant along a flight, so a hop is credited at its launch)."""
-    if int(E[E_SHAPING]) == SHAPING_LANDING and int(S[S_MODE]) == MODE_A:
+    """Phi(s) = -w_dist |x_ref - x_T| / 1 m - w_att a(s).
+
+    x_ref is the contact point (or nearest bottom corner in flight), or with
+    E_SHAPING = landing the ballistic landing point in flight (constant along a flight,
+    so a hop is credited at its launch). a(s) = (1 - cos theta) + (omega / 0.3)^2 / 2 in
+    flight, 0 in contact: a rover kept upright and still in the air lands on its bottom
+    face; the term turns that into immediate feedback instead of a penalty at landing.
+    """
+    flying = int(S[S_MODE]) == MODE_A
+    if int(E[E_SHAPING]) == SHAPING_LANDING and flying:
         x = landing_x(S, P)
     else:
         x = reference_point(S, P)
-    return -E[E_W_DIST] * abs(x - S[S_XT]) / POS_SCALE
+    phi = -E[E_W_DIST] * abs(x - S[S_XT]) / POS_SCALE
+    if flying:
+        w = S[S_W] / RATE_SCALE
+        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + 0.5 * w * w)
+    return phi
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from typing import Any, Sequence
 
+import time
+
 import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
@@ -34,6 +36,7 @@ class HopRoverSB3VecEnv(VecEnv):
         if seed is not None:
             self.seed(seed)
         self._actions = None
+        self.step_seconds = 0.0          # wall time spent inside step_wait (the env's share)
 
     # ---- the VecEnv contract ------------------------------------------------------
     def reset(self):
@@ -54,6 +57,13 @@ class HopRoverSB3VecEnv(VecEnv):
         self._actions = actions
 
     def step_wait(self):
+        t0 = time.perf_counter()
+        try:
+            return self._step()
+        finally:
+            self.step_seconds += time.perf_counter() - t0
+
+    def _step(self):
         actions = np.asarray(self._actions, dtype=np.float64).reshape(self.num_envs, 1)
         obs, rew, term, trunc, infos = self.venv.step(actions)
         dones = term | trunc

@@ -1,0 +1,108 @@
+"""Evaluate a policy with the contest judge on a fixed set of targets.
+
+All sub-episodes run side by side in one `HopRoverVectorEnv` (one target each, a
+single episode each), so a neural policy is queried once per control step for the
+whole batch. The judge is the simulator's own: TTRTP exact to event precision.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+from gymnasium.vector import AutoresetMode
+
+from hoprover_env.vector_env import HopRoverVectorEnv
+
+
+@dataclasses.dataclass
+class EpisodeResult:
+    policy: str
+    episode: int
+    target_x: float
+    success: bool
+    ttrtp: float | None
+    broken: bool
+    steps: int
+    sim_time: float
+    final_x: float
+    wall_time: float
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.0) -> np.ndarray:
+    """The fixed evaluation targets: n draws from U(low, high) with this seed."""
+    return np.random.default_rng(seed).uniform(low, high, n)
+
+
+def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
+                 progress=None) -> list[EpisodeResult]:
+    """One episode per target. `env_kwargs` configure the env (the policy's own
+    `env_kwargs`, e.g. its control period, take precedence). `progress` is called with
+    the number of finished episodes."""
+    kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
+    kwargs.pop("target_x", None)
+    targets = np.asarray(targets, dtype=float)
+    results: list[EpisodeResult] = []
+    for start in range(0, len(targets), batch):
+        chunk = targets[start:start + batch]
+        results.extend(_run_batch(policy, chunk, start, kwargs, progress, len(results)))
+    return results
+
+
+def _run_batch(policy, targets, offset, kwargs, progress, done_before):
+    n = len(targets)
+    venv = HopRoverVectorEnv(n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    obs, _ = venv.reset(seed=0, options={"target_x": targets})
+    policy.reset(n)
+    active = np.ones(n, dtype=bool)
+    steps = np.zeros(n, dtype=np.int64)
+    out: list = [None] * n
+    t_start = time.perf_counter()
+    while active.any():
+        actions = policy.act(obs, venv)
+        actions[~active] = 0.0
+        obs, _, term, trunc, info = venv.step(actions)
+        steps += active
+        ended = active & (term | trunc)
+        if ended.any():
+            fin = info["final_info"]
+            now = time.perf_counter() - t_start
+            for i in np.flatnonzero(ended):
+                ttrtp = float(fin["ttrtp"][i])
+                out[i] = EpisodeResult(
+                    policy=getattr(policy, "name", "policy"), episode=offset + int(i),
+                    target_x=float(targets[i]), success=bool(fin["is_success"][i]),
+                    ttrtp=None if math.isnan(ttrtp) else ttrtp, broken=bool(fin["broken"][i]),
+                    steps=int(steps[i]), sim_time=float(fin["t"][i]) if "t" in fin else
+                    float(steps[i] * venv.config.control_dt),
+                    final_x=float(venv_final_x(info, i)), wall_time=now)
+            active &= ~ended
+            if progress is not None:
+                progress(done_before + int((~active).sum()))
+    wall = time.perf_counter() - t_start
+    for r in out:
+        r.wall_time = wall / n          # a batch shares its wall time: report the mean
+    return out
+
+
+def venv_final_x(info, i) -> float:
+    """c.m. x of an ended episode, from its final observation (obs[0] = x - x_T)."""
+    fo = info["final_obs"][i]
+    return float(fo[0]) + float(info["final_info"]["target_x"][i])
+
+
+def summarize(results: list[EpisodeResult]) -> dict:
+    n = len(results)
+    tt = np.array([r.ttrtp for r in results if r.success])
+    return {
+        "episodes": n,
+        "success_rate": float(np.mean([r.success for r in results])) if n else math.nan,
+        "median_ttrtp": float(np.median(tt)) if tt.size else math.nan,
+        "p90_ttrtp": float(np.percentile(tt, 90)) if tt.size else math.nan,
+        "broken": int(sum(r.broken for r in results)),
+        "wall_per_episode": float(np.mean([r.wall_time for r in results])) if n else math.nan,
+    }

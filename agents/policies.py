@@ -1,0 +1,193 @@
+"""Policies that evaluate.py, train.py and the tests can run side by side.
+
+Every policy acts on a batch: ``act(obs, venv) -> actions`` with obs of shape (N, 19)
+from a `HopRoverVectorEnv` and actions in [-1, 1]^(N, 1). Kinds:
+
+* ``SB3Policy`` -- a Stable-Baselines3 model (PPO, SAC, TD3) with the observation
+  normalisation it was trained with (VecNormalize statistics), deterministic.
+* ``ControllerPolicy`` -- any contest-signature controller
+  ``Control(pos, vel, the, omg, posT, t, smt, state) -> torque``, one instance per
+  sub-env, fed from the exact simulator state (no delay, as in the contest).
+* ``RandomPolicy`` -- uniform random actions (a floor to compare against).
+
+`load_policy` turns a name ("bundled", "scripted", "random", a model path or
+"module.py:Control") into one of these.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import pickle
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from hoprover_env import core
+from hoprover_env.params import RoverParams
+
+BUNDLED_DIR = Path(__file__).resolve().parent.parent / "hoprover_env" / "policies"
+BUNDLED_NAME = "ppo_hoprover"
+ALGOS = ("ppo", "sac", "td3")
+
+
+class SB3Policy:
+    """A trained SB3 model plus its observation normalisation."""
+
+    def __init__(self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8,
+                 name: str = "sb3", env_kwargs: dict | None = None):
+        self.model, self.obs_rms = model, obs_rms
+        self.clip_obs, self.epsilon = clip_obs, epsilon
+        self.name = name
+        self.env_kwargs = dict(env_kwargs or {})
+
+    def reset(self, n: int) -> None:
+        pass
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        if self.obs_rms is None:
+            return obs
+        return np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
+                       -self.clip_obs, self.clip_obs).astype(np.float32)
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        action, _ = self.model.predict(self.normalize(obs), deterministic=True)
+        return np.asarray(action, dtype=np.float64).reshape(len(obs), 1)
+
+
+class ControllerPolicy:
+    """Contest controllers, one per sub-env, driven from the simulator state."""
+
+    def __init__(self, factory: Callable[[], Callable], name: str = "controller",
+                 env_kwargs: dict | None = None):
+        self.factory = factory
+        self.name = name
+        self.env_kwargs = dict(env_kwargs or {})
+        self.controllers: list = []
+
+    def reset(self, n: int) -> None:
+        self.controllers = [self.factory() for _ in range(n)]
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        out = np.zeros((len(obs), 1))
+        smt = venv.config.episode_time
+        for i, ctrl in enumerate(self.controllers):
+            s = venv.S[i]
+            p = venv.params[i]
+            torque = ctrl(s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]),
+                          float(s[core.S_W]), np.array([venv.targets[i], 0.0]),
+                          float(s[core.S_T]), smt, core.MODE_LETTERS[int(s[core.S_MODE])])
+            torque = float(torque)
+            if not math.isfinite(torque):
+                raise ValueError(f"{self.name}: the controller returned torque {torque!r}")
+            out[i, 0] = torque_to_action(torque, p)
+        return out
+
+
+class RandomPolicy:
+    def __init__(self, seed: int = 0):
+        self.name = "random"
+        self.env_kwargs = {}
+        self.rng = np.random.default_rng(seed)
+
+    def reset(self, n: int) -> None:
+        pass
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        return self.rng.uniform(-1.0, 1.0, (len(obs), 1))
+
+
+def torque_to_action(torque: float, params: RoverParams) -> float:
+    """The inverse of the env's action map (clipped to the torque range)."""
+    lo, hi = params.torque_min, params.torque_max
+    if hi == lo:
+        return 0.0
+    return float(np.clip(2.0 * (torque - lo) / (hi - lo) - 1.0, -1.0, 1.0))
+
+
+# ---- loading ------------------------------------------------------------------------
+def _algo_class(algo: str):
+    from stable_baselines3 import PPO, SAC, TD3
+    return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+
+
+def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
+    """A model saved by train.py: a .zip (with its metadata JSON and VecNormalize pickle
+    beside it), or a run directory (its best model)."""
+    path = Path(path)
+    if path.is_dir():
+        for cand in ("best_model.zip", "final_model.zip"):
+            if (path / cand).exists():
+                path = path / cand
+                break
+        else:
+            raise FileNotFoundError(f"no best_model.zip or final_model.zip in run directory {path}")
+    if not path.exists():
+        raise FileNotFoundError(f"model file not found: {path}")
+    meta_path = path.with_suffix(".json")
+    meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    algo = meta.get("algo")
+    if algo is None:                   # a bare SB3 zip: try the algorithms in turn
+        for cand in ALGOS:
+            try:
+                model = _algo_class(cand).load(str(path), device="cpu")
+                algo = cand
+                break
+            except Exception:          # noqa: BLE001 - the wrong class raises various errors
+                continue
+        else:
+            raise ValueError(f"{path} is not a PPO, SAC or TD3 model")
+    else:
+        model = _algo_class(algo).load(str(path), device="cpu")
+    obs_rms, clip = None, 10.0
+    vn_path = path.with_name(path.stem + "_vecnormalize.pkl")
+    if not vn_path.exists():
+        vn_path = path.parent / "vecnormalize.pkl"
+    if vn_path.exists():
+        with open(vn_path, "rb") as fh:
+            vn = pickle.load(fh)
+        obs_rms, clip = vn.obs_rms, vn.clip_obs
+    return SB3Policy(model, obs_rms, clip, name=name or path.stem,
+                     env_kwargs=meta.get("env_kwargs", {}))
+
+
+def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
+    """'path/to/module.py:Control' -> a ControllerPolicy calling that function (or, if it
+    is a class, one new instance per episode)."""
+    if ":" not in spec:
+        raise ValueError(f"--controller wants 'module.py:Function', got {spec!r}")
+    file, attr = spec.rsplit(":", 1)
+    if not os.path.exists(file):
+        raise FileNotFoundError(f"controller module not found: {file}")
+    mod_spec = importlib.util.spec_from_file_location(Path(file).stem, file)
+    module = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(module)
+    if not hasattr(module, attr):
+        raise AttributeError(f"{file} has no attribute {attr!r}")
+    obj = getattr(module, attr)
+    factory = obj if isinstance(obj, type) else (lambda: obj)
+    return ControllerPolicy(factory, name=f"{Path(file).stem}:{attr}",
+                            env_kwargs={"control_dt": control_dt})
+
+
+def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
+    """'bundled', 'scripted', 'random', a model path or run dir, or 'module.py:Control'."""
+    if spec == "bundled":
+        path = BUNDLED_DIR / f"{BUNDLED_NAME}.zip"
+        if not path.exists():
+            raise FileNotFoundError(f"the bundled policy is missing: {path}")
+        return load_sb3(path, name="bundled")
+    if spec == "scripted":
+        from agents.scripted import ScriptedHopper
+        return ControllerPolicy(lambda: ScriptedHopper(control_dt=control_dt), name="scripted",
+                                env_kwargs={"control_dt": control_dt})
+    if spec == "random":
+        return RandomPolicy(seed)
+    if spec.endswith(".py") or ".py:" in spec:
+        return load_controller(spec, control_dt)
+    if os.path.exists(spec) or spec.endswith(".zip"):
+        return load_sb3(spec)
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scripted, random, a model "
+                     ".zip or run directory, or module.py:Control")

@@ -1,0 +1,162 @@
+"""Evaluate policies with the contest judge on a fixed, seeded set of random targets.
+
+    python evaluate.py                                   # bundled PPO vs scripted, 200 targets
+    python evaluate.py --policy scripted --policy runs/ppo1 --episodes 50
+    python evaluate.py --targets 0.5,-0.8 --plot figs --video hop.gif
+    python evaluate.py --controller my_entry.py:Control  # a 2015 contest entry, unchanged
+
+Prints one table (success rate, median and 90th-percentile TTRTP, broken count, mean
+wall time per episode) with one row per policy, all on the same targets. --json/--csv
+write the per-episode results atomically; --plot writes the contest sample's nine
+trajectory figures and --video an animation of one episode of the first policy.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from agents.evaluation import run_episodes, seeded_targets, summarize
+from agents.policies import load_controller, load_policy
+
+
+def parse_args(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog=__doc__.split("\n", 2)[2])
+    ap.add_argument("--policy", action="append", default=None,
+                    help="bundled, scripted, random, or a model .zip / run directory "
+                         "(repeat to compare; default: bundled and scripted)")
+    ap.add_argument("--controller", action="append", default=[],
+                    help="a contest controller module.py:Function (repeatable)")
+    ap.add_argument("--episodes", type=int, default=200, help="number of targets (default 200)")
+    ap.add_argument("--targets", type=str, default=None,
+                    help="comma-separated target x values instead of random ones")
+    ap.add_argument("--target-range", type=float, nargs=2, default=(-1.0, 1.0),
+                    metavar=("LOW", "HIGH"), help="range of the random targets [m]")
+    ap.add_argument("--seed", type=int, default=2015, help="seed of the random targets")
+    ap.add_argument("--control-dt", type=float, default=0.5,
+                    help="control period of scripted/contest controllers [s]")
+    ap.add_argument("--json", type=str, default=None, help="write per-episode results (JSON)")
+    ap.add_argument("--csv", type=str, default=None, help="write per-episode results (CSV)")
+    ap.add_argument("--plot", type=str, default=None, help="directory for the nine figures")
+    ap.add_argument("--video", type=str, default=None, help="GIF or MP4 of an episode")
+    ap.add_argument("--plot-episode", type=int, default=None,
+                    help="which target to plot/film (default: the first one that needs a hop)")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    args = ap.parse_args(argv)
+    if args.episodes < 1:
+        ap.error("--episodes must be at least 1")
+    return args
+
+
+def atomic_write(path: str, text: str) -> None:
+    """Write via a temporary file in the same directory and rename: never half a file."""
+    path = os.path.abspath(path)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
+    try:
+        with os.fdopen(fd, "w", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        os.unlink(tmp)
+        raise
+
+
+def format_table(rows) -> str:
+    head = f"{'policy':<22}{'success':>9}{'median TTRTP':>14}{'p90 TTRTP':>11}" \
+           f"{'broken':>8}{'wall s/ep':>11}"
+    lines = [head, "-" * len(head)]
+    for name, s in rows:
+        med = "-" if math.isnan(s["median_ttrtp"]) else f"{s['median_ttrtp']:.1f} s"
+        p90 = "-" if math.isnan(s["p90_ttrtp"]) else f"{s['p90_ttrtp']:.1f} s"
+        lines.append(f"{name:<22}{s['success_rate']:>8.1%}{med:>14}{p90:>11}"
+                     f"{s['broken']:>8d}{s['wall_per_episode']:>11.3f}")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    if args.targets:
+        try:
+            targets = np.array([float(v) for v in args.targets.split(",")])
+        except ValueError:
+            print(f"error: --targets must be comma-separated numbers, got {args.targets!r}",
+                  file=sys.stderr)
+            return 2
+    else:
+        targets = seeded_targets(args.episodes, args.seed, *args.target_range)
+    specs = args.policy if args.policy is not None else (
+        [] if args.controller else ["bundled", "scripted"])
+    try:
+        policies = [load_policy(s, control_dt=args.control_dt, seed=args.seed) for s in specs]
+        policies += [load_controller(c, args.control_dt) for c in args.controller]
+    except (FileNotFoundError, ValueError, AttributeError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
+    rows, all_results = [], []
+    for pol in policies:
+        bar = None
+        if not args.no_progress and len(targets) > 20:
+            from tqdm import tqdm
+            bar = tqdm(total=len(targets), desc=pol.name, unit="ep", leave=False)
+        progress = (lambda k, b=bar: b.update(k - b.n)) if bar else None
+        t0 = time.perf_counter()
+        results = run_episodes(pol, targets, progress=progress)
+        if bar:
+            bar.close()
+        rows.append((pol.name, summarize(results)))
+        all_results.extend(results)
+        print(f"  {pol.name}: {len(results)} episodes in {time.perf_counter() - t0:.1f} s",
+              file=sys.stderr)
+    print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}); "
+          "TTRTP over the successful episodes\n")
+    print(format_table(rows))
+
+    if args.json:
+        atomic_write(args.json, json.dumps({"summary": dict(rows),
+                                            "episodes": [r.as_dict() for r in all_results]},
+                                           indent=1))
+    if args.csv:
+        buf = io.StringIO()
+        fields = list(all_results[0].as_dict())
+        w = csv.DictWriter(buf, fieldnames=fields)
+        w.writeheader()
+        for r in all_results:
+            w.writerow(r.as_dict())
+        atomic_write(args.csv, buf.getvalue())
+    if args.plot or args.video:
+        from agents.replay import record_episode
+        k = args.plot_episode
+        if k is None:        # the first target more than a body width away: a real hop
+            far = np.flatnonzero(np.abs(targets) > 0.15)
+            k = int(far[0]) if far.size else 0
+        if not 0 <= k < len(targets):
+            print(f"error: --plot-episode {k} is not a target index (0..{len(targets) - 1})",
+                  file=sys.stderr)
+            return 2
+        rec = record_episode(policies[0], float(targets[k]))
+        if args.plot:
+            from agents.plots import nine_figures
+            paths = nine_figures(rec, args.plot)
+            print(f"\nwrote {len(paths)} figures to {args.plot}")
+        if args.video:
+            from agents.replay import write_video
+            write_video(rec, args.video)
+            print(f"wrote {args.video}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

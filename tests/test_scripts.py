@@ -1,0 +1,145 @@
+"""train.py and evaluate.py end to end, in-process (the kernels are already compiled)."""
+import csv
+import json
+
+import pytest
+import yaml
+
+import evaluate
+import train
+from agents.policies import BUNDLED_DIR, BUNDLED_NAME
+
+TINY = {
+    "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
+    "env": {"control_dt": 1.0, "episode_time": 60.0, "target_range": [-0.3, 0.3]},
+    "hyperparams": {"n_steps": 128, "batch_size": 256, "n_epochs": 2},
+    "pretrain": {"episodes": 8, "epochs": 2, "value_epochs": 1},
+    "evaluation": {"freq": 1024, "episodes": 4, "seed": 1},
+    "checkpoint": {"freq": 512},
+}
+
+
+def write_cfg(tmp_path, cfg, name="cfg.yaml"):
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(cfg))
+    return str(path)
+
+
+def test_train_tiny_then_resume(tmp_path):
+    out = tmp_path / "run"
+    cfg = write_cfg(tmp_path, TINY)
+    assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 0
+    meta = json.loads((out / "checkpoints" / "last.json").read_text())
+    assert meta["timesteps"] >= 2048 and meta["env_s"] > 0
+    for f in ("best_model.zip", "best_model_vecnormalize.pkl", "best_model.json",
+              "final_model.zip", "config.yaml", "evaluations.csv"):
+        assert (out / f).exists(), f
+    rows = list(csv.DictReader(open(out / "evaluations.csv")))
+    assert int(rows[0]["timesteps"]) == 0 and len(rows) >= 3
+    # a fresh start into the same directory is refused, a resume continues
+    with pytest.raises(SystemExit, match="already has a checkpoint"):
+        train.main(["--config", cfg, "--out", str(out), "--no-progress"])
+    assert train.main(["--config", cfg, "--out", str(out), "--timesteps", "4096", "--resume",
+                       "--no-progress"]) == 0
+    meta2 = json.loads((out / "checkpoints" / "last.json").read_text())
+    assert meta2["timesteps"] >= 4096
+    assert len(meta2["evaluations"]) > len(meta["evaluations"])
+    assert meta2["wall_s"] > meta["wall_s"]
+
+
+def test_train_interrupted_saves_a_checkpoint(tmp_path, monkeypatch):
+    out = tmp_path / "run"
+    cfg = write_cfg(tmp_path, {**TINY, "pretrain": None})
+    calls = {"n": 0}
+    orig = train.Trainer.evaluate
+
+    def evaluate_then_interrupt(self):
+        orig(self)
+        calls["n"] += 1
+        if calls["n"] == 2:              # the first evaluation during learning
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(train.Trainer, "evaluate", evaluate_then_interrupt)
+    assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 130
+    meta = json.loads((out / "checkpoints" / "last.json").read_text())
+    assert 1024 <= meta["timesteps"] < 2048
+    monkeypatch.setattr(train.Trainer, "evaluate", orig)
+    assert train.main(["--config", cfg, "--out", str(out), "--resume", "--no-progress"]) == 0
+    assert json.loads((out / "checkpoints" / "last.json").read_text())["timesteps"] >= 2048
+
+
+@pytest.mark.parametrize("bad, words", [
+    ({"hyperparams": {"n_stepz": 8}}, "hyperparams.n_stepz"),
+    ({"env": {"contol_dt": 0.1}}, "env.contol_dt"),
+    ({"polcy": {}}, "unknown config key 'polcy'"),
+    ({"algo": "dqn"}, "algo must be one of"),
+    ({"pretrain": {"expert": "scripted", "epochz": 3}}, "pretrain.epochz"),
+    ({"env": {"control_dt": -1}}, "control_dt must be a positive number"),
+])
+def test_bad_config_keys_are_named(tmp_path, capsys, bad, words):
+    cfg = write_cfg(tmp_path, {**TINY, **bad})
+    assert train.main(["--config", cfg, "--out", str(tmp_path / "r"), "--no-progress"]) == 2
+    assert words in capsys.readouterr().err
+
+
+def test_missing_config_file(tmp_path, capsys):
+    assert train.main(["--config", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "r")]) == 2
+    assert "config file not found" in capsys.readouterr().err
+
+
+def test_resume_without_checkpoint(tmp_path):
+    cfg = write_cfg(tmp_path, TINY)
+    with pytest.raises(SystemExit, match="nothing to resume"):
+        train.main(["--config", cfg, "--out", str(tmp_path / "none"), "--resume"])
+
+
+CONTROLLER = '''
+import math
+def Control(pos, vel, the, omg, posT, t, smt, state):
+    """A contest entry: a short launch toward the target, then hold attitude."""
+    if state == "A":
+        th = (the + math.pi) % (2 * math.pi) - math.pi
+        return -0.0017 * (0.15 * th + 0.9 * omg)
+    return 3e-5 if (posT[0] > pos[0] and t < 40) else 0.0
+'''
+
+
+def test_evaluate_every_policy_kind(tmp_path, capsys):
+    run = tmp_path / "run"
+    assert train.main(["--config", write_cfg(tmp_path, {**TINY, "pretrain": None}),
+                       "--out", str(run), "--no-progress"]) == 0
+    ctrl = tmp_path / "entry.py"
+    ctrl.write_text(CONTROLLER)
+    js, cs, figs, vid = tmp_path / "r.json", tmp_path / "r.csv", tmp_path / "figs", tmp_path / "v.gif"
+    code = evaluate.main(["--policy", "bundled", "--policy", "scripted", "--policy", "random",
+                          "--policy", str(run), "--controller", f"{ctrl}:Control",
+                          "--episodes", "3", "--json", str(js), "--csv", str(cs),
+                          "--plot", str(figs), "--video", str(vid), "--no-progress"])
+    assert code == 0
+    out = capsys.readouterr().out
+    for name in ("bundled", "scripted", "random", "best_model", "entry:Control"):
+        assert name in out
+    data = json.loads(js.read_text())
+    assert len(data["episodes"]) == 15 and set(data["summary"]) >= {"scripted", "random"}
+    rows = list(csv.DictReader(open(cs)))
+    assert len(rows) == 15 and {"target_x", "success", "ttrtp", "broken"} <= set(rows[0])
+    assert len(list(figs.glob("*.png"))) == 9
+    assert vid.stat().st_size > 10_000
+
+
+def test_evaluate_errors(tmp_path, capsys):
+    assert evaluate.main(["--policy", "nonsense", "--episodes", "1"]) == 2
+    assert "unknown policy 'nonsense'" in capsys.readouterr().err
+    assert evaluate.main(["--policy", str(tmp_path / "missing.zip"), "--episodes", "1"]) == 2
+    assert "model file not found" in capsys.readouterr().err
+    assert evaluate.main(["--controller", str(tmp_path / "none.py") + ":Control"]) == 2
+    assert "controller module not found" in capsys.readouterr().err
+    assert evaluate.main(["--policy", "scripted", "--targets", "0.5,x"]) == 2
+    assert "--targets must be comma-separated" in capsys.readouterr().err
+
+
+def test_bundled_policy_is_shipped():
+    assert (BUNDLED_DIR / f"{BUNDLED_NAME}.zip").exists()
+    assert (BUNDLED_DIR / f"{BUNDLED_NAME}_vecnormalize.pkl").exists()
+    meta = json.loads((BUNDLED_DIR / f"{BUNDLED_NAME}.json").read_text())
+    assert meta["algo"] == "ppo" and "control_dt" in meta["env_kwargs"]
