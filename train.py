@@ -159,6 +159,7 @@ class Trainer:
                        noise=pt.get("noise", 0.0))
         log(f"behaviour cloning: {len(data[0])} expert steps in {time.perf_counter() - t0:.1f} s")
         clone(self.model, self.venv, *data, **fit)
+        self._log_clone("cloned")
         for k in range(pt.get("dagger_rounds", 0)):
             norm = self.venv
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
@@ -168,8 +169,18 @@ class Trainer:
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
             log(f"DAgger round {k + 1}: +{len(new[0])} learner steps labelled by the expert")
             clone(self.model, self.venv, *data, **fit)
+            self._log_clone(f"after DAgger round {k + 1}")
         if not self.cfg["normalize"].get("update", True):
             self.venv.training = False      # keep the statistics the clone was fitted to
+
+    def _log_clone(self, label: str) -> None:
+        import copy
+        norm = self.venv
+        policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
+                           epsilon=norm.epsilon, name=label, env_kwargs=env_kwargs(self.cfg))
+        res = summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
+        print(f"  {label}: success {res['success_rate']:.1%}, median TTRTP "
+              f"{res['median_ttrtp']:.1f} s, broken {res['broken']}", file=sys.stderr)
 
     # ---- evaluation and checkpoints ----------------------------------------------------
     def evaluate(self):

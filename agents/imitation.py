@@ -94,44 +94,45 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
                                 vecnorm.clip_reward * 10), dtype=torch.float32)
     policy = model.policy
     policy.set_training_mode(True)
+
+    def actor_mean(xb):
+        return policy.action_net(policy.mlp_extractor.forward_actor(
+            policy.extract_features(xb, policy.pi_features_extractor)))
+
+    def critic_value(xb):
+        return policy.value_net(policy.mlp_extractor.forward_critic(
+            policy.extract_features(xb, policy.vf_features_extractor))).squeeze(-1)
+
     actor = list(policy.mlp_extractor.policy_net.parameters()) + \
         list(policy.action_net.parameters())
+    critic = list(policy.mlp_extractor.value_net.parameters()) + \
+        list(policy.value_net.parameters())
     if getattr(policy, "share_features_extractor", True) is False:
         actor += list(policy.pi_features_extractor.parameters())
-    opt = torch.optim.Adam(actor, lr=learning_rate)
+        critic += list(policy.vf_features_extractor.parameters())
+    mse = _fit(actor, actor_mean, x, y, epochs, batch_size, learning_rate, rng)
+    log(f"  behaviour cloning: {epochs} epochs, action MSE {mse:.2e}")
+    if value_epochs:
+        mse = _fit(critic, critic_value, x, z, value_epochs, batch_size, learning_rate, rng)
+        log(f"  critic pre-training: value MSE {mse:.3e} (returns scaled by {scale:.3g})")
+    with torch.no_grad():
+        policy.log_std.fill_(log_std)
+    policy.set_training_mode(False)
+
+
+def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng) -> float:
+    """Least squares of forward(x) on y by Adam over mini-batches; the last epoch's MSE."""
+    opt = torch.optim.Adam(params, lr=learning_rate)
     n = len(x)
-    for epoch in range(epochs):
+    total = 0.0
+    for _ in range(epochs):
         perm = rng.permutation(n)
         total = 0.0
         for k in range(0, n, batch_size):
             idx = torch.as_tensor(perm[k:k + batch_size])
-            features = policy.extract_features(x[idx], policy.pi_features_extractor)
-            latent_pi = policy.mlp_extractor.forward_actor(features)
-            mean = policy.action_net(latent_pi)
-            loss = torch.mean((mean - y[idx]) ** 2)
+            loss = torch.mean((forward(x[idx]) - y[idx]) ** 2)
             opt.zero_grad()
             loss.backward()
             opt.step()
             total += loss.item() * len(idx)
-        if epoch % 10 == 0 or epoch == epochs - 1:
-            log(f"  behaviour cloning epoch {epoch + 1}/{epochs}: action MSE {total / n:.2e}")
-    critic = list(policy.mlp_extractor.value_net.parameters()) + \
-        list(policy.value_net.parameters())
-    opt_v = torch.optim.Adam(critic, lr=learning_rate)
-    for epoch in range(value_epochs):
-        perm = rng.permutation(n)
-        total = 0.0
-        for k in range(0, n, batch_size):
-            idx = torch.as_tensor(perm[k:k + batch_size])
-            features = policy.extract_features(x[idx], policy.vf_features_extractor)
-            v = policy.value_net(policy.mlp_extractor.forward_critic(features)).squeeze(-1)
-            loss = torch.mean((v - z[idx]) ** 2)
-            opt_v.zero_grad()
-            loss.backward()
-            opt_v.step()
-            total += loss.item() * len(idx)
-    if value_epochs:
-        log(f"  critic pre-training: value MSE {total / n:.3e} (returns scaled by {scale:.3g})")
-    with torch.no_grad():
-        policy.log_std.fill_(log_std)
-    policy.set_training_mode(False)
+    return total / max(n, 1)

@@ -274,6 +274,20 @@ def _pin_corner(S, P, k):
     S[S_Y] = -dy
 
 
+@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
+def _turn_flat_about(S, P, k):
+    """Turn the body about contact corner k to theta = 0, where the other bottom corner
+    touches too: the projection used when that corner ended (round-off or a finite step)
+    under the ground. Keeps corner k's position and its contact constraint."""
+    dx, _ = corner_offset(P, k, S[S_TH])
+    xpiv = S[S_X] + dx
+    S[S_TH] = 0.0
+    dx, dy = corner_offset(P, k, 0.0)
+    S[S_X] = xpiv - dx
+    S[S_Y] = -dy
+    S[S_VY] = S[S_W] * dx
+
+
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _set_double_contact(S, P):
     """Both corners on the ground: theta = 0, omega = 0, vy = 0, y = h; F or G.
@@ -749,7 +763,12 @@ def resolve_impact(S, P, law, W):
     elif c0 or c1:
         k = 0 if c0 else 1
         _set_single_contact(S, P, k)
-        vpk = S[S_VX] + S[S_W] * dys[k]
+        # the other corner, if it was within H_IMPACT, may now be a hair under the ground
+        _, dyo = corner_offset(P, 1 - k, S[S_TH])
+        if S[S_Y] + dyo < 0.0:
+            _turn_flat_about(S, P, k)
+        _, dyk = corner_offset(P, k, S[S_TH])
+        vpk = S[S_VX] + S[S_W] * dyk
         if abs(vpk) < P[P_VXMIN]:
             _pin_corner(S, P, k)
             S[S_MODE] = MODE_B if k == 0 else MODE_D
@@ -836,8 +855,14 @@ def flight_phase(S, P, t_stop, W):
         elif hk <= H_TOL:
             if vk < -V_TOL:
                 return PH_TOUCH, k
-            armed[k] = 0.0
-            level[k] = min(hk, 0.0) - H_TOL
+            if vk <= V_TOL:
+                # at rest vertically (a lift-off): it separates at third order, so its
+                # height is round-off for a while; armed once clear of H_TOL
+                armed[k] = 0.0
+                level[k] = min(hk, 0.0) - H_TOL
+            # else it leaves at first order (a bounce): armed at once. The conservative
+            # step 2 v / K lands exactly on the earliest possible return; arming only
+            # above H_TOL let a pressed corner touch down H_TOL low and gain energy.
     tau = 0.0
     for _ in range(MAX_CA_ITER):
         x, y, th, vx, vy, w = flight_at(S, P, tau)
@@ -1155,11 +1180,16 @@ def contact_phase(S, P, O, t_stop, W):
         return PH_TOUCH
     if gv[3] <= 0.0 or gv[4] <= 0.0:
         return PH_BROKEN
+    _rhs(P, k, sliding, sigma, T, u, f0)
+    _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
     for i in range(N_GUARDS):
         armed[i] = 1.0 if gv[i] > tol[i] else 0.0
         level[i] = 0.0 if armed[i] != 0.0 else min(gv[i], 0.0) - tol[i]
-    _rhs(P, k, sliding, sigma, T, u, f0)
-    _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
+    if armed[2] == 0.0 and rate0[2] > V_TOL:
+        # the other corner leaves the ground at first order (it bounced): its next
+        # touchdown is at the height it starts from, not H_TOL lower (see flight_phase)
+        armed[2] = 1.0
+        level[2] = min(gv[2], 0.0)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
     if not (h_prop > 0.0):
         h_prop = 1e-3
@@ -1422,35 +1452,31 @@ def _euler_contact_step(S, P, dt):
 def _euler_ground_check(S, P):
     """End-of-step geometry check of the Euler baseline (it locates no events).
 
-    A top corner at or under the ground breaks the rover. A bottom corner that a step
-    carried under the ground is put back on it, as the contest program re-derived the
+    A bottom corner that a step carried under the ground is put back on it first (a top
+    corner at or under the ground then breaks the rover), as the contest program re-derived the
     configuration from the kinematics: in flight the body is lifted, in a single
     contact it is turned about the contact corner to theta = 0 (where the other corner
     touches). If a grounded corner is then moving down, that is an impact.
     """
-    for c in range(2, 4):
-        _, dy = corner_offset(P, c, S[S_TH])
-        if S[S_Y] + dy <= 0.0:
-            return PH_BROKEN
     mode = int(S[S_MODE])
     _, dy0 = corner_offset(P, 0, S[S_TH])
     _, dy1 = corner_offset(P, 1, S[S_TH])
     low = min(S[S_Y] + dy0, S[S_Y] + dy1)
+    if low < 0.0:
+        if mode == MODE_A:
+            S[S_Y] -= low
+        else:
+            k = contact_corner(mode)
+            _turn_flat_about(S, P, k)
+            if mode == MODE_B or mode == MODE_D:
+                _, dy = corner_offset(P, k, 0.0)
+                S[S_VX] = -S[S_W] * dy
+    for c in range(2, 4):
+        _, dy = corner_offset(P, c, S[S_TH])
+        if S[S_Y] + dy <= 0.0:
+            return PH_BROKEN
     if low >= 0.0:
         return PH_NONE
-    if mode == MODE_A:
-        S[S_Y] -= low
-    else:
-        k = contact_corner(mode)
-        dx, _ = corner_offset(P, k, S[S_TH])
-        xpiv = S[S_X] + dx
-        S[S_TH] = 0.0
-        dx, dy = corner_offset(P, k, 0.0)
-        S[S_X] = xpiv - dx
-        S[S_Y] = -dy
-        S[S_VY] = S[S_W] * dx
-        if mode == MODE_B or mode == MODE_D:
-            S[S_VX] = -S[S_W] * dy
     for c in range(2):
         dx, dy = corner_offset(P, c, S[S_TH])
         if S[S_Y] + dy <= H_TOL and S[S_VY] - S[S_W] * dx < -V_TOL:
@@ -1462,13 +1488,16 @@ def _euler_ground_check(S, P):
 def _advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
+    # A corner pressed down bounces every other Euler step (it gains a dt of speed per
+    # step, an artefact of the fixed step), so the budget grows with the steps taken.
+    budget = MAX_EVENTS + 4 * int((t_stop - S[S_T]) / dt0 + 1.0)
     g = P[P_G]
     while S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
         remaining = t_stop - S[S_T]
         if remaining <= 1e-9 * dt0:
             S[S_T] = t_stop
             break
-        if n - n_start > MAX_EVENTS:
+        if n - n_start > budget:
             S[S_ERROR] = 1.0
             break
         dt = min(dt0, remaining)

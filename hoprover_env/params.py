@@ -61,9 +61,11 @@ class RoverParams:
             # restart: a stick-slip chatter with no physical meaning.
             raise ValueError(f"RoverParams.mu_dynamic ({self.mu_dynamic}) must not exceed "
                              f"mu_static ({self.mu_static})")
-        for name in ("v_xmin", "v_ymin"):
-            if getattr(self, name) < 0.0:
-                raise ValueError(f"RoverParams.{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.v_xmin < 0.0:
+            raise ValueError(f"RoverParams.v_xmin must be >= 0, got {self.v_xmin!r}")
+        if self.v_ymin <= 0.0:
+            # it is what ends a bounce sequence: with 0 a landing bounces forever (Zeno)
+            raise ValueError(f"RoverParams.v_ymin must be positive, got {self.v_ymin!r}")
         if self.torque_min > self.torque_max:
             raise ValueError(f"RoverParams.torque_min ({self.torque_min}) exceeds "
                              f"torque_max ({self.torque_max})")

@@ -1,0 +1,112 @@
+"""Training cost: SB3 PPO on the native batched env against PPO on a DummyVecEnv of
+single envs (the usual SB3 setup), same hyperparameters, same number of steps, one run;
+and the share of wall time spent stepping the environment. Also reports the recorded
+training time of the bundled policy (hoprover_env/policies/*.json).
+
+    python -m benchmarks.bench_training [--quick]
+"""
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from benchmarks.report import Section, table
+
+
+class TimedDummyVecEnv:
+    """A DummyVecEnv whose step_wait time is accumulated (the env's share)."""
+
+    @staticmethod
+    def make(n_envs: int, seed: int):
+        import gymnasium as gym
+        from stable_baselines3.common.monitor import Monitor
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        import hoprover_env  # noqa: F401
+
+        class Timed(DummyVecEnv):
+            step_seconds = 0.0
+
+            def step_wait(self):
+                t0 = time.perf_counter()
+                try:
+                    return super().step_wait()
+                finally:
+                    Timed.step_seconds += time.perf_counter() - t0
+
+        venv = Timed([lambda i=i: Monitor(gym.make("HopRover-v0")) for i in range(n_envs)])
+        venv.seed(seed)
+        return venv, lambda: Timed.step_seconds
+
+
+def ppo_run(kind: str, n_envs: int, steps: int) -> tuple[float, float]:
+    """(wall seconds, env seconds) of PPO.learn(steps) on the given vectorization."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    torch.set_num_threads(1)
+    if kind == "native":
+        from hoprover_env.sb3 import HopRoverSB3VecEnv
+        base = HopRoverSB3VecEnv(n_envs, seed=0)
+        inner = VecMonitor(base)
+        env_time = lambda: base.step_seconds  # noqa: E731
+    else:
+        inner, env_time = TimedDummyVecEnv.make(n_envs, 0)
+    venv = VecNormalize(inner)
+    model = PPO("MlpPolicy", venv, n_steps=256, batch_size=2048, n_epochs=5, seed=0, verbose=0,
+                device="cpu")
+    model.learn(min(steps, n_envs * 256))                 # warm up: compile, allocate
+    e0 = env_time()
+    t0 = time.perf_counter()
+    model.learn(steps, reset_num_timesteps=False)
+    return time.perf_counter() - t0, env_time() - e0
+
+
+def bundled_training_record() -> list:
+    rows = []
+    for meta_path in sorted(Path(__file__).resolve().parent.parent.glob(
+            "hoprover_env/policies/*.json")):
+        meta = json.loads(meta_path.read_text())
+        if "wall_s" in meta:
+            rows.append([meta_path.stem, meta.get("timesteps", "?"), meta["wall_s"],
+                         meta.get("env_s", float("nan")),
+                         meta.get("env_s", float("nan")) / meta["wall_s"]])
+    return rows
+
+
+def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
+    n_envs = 32
+    steps = n_envs * 256 * (2 if quick else 12)
+    rows, res = [], {}
+    for kind in ("native", "dummy"):
+        wall, env_s = ppo_run(kind, n_envs, steps)
+        res[kind] = steps / wall
+        rows.append([{"native": "HopRoverSB3VecEnv (one jitted call)",
+                      "dummy": "DummyVecEnv of 32 HopRoverEnv + Monitor"}[kind],
+                     steps, wall, steps / wall, env_s / wall])
+    md = [f"PPO (MlpPolicy 64x64, n_steps 256, batch 2048, 5 epochs, torch 1 thread), "
+          f"{n_envs} envs, {steps} steps after a warm-up, one run:",
+          table(["vectorization", "steps", "wall s", "steps/s", "env share of wall"], rows,
+                {"wall s": ".1f", "steps/s": ",.0f", "env share of wall": ".1%"}),
+          f"Native / DummyVecEnv training throughput: {res['native'] / res['dummy']:.2f}x. "
+          "With the native env, PPO's own updates dominate the wall time."]
+    rec = bundled_training_record()
+    if rec:
+        md += ["Recorded training of the bundled policy (`python train.py --config "
+               "configs/ppo.yaml`, from its metadata):",
+               table(["policy", "timesteps", "wall s", "env s", "env share"], rec,
+                     {"wall s": ".0f", "env s": ".0f", "env share": ".1%"})]
+    return Section("Training cost", "\n\n".join(md), [],
+                   {"ppo_native_steps_per_s": res["native"],
+                    "ppo_dummy_steps_per_s": res["dummy"],
+                    "native_vs_dummy": res["native"] / res["dummy"]})
+
+
+if __name__ == "__main__":
+    sec = run(quick="--quick" in sys.argv, fig_dir=tempfile.mkdtemp())
+    print(sec.markdown)

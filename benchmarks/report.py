@@ -1,0 +1,67 @@
+"""Shared pieces of the benchmark suite: a Section of the report, tables, machine info."""
+from __future__ import annotations
+
+import dataclasses
+import os
+import platform
+import subprocess
+import time
+
+
+@dataclasses.dataclass
+class Section:
+    """One part of BENCHMARKS.md: markdown text (tables, notes), figure files written
+    under the figure directory, and headline numbers for the README."""
+    title: str
+    markdown: str
+    figures: list = dataclasses.field(default_factory=list)
+    headline: dict = dataclasses.field(default_factory=dict)
+
+
+def table(header: list[str], rows: list[list], fmt: dict | None = None) -> str:
+    """A markdown table; `fmt` maps a column name to a format spec."""
+    fmt = fmt or {}
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    for row in rows:
+        cells = []
+        for h, v in zip(header, row):
+            if isinstance(v, float) and h in fmt:
+                cells.append(format(v, fmt[h]))
+            elif isinstance(v, float):
+                cells.append(f"{v:.4g}")
+            else:
+                cells.append(str(v))
+        out.append("| " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def machine() -> str:
+    import numba
+    import numpy
+    cpu = platform.processor() or "?"
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, cwd=os.path.dirname(__file__)).stdout.strip()
+    except OSError:
+        rev = "?"
+    return (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, git {rev or '?'}, "
+            f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+            f"numpy {numpy.__version__}, numba {numba.__version__}, numba threads "
+            f"{numba.config.NUMBA_NUM_THREADS}")
+
+
+def best_of(fn, repeat: int = 3):
+    """(best wall time, last result) of `repeat` calls."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
