@@ -1485,12 +1485,20 @@ def _euler_ground_check(S, P):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
+def event_budget(O, duration):
+    """Events one `advance` over `duration` may have: MAX_EVENTS for `event`. A corner
+    pressed down bounces every other Euler step (it gains a dt of speed per step, an
+    artefact of the fixed step), so for `euler` the budget grows with the steps taken."""
+    if int(O[O_INTEGRATOR]) == INTEGRATOR_EULER:
+        return MAX_EVENTS + 4 * int(duration / O[O_EULER_DT] + 1.0)
+    return MAX_EVENTS
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
-    # A corner pressed down bounces every other Euler step (it gains a dt of speed per
-    # step, an artefact of the fixed step), so the budget grows with the steps taken.
-    budget = MAX_EVENTS + 4 * int((t_stop - S[S_T]) / dt0 + 1.0)
+    budget = event_budget(O, t_stop - S[S_T])
     g = P[P_G]
     while S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
         remaining = t_stop - S[S_T]

@@ -13,7 +13,11 @@ import math
 import numpy as np
 from numba import get_thread_id, njit, prange
 
-from . import core
+from ._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # this module's cached code embeds the core's
+
+from . import core  # noqa: E402
 from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT, S_BROKEN,
                    S_INBAND, S_TIN, S_TTRTP, S_NEVENTS, S_ERROR, MODE_A, MODE_F, MODE_G,
                    MODE_B, MODE_C)
