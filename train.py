@@ -75,6 +75,12 @@ def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> Non
     atomic_text(stem.with_suffix(".json"), json.dumps(meta, indent=1))
 
 
+def _score(res: dict) -> tuple:
+    """Evaluations are ranked by success rate, then by median TTRTP."""
+    med = res["median_ttrtp"]
+    return (res["success_rate"], -(med if not math.isnan(med) else 1e9))
+
+
 # ---- the training loop ---------------------------------------------------------------
 def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
@@ -100,6 +106,7 @@ class Trainer:
         self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
                                            *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))
         self.evals: list[dict] = []
+        self.pretrain: dict = {}
         self.best = (-1.0, -math.inf)
         self.wall0 = 0.0
         self.env0 = 0.0
@@ -128,6 +135,7 @@ class Trainer:
         self.best = tuple(meta.get("best", self.best))
         self.wall0 = meta.get("wall_s", 0.0)
         self.env0 = meta.get("env_s", 0.0)
+        self.pretrain = {k: v for k, v in meta.items() if k.startswith("pretrain")}
         self.venv = build_env(self.cfg, Path(str(self.ckpt) + "_vecnormalize.pkl"))
         if not self.cfg["normalize"].get("update", True):
             self.venv.training = False
@@ -154,26 +162,48 @@ class Trainer:
                    learning_rate=pt.get("learning_rate", 1e-3),
                    value_epochs=pt.get("value_epochs", 10), log_std=pt.get("log_std", -2.5),
                    seed=self.cfg["seed"], log=log)
-        t0 = time.perf_counter()
-        data = collect(expert, ekw, pt.get("episodes", 400), seed, gamma,
-                       noise=pt.get("noise", 0.0))
-        log(f"behaviour cloning: {len(data[0])} expert steps in {time.perf_counter() - t0:.1f} s")
-        clone(self.model, self.venv, *data, **fit)
-        self._log_clone("cloned")
+        t_start = time.perf_counter()
+        timer = {"collect": 0.0, "fit": 0.0}
+
+        def timed(key, fn, *args, **kwargs):
+            t0 = time.perf_counter()
+            out = fn(*args, **kwargs)
+            timer[key] += time.perf_counter() - t0
+            return out
+
+        data = timed("collect", collect, expert, ekw, pt.get("episodes", 400), seed, gamma,
+                     noise=pt.get("noise", 0.0))
+        log(f"behaviour cloning: {len(data[0])} expert steps in {timer['collect']:.1f} s")
+        timed("fit", clone, self.model, self.venv, *data, **fit)
+        best = self._score_clone("cloned", None)
         for k in range(pt.get("dagger_rounds", 0)):
             norm = self.venv
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                                 epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
-            new = collect(expert, ekw, pt.get("dagger_episodes", 200), seed + 1 + k, gamma,
-                          executor=learner)
+            new = timed("collect", collect, expert, ekw, pt.get("dagger_episodes", 200),
+                        seed + 1 + k, gamma, executor=learner)
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
             log(f"DAgger round {k + 1}: +{len(new[0])} learner steps labelled by the expert")
-            clone(self.model, self.venv, *data, **fit)
-            self._log_clone(f"after DAgger round {k + 1}")
+            timed("fit", clone, self.model, self.venv, *data, **fit)
+            best = self._score_clone(f"after DAgger round {k + 1}", best)
+        # the rounds' scores scatter: keep the best clone (weights and the statistics its
+        # observations were normalised with)
+        score, state, rms, label = best
+        self.model.policy.load_state_dict(state)
+        self.venv.obs_rms, self.venv.ret_rms = rms
+        print(f"  keeping the clone {label}", file=sys.stderr)
         if not self.cfg["normalize"].get("update", True):
             self.venv.training = False      # keep the statistics the clone was fitted to
+        self.pretrain = {"pretrain_s": time.perf_counter() - t_start,
+                         "pretrain_collect_s": timer["collect"],
+                         "pretrain_fit_s": timer["fit"]}
+        log(f"behaviour cloning took {self.pretrain['pretrain_s']:.0f} s: "
+            f"{timer['collect']:.0f} s running the expert and the learner in the env, "
+            f"{timer['fit']:.0f} s fitting, the rest judging the rounds")
 
-    def _log_clone(self, label: str) -> None:
+    def _score_clone(self, label: str, best):
+        """Judge the current clone on the validation targets; return the better of it
+        and `best` as (score, policy weights, (obs_rms, ret_rms), label)."""
         import copy
         norm = self.venv
         policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
@@ -181,6 +211,11 @@ class Trainer:
         res = summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
         print(f"  {label}: success {res['success_rate']:.1%}, median TTRTP "
               f"{res['median_ttrtp']:.1f} s, broken {res['broken']}", file=sys.stderr)
+        score = _score(res)
+        if best is None or score > best[0]:
+            best = (score, copy.deepcopy(self.model.policy.state_dict()),
+                    (copy.deepcopy(norm.obs_rms), copy.deepcopy(norm.ret_rms)), label)
+        return best
 
     # ---- evaluation and checkpoints ----------------------------------------------------
     def evaluate(self):
@@ -203,13 +238,13 @@ class Trainer:
         w.writeheader()
         w.writerows(self.evals)
         atomic_text(self.out / "evaluations.csv", buf.getvalue())
-        score = (row["success_rate"], -(row["median_ttrtp"] if not math.isnan(row["median_ttrtp"])
-                                        else 1e9))
+        score = _score(row)
         improved = score > tuple(self.best)
         if improved:
             self.best = score
             save_model(self.model, self.venv, self.out / "best_model",
-                       {**self.meta_base, "timesteps": row["timesteps"], "evaluation": row})
+                       {**self.meta_base, **self.pretrain, "timesteps": row["timesteps"],
+                        "wall_s": self.wall(), "env_s": self.env_seconds(), "evaluation": row})
         print(f"  eval @ {row['timesteps']:>9d}: success {row['success_rate']:.1%}, median TTRTP "
               f"{row['median_ttrtp']:.1f} s, broken {row['broken']}"
               f"{'  (best)' if improved else ''}", file=sys.stderr)
@@ -222,7 +257,7 @@ class Trainer:
         return self.env0 + self.venv.venv.venv.step_seconds
 
     def checkpoint(self):
-        meta = {**self.meta_base, "timesteps": int(self.model.num_timesteps),
+        meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
                 "evaluations": self.evals, "best": list(self.best), "wall_s": self.wall(),
                 "env_s": self.env_seconds()}
         save_model(self.model, self.venv, self.ckpt, meta, replay=self.cfg["algo"] != "ppo")
@@ -283,9 +318,9 @@ class Trainer:
         if not self.evals or self.evals[-1]["timesteps"] != self.model.num_timesteps:
             self.evaluate()
         save_model(self.model, self.venv, self.out / "final_model",
-                   {**self.meta_base, "timesteps": int(self.model.num_timesteps),
+                   {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
                     "wall_s": self.wall(), "env_s": self.env_seconds()})
-        print(f"done: {self.model.num_timesteps} steps in {self.wall():.0f} s wall, of which "
+        print(f"done: {self.model.num_timesteps} RL steps in {self.wall():.0f} s wall, of which "
               f"{self.env_seconds():.0f} s ({self.env_seconds() / self.wall():.0%}) stepping "
               f"the environment; best {self.out / 'best_model.zip'}", file=sys.stderr)
         return 0
