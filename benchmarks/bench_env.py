@@ -21,6 +21,7 @@ import time
 import tracemalloc
 
 import gymnasium as gym
+import numba
 import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the envs)
@@ -46,7 +47,12 @@ def single_step_us(env_id: str, n: int, **kw) -> float:
     return (time.perf_counter() - t0) / n * 1e6
 
 
-def vector_steps_per_s(make, n_envs: int, min_steps: int) -> float:
+def vector_steps_per_s(make, n_envs: int, min_steps: int, warmup: int = 30,
+                       per_env: int = 60) -> float:
+    """Steps per second of a vector env under random actions: `warmup` steps first (past
+    the launch transient that every episode starts with), then at least `per_env` steps
+    per sub-env and at least `min_steps` steps in all, so every N is measured on a
+    comparable mix of rest, contact and flight."""
     envs = make(n_envs)
     envs.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -54,9 +60,9 @@ def vector_steps_per_s(make, n_envs: int, min_steps: int) -> float:
     discrete = np.issubdtype(np.asarray(sample).dtype, np.integer)
     pool = [rng.integers(0, 2, n_envs) if discrete else rng.uniform(-1, 1, (n_envs, 1))
             for _ in range(16)]
-    for a in pool[:3]:
-        envs.step(a)
-    steps = max(3, min_steps // n_envs)
+    for k in range(warmup):
+        envs.step(pool[k % 16])
+    steps = max(per_env, min_steps // n_envs)
     t0 = time.perf_counter()
     for k in range(steps):
         envs.step(pool[k % 16])
@@ -157,10 +163,11 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
         ser = vector_steps_per_s(lambda k: HopRoverVectorEnv(k, threads=False), n, min_steps)
         cp = vector_steps_per_s(lambda k: CartPoleVectorEnv(num_envs=k), n, min_steps)
         sync = math_nan = float("nan")
-        if n <= (16 if quick else 256):
+        if n <= (16 if quick else 4096):
             sync = vector_steps_per_s(
                 lambda k: gym.make_vec("HopRover-v0", num_envs=k, vectorization_mode="sync"),
-                n, min(min_steps, 50000))
+                n, min(min_steps, 50000), warmup=30 if n < 4096 else 10,
+                per_env=60 if n < 4096 else 20)
         for key, v in zip(curves, (thr, ser, cp, sync)):
             curves[key].append(v)
         rows.append([n, thr, ser, cp, sync, thr / sync if sync == sync else math_nan])
@@ -201,14 +208,15 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
 
     n_big = 4096 if 4096 in sizes else sizes[-1]
     big = dict(zip(sizes, curves["HopRover native, threaded"]))[n_big]
-    sync_n = max(n for n in sizes if n <= (16 if quick else 256))
+    sync_n = max(n for n in sizes if n <= (16 if quick else 4096))
     ratio_sync = dict(zip(sizes, curves["HopRover native, threaded"]))[sync_n] / \
         dict(zip(sizes, curves["HopRover SyncVectorEnv"]))[sync_n]
     md = "\n\n".join([
         "Single-env step latency (mean over random-action episodes, resets included):",
         single_md,
-        f"Vector throughput (random actions in [-1, 1]; default control period 0.5 s), "
-        f"numba threads: {os.environ.get('NUMBA_NUM_THREADS', 'default')}:", vec_md,
+        f"Vector throughput (random actions in [-1, 1]; default control period 0.5 s; 30 "
+        f"warm-up steps, then at least 60 steps per sub-env; SyncVectorEnv at N = 4096: 10 "
+        f"+ 20), numba threads: {numba.config.NUMBA_NUM_THREADS}:", vec_md,
         "Cost of simulated time (the kernel alone, per rover): a rover at rest costs only "
         "the per-step bookkeeping, a flight is closed form, a contact phase runs DOP853 with "
         "event location:", cost_md,

@@ -70,7 +70,8 @@ S_ERROR = 20     # 0 = fine; 1 = event budget of one advance exhausted; 2 = bad 
 S_STOP_ON = 21   # event kind that ends `advance` early (-1: none), for look-ahead tools
 S_STOPPED = 22   # set when that event happened in the last `advance`
 S_MIN_HEIGHT = 23  # diagnostics: lowest bottom-corner height seen after any event
-N_STATE = 24
+S_PHI = 24       # the RL reward's potential at the current state (NaN: not computed)
+N_STATE = 25
 
 MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G = 0, 1, 2, 3, 4, 5, 6
 MODE_LETTERS = "ABCDEFG"
@@ -133,13 +134,17 @@ def corner_body(P, k):
     return bx, by
 
 
+@njit(_F2(_V, _I, _F, _F), cache=True, error_model="numpy", _nrt=False)
+def corner_offset_cs(P, k, c, s):
+    """corner_offset with cos(th), sin(th) given: hot paths compute them once."""
+    bx, by = corner_body(P, k)
+    return bx * c + by * s, -bx * s + by * c
+
+
 @njit(_F2(_V, _I, _F), cache=True, error_model="numpy", _nrt=False)
 def corner_offset(P, k, th):
     """World offset (dx, dy) of corner k from the c.m. at attitude th."""
-    bx, by = corner_body(P, k)
-    c = math.cos(th)
-    s = math.sin(th)
-    return bx * c + by * s, -bx * s + by * c
+    return corner_offset_cs(P, k, math.cos(th), math.sin(th))
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -528,8 +533,10 @@ def settle(S, P, ev, n):
         # dynamics would drive down resumes contact, without an impact.
         down0 = False
         down1 = False
+        c = math.cos(S[S_TH])
+        sn = math.sin(S[S_TH])
         for k in range(2):
-            dx, dy = corner_offset(P, k, S[S_TH])
+            dx, dy = corner_offset_cs(P, k, c, sn)
             if abs(S[S_Y] + dy) <= H_TOL and abs(S[S_VY] - S[S_W] * dx) <= V_TOL:
                 if _resting_corner_driven_down(S, P, k):
                     if k == 0:
@@ -845,8 +852,10 @@ def flight_phase(S, P, t_stop, W):
     for k in range(4):
         level[k] = 0.0
         armed[k] = 1.0
+    c0 = math.cos(S[S_TH])
+    s0 = math.sin(S[S_TH])
     for k in range(4):
-        dx, dy = corner_offset(P, k, S[S_TH])
+        dx, dy = corner_offset_cs(P, k, c0, s0)
         hk = S[S_Y] + dy
         vk = S[S_VY] - S[S_W] * dx
         if k >= 2:
@@ -1331,8 +1340,10 @@ def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, 
 # ----------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _track_min_height(S, P):
-    _, dy0 = corner_offset(P, 0, S[S_TH])
-    _, dy1 = corner_offset(P, 1, S[S_TH])
+    c = math.cos(S[S_TH])
+    sn = math.sin(S[S_TH])
+    _, dy0 = corner_offset_cs(P, 0, c, sn)
+    _, dy1 = corner_offset_cs(P, 1, c, sn)
     low = S[S_Y] + min(dy0, dy1)
     if low < S[S_MIN_HEIGHT]:
         S[S_MIN_HEIGHT] = low
@@ -1572,7 +1583,8 @@ def advance(S, P, O, torque_cmd, t_stop, ev, W):
         n = _advance_euler(S, P, O, t_stop, ev, n, W)
     else:
         n = _advance_event(S, P, O, t_stop, ev, n, W)
-    _track_min_height(S, P)
+    if n > 0:
+        _track_min_height(S, P)         # between events no corner can sink
     return _judge_check(S, P, ev, n)
 
 
@@ -1600,6 +1612,7 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     S[S_TTRTP] = np.nan
     S[S_STOP_ON] = -1.0
     S[S_MIN_HEIGHT] = np.inf
+    S[S_PHI] = np.nan
     S[S_MODE] = MODE_A
     on0 = False
     on1 = False

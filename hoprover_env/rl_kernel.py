@@ -54,8 +54,10 @@ def reference_point(S, P):
         xa = S[S_X] + P[P_R]
         xb = S[S_X] - P[P_R]
         return xa if abs(xa - xt) <= abs(xb - xt) else xb
-    dxa, _ = core.corner_offset(P, 0, S[S_TH])
-    dxb, _ = core.corner_offset(P, 1, S[S_TH])
+    c = math.cos(S[S_TH])
+    sn = math.sin(S[S_TH])
+    dxa, _ = core.corner_offset_cs(P, 0, c, sn)
+    dxb, _ = core.corner_offset_cs(P, 1, c, sn)
     if mode == MODE_B or mode == MODE_C:
         return S[S_X] + dxa
     if mode != MODE_A:
@@ -134,7 +136,9 @@ def action_to_torque(a, P):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def env_step(S, P, O, E, action, obs, ev, W):
     """One control period. Returns (reward, terminated, truncated, success, n_events)."""
-    phi0 = potential(S, P, E)
+    phi0 = S[core.S_PHI]
+    if math.isnan(phi0):                  # first step of an episode
+        phi0 = potential(S, P, E)
     had_ttrtp = not math.isnan(S[S_TTRTP])
     t_stop = min(S[S_T] + E[E_CONTROL_DT], E[E_T_TOTAL])
     nev0 = S[S_NEVENTS]
@@ -144,6 +148,7 @@ def env_step(S, P, O, E, action, obs, ev, W):
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
     phi1 = 0.0 if terminated else potential(S, P, E)
+    S[core.S_PHI] = phi1
     reward = E[E_GAMMA] * phi1 - phi0 - E[E_W_TIME] * E[E_CONTROL_DT]
     if success:
         reward += E[E_SUCCESS]
@@ -154,23 +159,41 @@ def env_step(S, P, O, E, action, obs, ev, W):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
+def first_bad_action(actions, active):
+    """Index of the first active non-finite action, or -1: checked before any rover moves."""
+    for i in range(actions.shape[0]):
+        if active[i] and not math.isfinite(actions[i]):
+            return i
+    return -1
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def batch_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
-    """env_step over the rows where `active` is set, one after the other."""
+    """env_step over the rows where `active` is set, one after the other. Returns the
+    index of a non-finite action (nothing stepped) or -1."""
+    bad = first_bad_action(actions, active)
+    if bad >= 0:
+        return bad
     w = W[0]
     for i in range(S.shape[0]):
         if active[i]:
             rew[i], term[i], trunc[i], succ[i], nev[i] = env_step(
                 S[i], P[i], O, E, actions[i], obs[i], ev, w)
+    return -1
 
 
 @njit(cache=True, parallel=True, error_model="numpy", _nrt=False)
 def batch_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
     """env_step over the rows where `active` is set, spread over numba's threads; each
-    thread uses its own workspace row W[thread id]."""
+    thread uses its own workspace row W[thread id]. Returns as batch_step."""
+    bad = first_bad_action(actions, active)
+    if bad >= 0:
+        return bad
     for i in prange(S.shape[0]):
         if active[i]:
             rew[i], term[i], trunc[i], succ[i], nev[i] = env_step(
                 S[i], P[i], O, E, actions[i], obs[i], ev, W[get_thread_id()])
+    return -1
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)

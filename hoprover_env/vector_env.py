@@ -138,8 +138,12 @@ class HopRoverVectorEnv(VectorEnv):
     def step(self, actions):
         if not self._ready:
             raise RuntimeError("call reset() before step()")
-        a = check_actions(actions, (self.num_envs, 1), "actions")[:, 0]
         n = self.num_envs
+        if type(actions) is np.ndarray and actions.shape == (n, 1) and \
+                actions.dtype == np.float64:
+            a = actions[:, 0]             # the common case; finiteness checked in the kernel
+        else:
+            a = check_actions(actions, (n, 1), "actions")[:, 0]
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
             done = np.flatnonzero(self._autoreset)
             active = ~self._autoreset
@@ -148,8 +152,10 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
-        self._kernel(self.S, self.P, self._o, self._e, a, active, self._obs, self._rew,
-                     self._term, self._trunc, self._succ, self._nev, self._log, self._work)
+        bad = self._kernel(self.S, self.P, self._o, self._e, a, active, self._obs, self._rew,
+                           self._term, self._trunc, self._succ, self._nev, self._log, self._work)
+        if bad >= 0:
+            raise ValueError(f"actions must be finite, got {a[bad]!r} for sub-env {bad}")
         if done.size:
             self._rew[done] = 0.0
             self._term[done] = False
@@ -190,7 +196,7 @@ class HopRoverVectorEnv(VectorEnv):
             info["t"] = self.S[:, core.S_T].copy()
             info["rover_state"] = self.S[:, :6].copy()
         for key in list(info):
-            info["_" + key] = mask.copy()
+            info["_" + key] = mask       # one mask array shared by all keys of this step
         return info
 
     # ------------------------------------------------------------------------------
