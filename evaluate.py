@@ -21,7 +21,6 @@ import os
 import sys
 import tempfile
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -153,7 +152,11 @@ def main(argv=None) -> int:
             print(f"\nwrote {len(paths)} figures to {args.plot}")
         if args.video:
             from agents.replay import write_video
-            write_video(rec, args.video)
+            try:
+                write_video(rec, args.video)
+            except RuntimeError as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
             print(f"wrote {args.video}")
     return 0
 

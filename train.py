@@ -19,7 +19,6 @@ import io
 import json
 import math
 import os
-import shutil
 import signal
 import sys
 import time
@@ -201,14 +200,21 @@ class Trainer:
             f"{timer['collect']:.0f} s running the expert and the learner in the env, "
             f"{timer['fit']:.0f} s fitting, the rest judging the rounds")
 
-    def _score_clone(self, label: str, best):
-        """Judge the current clone on the validation targets; return the better of it
-        and `best` as (score, policy weights, (obs_rms, ret_rms), label)."""
+    def _judge(self, label: str) -> dict:
+        """The contest judge's summary of the current policy on the validation targets,
+        with the observation statistics frozen as they are now."""
         import copy
         norm = self.venv
         policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                            epsilon=norm.epsilon, name=label, env_kwargs=env_kwargs(self.cfg))
-        res = summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
+        return summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
+
+    def _score_clone(self, label: str, best):
+        """Judge the current clone; return the better of it and `best` as
+        (score, policy weights, (obs_rms, ret_rms), label)."""
+        import copy
+        norm = self.venv
+        res = self._judge(label)
         print(f"  {label}: success {res['success_rate']:.1%}, median TTRTP "
               f"{res['median_ttrtp']:.1f} s, broken {res['broken']}", file=sys.stderr)
         score = _score(res)
@@ -219,11 +225,7 @@ class Trainer:
 
     # ---- evaluation and checkpoints ----------------------------------------------------
     def evaluate(self):
-        import copy
-        norm = self.venv
-        policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
-                           epsilon=norm.epsilon, name="current", env_kwargs=env_kwargs(self.cfg))
-        res = summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
+        res = self._judge("current")
         row = {"timesteps": int(self.model.num_timesteps), "wall_s": round(self.wall(), 1),
                "success_rate": res["success_rate"], "median_ttrtp": res["median_ttrtp"],
                "p90_ttrtp": res["p90_ttrtp"], "broken": res["broken"]}

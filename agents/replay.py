@@ -72,5 +72,11 @@ def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20)
                                         roll.torque[i]))
     if path.lower().endswith(".gif"):
         imageio.mimsave(path, frames, duration=1000 // fps, loop=0)
-    else:
-        imageio.mimsave(path, frames, fps=fps)
+        return
+    try:
+        import imageio_ffmpeg  # noqa: F401
+    except ImportError:
+        raise RuntimeError(f"writing {path} needs imageio-ffmpeg (pip install "
+                           "imageio-ffmpeg, or pip install -e '.[render]'); a .gif needs "
+                           "nothing more") from None
+    imageio.mimsave(path, frames, fps=fps)

@@ -691,7 +691,6 @@ def resolve_impact(S, P, law, W):
     Returns the kinetic energy ratio (after / before) of the impact, after the
     post-impact classification. See MODEL.md section 6 and docs/PHYSICS.md.
     """
-    m = P[P_M]
     S[S_TH] = wrap_angle(S[S_TH])
     th = S[S_TH]
     o = W_IMP

@@ -90,7 +90,6 @@ def test_initial_states_are_classified():
     assert RoverSim(initial_state=(0.0, 0.3, 0.2, 0.0, 0.0, 0.0)).mode == "A"
     assert RoverSim(initial_state=(0.0, p.half_height, 0.0, 1e-3, 0.0, 0.0)).mode == "G"
     th = 0.3
-    dx = p.half_width * math.cos(th) - p.half_height * math.sin(th)
     dy = -p.half_width * math.sin(th) - p.half_height * math.cos(th)
     assert RoverSim(initial_state=(0.0, -dy, th, 0.0, 0.0, 0.0)).mode == "B"
     assert RoverSim(initial_state=(0.0, -dy, th, 1e-3, 0.0, 0.0)).mode == "C"

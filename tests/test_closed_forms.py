@@ -118,7 +118,7 @@ def test_pivot_conserves_its_energy_integral():
 def test_double_slide_decelerates_at_mu_d_g_and_stops(vx):
     sim = RoverSim(target_x=5.0, initial_state=(0.0, H, 0.0, vx, 0.0, 0.0))
     assert sim.mode == "G"
-    ev = sim.advance(0.0, 500.0, stop_on="stop")
+    sim.advance(0.0, 500.0, stop_on="stop")
     a = P.mu_dynamic * G
     assert sim.t == pytest.approx(abs(vx) / a, rel=1e-14)
     assert sim.state[0] == pytest.approx(math.copysign(vx * vx / (2 * a), vx), rel=1e-13)

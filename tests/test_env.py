@@ -9,7 +9,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-import hoprover_env
+import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import RoverParams
 from hoprover_env.env import HopRoverEnv
 from hoprover_env.vector_env import HopRoverVectorEnv

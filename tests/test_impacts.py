@@ -1,6 +1,4 @@
 """The impact laws of MODEL.md section 6, called on hand-built pre-impact states."""
-import math
-
 import numpy as np
 import pytest
 from hypothesis import given, strategies as st
