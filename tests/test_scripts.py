@@ -143,3 +143,23 @@ def test_bundled_policy_is_shipped():
     assert (BUNDLED_DIR / f"{BUNDLED_NAME}_vecnormalize.pkl").exists()
     meta = json.loads((BUNDLED_DIR / f"{BUNDLED_NAME}.json").read_text())
     assert meta["algo"] == "ppo" and "control_dt" in meta["env_kwargs"]
+
+
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_off_policy_configs_train_and_resume(tmp_path, algo):
+    cfg = yaml.safe_load(open(f"configs/{algo}.yaml"))
+    cfg.update({"n_envs": 2, "timesteps": 300,
+                "evaluation": {"freq": 200, "episodes": 2, "seed": 1},
+                "checkpoint": {"freq": 100}})
+    cfg["env"].update({"episode_time": 30.0, "control_dt": 1.0})
+    cfg["hyperparams"].update({"learning_starts": 50, "buffer_size": 1000, "batch_size": 32})
+    out = tmp_path / algo
+    path = write_cfg(tmp_path, cfg)
+    assert train.main(["--config", path, "--out", str(out), "--no-progress"]) == 0
+    assert (out / "checkpoints" / "last_replay_buffer.pkl").exists()
+    assert train.main(["--config", path, "--out", str(out), "--timesteps", "500", "--resume",
+                       "--no-progress"]) == 0
+    meta = json.loads((out / "checkpoints" / "last.json").read_text())
+    assert meta["algo"] == algo and meta["timesteps"] >= 500
+    # evaluate.py loads it back (the algorithm is read from the metadata)
+    assert evaluate.main(["--policy", str(out), "--episodes", "2", "--no-progress"]) == 0
