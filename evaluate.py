@@ -124,9 +124,10 @@ def main(argv=None) -> int:
     print(format_table(rows))
 
     if args.json:
-        atomic_write(args.json, json.dumps({"summary": dict(rows),
-                                            "episodes": [r.as_dict() for r in all_results]},
-                                           indent=1))
+        # strict JSON: a statistic with no successful episode (NaN) is written as null
+        payload = _nan_to_none({"summary": dict(rows),
+                                "episodes": [r.as_dict() for r in all_results]})
+        atomic_write(args.json, json.dumps(payload, indent=1, allow_nan=False))
     if args.csv:
         buf = io.StringIO()
         fields = list(all_results[0].as_dict())
@@ -154,11 +155,21 @@ def main(argv=None) -> int:
             from agents.replay import write_video
             try:
                 write_video(rec, args.video)
-            except RuntimeError as exc:
+            except (RuntimeError, ImportError) as exc:
                 print(f"error: {exc}", file=sys.stderr)
                 return 2
             print(f"wrote {args.video}")
     return 0
+
+
+def _nan_to_none(obj):
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _nan_to_none(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_nan_to_none(v) for v in obj]
+    return obj
 
 
 if __name__ == "__main__":

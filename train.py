@@ -259,10 +259,20 @@ class Trainer:
         return self.env0 + self.venv.venv.venv.step_seconds
 
     def checkpoint(self):
-        meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
-                "evaluations": self.evals, "best": list(self.best), "wall_s": self.wall(),
-                "env_s": self.env_seconds()}
-        save_model(self.model, self.venv, self.ckpt, meta, replay=self.cfg["algo"] != "ppo")
+        # PPO: a checkpoint taken inside a rollout counts only the steps trained on, so that
+        # --resume collects the unfinished rollout again (off-policy steps live in the
+        # replay buffer, which is saved with the checkpoint)
+        steps = self.model.num_timesteps
+        if self.cfg["algo"] == "ppo":
+            self.model.num_timesteps = getattr(self, "trained_steps", steps)
+        try:
+            meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
+                    "evaluations": self.evals, "best": list(self.best), "wall_s": self.wall(),
+                    "env_s": self.env_seconds()}
+            save_model(self.model, self.venv, self.ckpt, meta, replay=self.cfg["algo"] != "ppo")
+            return meta["timesteps"]
+        finally:
+            self.model.num_timesteps = steps
 
     # ---- run -----------------------------------------------------------------------------
     def run(self) -> int:
@@ -272,6 +282,11 @@ class Trainer:
         ev_freq, ck_freq = self.cfg["evaluation"]["freq"], self.cfg["checkpoint"]["freq"]
 
         class Hooks(BaseCallback):
+            def _on_rollout_start(self):
+                # steps of a rollout count only once trained on: an interrupt mid-rollout
+                # checkpoints this count, so --resume collects that rollout again
+                trainer.trained_steps = self.num_timesteps
+
             def _on_training_start(self):
                 self.next_eval = (self.num_timesteps // ev_freq + 1) * ev_freq
                 self.next_ckpt = (self.num_timesteps // ck_freq + 1) * ck_freq
@@ -292,13 +307,16 @@ class Trainer:
                     trainer.checkpoint()
                 return True
 
-            def _on_training_end(self):
+            def _on_training_end(self):            # learn() returned: all trained on
+                trainer.trained_steps = self.num_timesteps
                 if self.bar is not None:
                     self.bar.close()
 
         self.t_start = time.perf_counter()
         if self.model.num_timesteps == 0 and not self.evals:
             self.evaluate()                      # the starting point (e.g. after cloning)
+            self.checkpoint()                    # cloning is never redone on --resume
+        self.trained_steps = self.model.num_timesteps
         remaining = total - self.model.num_timesteps
         interrupted = False
         previous = signal.getsignal(signal.SIGTERM)
@@ -311,9 +329,9 @@ class Trainer:
             interrupted = True
         finally:
             signal.signal(signal.SIGTERM, previous)
-        self.checkpoint()
+        saved = self.checkpoint()
         if interrupted:
-            print(f"\ninterrupted at {self.model.num_timesteps} steps; checkpoint saved. "
+            print(f"\ninterrupted; checkpoint saved at {saved} trained steps. "
                   f"Continue with: python train.py --config {self.out / 'config.yaml'} "
                   f"--out {self.out} --resume", file=sys.stderr)
             return 130
@@ -343,7 +361,14 @@ def main(argv=None) -> int:
         return 2
     import torch
     torch.set_num_threads(1)       # the env uses the other core
-    return Trainer(cfg, out, args.resume, args.device, not args.no_progress).run()
+    try:
+        trainer = Trainer(cfg, out, args.resume, args.device, not args.no_progress)
+    except KeyboardInterrupt:
+        print(f"\ninterrupted before RL training began (during set-up or behaviour cloning, "
+              f"which keeps no checkpoint of its own); nothing to resume: run the same "
+              f"command again with a new --out or after removing {out}", file=sys.stderr)
+        return 130
+    return trainer.run()
 
 
 if __name__ == "__main__":

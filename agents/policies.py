@@ -187,7 +187,7 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return RandomPolicy(seed)
     if spec.endswith(".py") or ".py:" in spec:
         return load_controller(spec, control_dt)
-    if os.path.exists(spec) or spec.endswith(".zip"):
+    if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
     raise ValueError(f"unknown policy {spec!r}: use bundled, scripted, random, a model "
                      ".zip or run directory, or module.py:Control")

@@ -25,7 +25,7 @@ def _pygame():
         os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
     try:
         import pygame
-    except ImportError as exc:  # pragma: no cover - pygame is a dependency
+    except ImportError as exc:  # pragma: no cover - pygame is a dependency of the package
         raise ImportError("rendering needs pygame: pip install pygame") from exc
     return pygame
 

@@ -62,7 +62,9 @@ def test_train_interrupted_saves_a_checkpoint(tmp_path, monkeypatch):
     monkeypatch.setattr(train.Trainer, "evaluate", evaluate_then_interrupt)
     assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 130
     meta = json.loads((out / "checkpoints" / "last.json").read_text())
-    assert 1024 <= meta["timesteps"] < 2048
+    # interrupted on the last step of the second rollout (4 envs x 128 steps each), before
+    # PPO trained on it: the checkpoint counts only the first, trained rollout
+    assert meta["timesteps"] == 512
     monkeypatch.setattr(train.Trainer, "evaluate", orig)
     assert train.main(["--config", cfg, "--out", str(out), "--resume", "--no-progress"]) == 0
     assert json.loads((out / "checkpoints" / "last.json").read_text())["timesteps"] >= 2048
@@ -104,6 +106,16 @@ def Control(pos, vel, the, omg, posT, t, smt, state):
 '''
 
 
+def test_interrupt_during_cloning_is_reported(tmp_path, monkeypatch, capsys):
+    def interrupt(self):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(train.Trainer, "_pretrain", interrupt)
+    out = tmp_path / "run"
+    assert train.main(["--config", write_cfg(tmp_path, TINY), "--out", str(out),
+                       "--no-progress"]) == 130
+    assert "interrupted before RL training began" in capsys.readouterr().err
+
+
 def test_evaluate_every_policy_kind(tmp_path, capsys):
     run = tmp_path / "run"
     assert train.main(["--config", write_cfg(tmp_path, {**TINY, "pretrain": None}),
@@ -119,7 +131,11 @@ def test_evaluate_every_policy_kind(tmp_path, capsys):
     out = capsys.readouterr().out
     for name in ("bundled", "scripted", "random", "best_model", "entry:Control"):
         assert name in out
-    data = json.loads(js.read_text())
+    def no_nan(token):
+        raise AssertionError(f"{token} is not valid JSON")
+    data = json.loads(js.read_text(), parse_constant=no_nan)     # strict JSON, no NaN
+    assert data["summary"]["random"]["success_rate"] == 0.0
+    assert data["summary"]["random"]["median_ttrtp"] is None
     assert len(data["episodes"]) == 15 and set(data["summary"]) >= {"scripted", "random"}
     rows = list(csv.DictReader(open(cs)))
     assert len(rows) == 15 and {"target_x", "success", "ttrtp", "broken"} <= set(rows[0])
@@ -132,6 +148,8 @@ def test_evaluate_errors(tmp_path, capsys):
     assert "unknown policy 'nonsense'" in capsys.readouterr().err
     assert evaluate.main(["--policy", str(tmp_path / "missing.zip"), "--episodes", "1"]) == 2
     assert "model file not found" in capsys.readouterr().err
+    assert evaluate.main(["--policy", str(tmp_path / "no_such_run"), "--episodes", "1"]) == 2
+    assert "not found" in capsys.readouterr().err
     assert evaluate.main(["--controller", str(tmp_path / "none.py") + ":Control"]) == 2
     assert "controller module not found" in capsys.readouterr().err
     assert evaluate.main(["--policy", "scripted", "--targets", "0.5,x"]) == 2
