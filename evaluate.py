@@ -15,16 +15,14 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 import math
-import os
 import sys
-import tempfile
 import time
 
 import numpy as np
 
 from agents.evaluation import run_episodes, seeded_targets, summarize
+from agents.files import atomic_write, write_json
 from agents.policies import load_controller, load_policy
 
 
@@ -56,20 +54,6 @@ def parse_args(argv=None):
     if args.episodes < 1:
         ap.error("--episodes must be at least 1")
     return args
-
-
-def atomic_write(path: str, text: str) -> None:
-    """Write via a temporary file in the same directory and rename: never half a file."""
-    path = os.path.abspath(path)
-    os.makedirs(os.path.dirname(path), exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
-    try:
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        os.unlink(tmp)
-        raise
 
 
 def format_table(rows) -> str:
@@ -124,10 +108,8 @@ def main(argv=None) -> int:
     print(format_table(rows))
 
     if args.json:
-        # strict JSON: a statistic with no successful episode (NaN) is written as null
-        payload = _nan_to_none({"summary": dict(rows),
-                                "episodes": [r.as_dict() for r in all_results]})
-        atomic_write(args.json, json.dumps(payload, indent=1, allow_nan=False))
+        write_json(args.json, {"summary": dict(rows),
+                               "episodes": [r.as_dict() for r in all_results]})
     if args.csv:
         buf = io.StringIO()
         fields = list(all_results[0].as_dict())
@@ -161,15 +143,6 @@ def main(argv=None) -> int:
             print(f"wrote {args.video}")
     return 0
 
-
-def _nan_to_none(obj):
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _nan_to_none(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_nan_to_none(v) for v in obj]
-    return obj
 
 
 if __name__ == "__main__":

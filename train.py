@@ -28,6 +28,7 @@ import numpy as np
 import yaml
 
 from agents.evaluation import run_episodes, seeded_targets, summarize
+from agents.files import atomic_write, write_json
 from agents.policies import SB3Policy
 from agents.sb3_agents import ConfigError, algo_class, env_kwargs, load_config, make_agent
 
@@ -52,12 +53,6 @@ def parse_args(argv=None):
 
 
 # ---- files --------------------------------------------------------------------------
-def atomic_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".tmp-{path.name}")
-    tmp.write_text(text)
-    os.replace(tmp, path)
-
-
 def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> None:
     """model.zip, _vecnormalize.pkl, .json (and _replay_buffer.pkl) next to `stem`,
     each written to a temporary name first and renamed, so a crash leaves either the
@@ -71,7 +66,7 @@ def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> Non
         os.replace(str(tmp) + "_replay_buffer.pkl", str(stem) + "_replay_buffer.pkl")
     os.replace(str(tmp) + ".zip", str(stem) + ".zip")
     os.replace(str(tmp) + "_vecnormalize.pkl", str(stem) + "_vecnormalize.pkl")
-    atomic_text(stem.with_suffix(".json"), json.dumps(meta, indent=1))
+    write_json(stem.with_suffix(".json"), meta)
 
 
 def _score(res: dict) -> tuple:
@@ -119,7 +114,7 @@ class Trainer:
             raise SystemExit(f"error: {self.out} already has a checkpoint; use --resume to "
                              "continue it or choose another --out")
         self.out.mkdir(parents=True, exist_ok=True)
-        atomic_text(self.out / "config.yaml", yaml.safe_dump(self.cfg, sort_keys=False))
+        atomic_write(self.out / "config.yaml", yaml.safe_dump(self.cfg, sort_keys=False))
         self.venv = build_env(self.cfg)
         self.model = make_agent(self.cfg, self.venv, str(self.out / "tb"), self.device)
         if self.cfg.get("pretrain"):
@@ -239,7 +234,7 @@ class Trainer:
         w = csv.DictWriter(buf, fieldnames=EVAL_FIELDS)
         w.writeheader()
         w.writerows(self.evals)
-        atomic_text(self.out / "evaluations.csv", buf.getvalue())
+        atomic_write(self.out / "evaluations.csv", buf.getvalue())
         score = _score(row)
         improved = score > tuple(self.best)
         if improved:
@@ -264,7 +259,7 @@ class Trainer:
         # replay buffer, which is saved with the checkpoint)
         steps = self.model.num_timesteps
         if self.cfg["algo"] == "ppo":
-            self.model.num_timesteps = getattr(self, "trained_steps", steps)
+            self.model.num_timesteps = self.trained_steps
         try:
             meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
                     "evaluations": self.evals, "best": list(self.best), "wall_s": self.wall(),
@@ -313,10 +308,10 @@ class Trainer:
                     self.bar.close()
 
         self.t_start = time.perf_counter()
+        self.trained_steps = self.model.num_timesteps
         if self.model.num_timesteps == 0 and not self.evals:
             self.evaluate()                      # the starting point (e.g. after cloning)
             self.checkpoint()                    # cloning is never redone on --resume
-        self.trained_steps = self.model.num_timesteps
         remaining = total - self.model.num_timesteps
         interrupted = False
         previous = signal.getsignal(signal.SIGTERM)
@@ -364,9 +359,9 @@ def main(argv=None) -> int:
     try:
         trainer = Trainer(cfg, out, args.resume, args.device, not args.no_progress)
     except KeyboardInterrupt:
-        print(f"\ninterrupted before RL training began (during set-up or behaviour cloning, "
-              f"which keeps no checkpoint of its own); nothing to resume: run the same "
-              f"command again with a new --out or after removing {out}", file=sys.stderr)
+        print("\ninterrupted before RL training began (during set-up or behaviour cloning, "
+              "which keeps no checkpoint of its own): nothing to resume; the same command "
+              "starts the run over", file=sys.stderr)
         return 130
     return trainer.run()
 

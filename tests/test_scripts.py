@@ -19,6 +19,13 @@ TINY = {
 }
 
 
+def strict_json(path):
+    """Parse like a strict JSON reader: NaN and Infinity are not JSON."""
+    def reject(token):
+        raise AssertionError(f"{token} in {path} is not valid JSON")
+    return json.loads(path.read_text(), parse_constant=reject)
+
+
 def write_cfg(tmp_path, cfg, name="cfg.yaml"):
     path = tmp_path / name
     path.write_text(yaml.safe_dump(cfg))
@@ -29,8 +36,9 @@ def test_train_tiny_then_resume(tmp_path):
     out = tmp_path / "run"
     cfg = write_cfg(tmp_path, TINY)
     assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 0
-    meta = json.loads((out / "checkpoints" / "last.json").read_text())
+    meta = strict_json(out / "checkpoints" / "last.json")
     assert meta["timesteps"] >= 2048 and meta["env_s"] > 0
+    strict_json(out / "best_model.json")
     for f in ("best_model.zip", "best_model_vecnormalize.pkl", "best_model.json",
               "final_model.zip", "config.yaml", "evaluations.csv"):
         assert (out / f).exists(), f
@@ -110,10 +118,12 @@ def test_interrupt_during_cloning_is_reported(tmp_path, monkeypatch, capsys):
     def interrupt(self):
         raise KeyboardInterrupt
     monkeypatch.setattr(train.Trainer, "_pretrain", interrupt)
-    out = tmp_path / "run"
-    assert train.main(["--config", write_cfg(tmp_path, TINY), "--out", str(out),
-                       "--no-progress"]) == 130
+    out, cfg = tmp_path / "run", write_cfg(tmp_path, {**TINY, "timesteps": 512})
+    assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 130
     assert "interrupted before RL training began" in capsys.readouterr().err
+    monkeypatch.undo()                   # the same command starts the run over
+    assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 0
+    assert strict_json(out / "checkpoints" / "last.json")["timesteps"] >= 512
 
 
 def test_evaluate_every_policy_kind(tmp_path, capsys):
@@ -131,9 +141,7 @@ def test_evaluate_every_policy_kind(tmp_path, capsys):
     out = capsys.readouterr().out
     for name in ("bundled", "scripted", "random", "best_model", "entry:Control"):
         assert name in out
-    def no_nan(token):
-        raise AssertionError(f"{token} is not valid JSON")
-    data = json.loads(js.read_text(), parse_constant=no_nan)     # strict JSON, no NaN
+    data = strict_json(js)
     assert data["summary"]["random"]["success_rate"] == 0.0
     assert data["summary"]["random"]["median_ttrtp"] is None
     assert len(data["episodes"]) == 15 and set(data["summary"]) >= {"scripted", "random"}
