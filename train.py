@@ -79,7 +79,8 @@ def _score(res: dict) -> tuple:
 def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
     from hoprover_env.sb3 import HopRoverSB3VecEnv
-    base = VecMonitor(HopRoverSB3VecEnv(cfg["n_envs"], seed=cfg["seed"], **env_kwargs(cfg)),
+    base = VecMonitor(HopRoverSB3VecEnv(cfg["n_envs"], seed=cfg["seed"], env_id=cfg["env_id"],
+                                        **env_kwargs(cfg)),
                       info_keywords=("broken",))
     if stats_path is not None:
         return VecNormalize.load(str(stats_path), base)
@@ -201,7 +202,8 @@ class Trainer:
         import copy
         norm = self.venv
         policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
-                           epsilon=norm.epsilon, name=label, env_kwargs=env_kwargs(self.cfg))
+                           epsilon=norm.epsilon, name=label, env_kwargs=env_kwargs(self.cfg),
+                           env_id=self.cfg["env_id"])
         return summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
 
     def _score_clone(self, label: str, best):

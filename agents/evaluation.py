@@ -13,7 +13,7 @@ import time
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from hoprover_env.vector_env import HopRoverVectorEnv
+from hoprover_env import vector_env_class
 
 
 @dataclasses.dataclass
@@ -55,7 +55,9 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
 
 def _run_batch(policy, targets, offset, kwargs, progress, done_before):
     n = len(targets)
-    venv = HopRoverVectorEnv(n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    # a policy of the hop-level task acts once per hop, in that task's vector env
+    venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
+        n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     obs, _ = venv.reset(seed=0, options={"target_x": targets})
     policy.reset(n)
     active = np.ones(n, dtype=bool)

@@ -37,11 +37,13 @@ class SB3Policy:
     """A trained SB3 model plus its observation normalisation."""
 
     def __init__(self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8,
-                 name: str = "sb3", env_kwargs: dict | None = None):
+                 name: str = "sb3", env_kwargs: dict | None = None,
+                 env_id: str = "HopRover-v0"):
         self.model, self.obs_rms = model, obs_rms
         self.clip_obs, self.epsilon = clip_obs, epsilon
         self.name = name
         self.env_kwargs = dict(env_kwargs or {})
+        self.env_id = env_id             # the task it acts in (HopRoverHop-v0: one hop a step)
 
     def reset(self, n: int) -> None:
         pass
@@ -150,7 +152,8 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
             vn = pickle.load(fh)
         obs_rms, clip = vn.obs_rms, vn.clip_obs
     return SB3Policy(model, obs_rms, clip, name=name or path.stem,
-                     env_kwargs=meta.get("env_kwargs", {}))
+                     env_kwargs=meta.get("env_kwargs", {}),
+                     env_id=meta.get("env_id", "HopRover-v0"))
 
 
 def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from hoprover_env.env_config import EnvConfig
+from hoprover_env.env_config import EnvConfig, HopEnvConfig
 
 ALGOS = ("ppo", "sac", "td3")
 TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
@@ -96,10 +96,15 @@ def validate(cfg: dict) -> None:
     if "algo" not in cfg:
         raise ConfigError("config key 'algo' is missing (ppo, sac or td3)")
     cls = algo_class(cfg["algo"])
-    env_fields = {f.name for f in dataclasses.fields(EnvConfig)}
+    from hoprover_env import ENVS
+    if cfg.get("env_id") not in ENVS:
+        raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
+                          f"got {cfg.get('env_id')!r}")
+    env_cls = HopEnvConfig if cfg["env_id"] == "HopRoverHop-v0" else EnvConfig
+    env_fields = {f.name for f in dataclasses.fields(env_cls)}
     _check_keys("env", cfg["env"], env_fields)
     try:
-        EnvConfig(**cfg["env"])
+        env_cls(**cfg["env"])
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"config section 'env': {exc}") from None
     _check_keys("normalize", cfg["normalize"], NORMALIZE_KEYS)
@@ -121,9 +126,6 @@ def validate(cfg: dict) -> None:
     for key in ("n_envs", "timesteps"):
         if not (isinstance(cfg[key], int) and cfg[key] >= 1):
             raise ConfigError(f"config key '{key}' must be a positive integer, got {cfg[key]!r}")
-    if cfg["env_id"] not in ("HopRover-v0", "HopRoverContest-v0"):
-        raise ConfigError(f"config key 'env_id' must be HopRover-v0 or HopRoverContest-v0, "
-                          f"got {cfg['env_id']!r}")
 
 
 def env_kwargs(cfg: dict) -> dict:

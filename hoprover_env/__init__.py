@@ -12,14 +12,32 @@ from .params import RoverParams
 from .simulate import Rollout, RoverSim, simulate
 
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "HopRoverEnv",
-           "HopRoverVectorEnv"]
+           "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv", "ENVS",
+           "vector_env_class"]
 __version__ = "0.1.0"
 
-for _id, _kwargs in (("HopRover-v0", {}), ("HopRoverContest-v0", {"target_x": 0.5})):
+# id -> (single env, native vector env, fixed kwargs)
+ENVS = {
+    "HopRover-v0": ("hoprover_env.env:HopRoverEnv",
+                    "hoprover_env.vector_env:HopRoverVectorEnv", {}),
+    "HopRoverContest-v0": ("hoprover_env.env:HopRoverEnv",
+                           "hoprover_env.vector_env:HopRoverVectorEnv", {"target_x": 0.5}),
+    "HopRoverHop-v0": ("hoprover_env.hop_env:HopRoverHopEnv",
+                       "hoprover_env.hop_env:HopRoverHopVectorEnv", {}),
+}
+for _id, (_entry, _vector_entry, _kwargs) in ENVS.items():
     if _id not in registry:
-        register(id=_id, entry_point="hoprover_env.env:HopRoverEnv",
-                 vector_entry_point="hoprover_env.vector_env:HopRoverVectorEnv",
+        register(id=_id, entry_point=_entry, vector_entry_point=_vector_entry,
                  kwargs=_kwargs)
+
+
+def vector_env_class(env_id: str):
+    """The native vector env class of a registered hoprover id."""
+    import importlib
+    if env_id not in ENVS:
+        raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")
+    module, name = ENVS[env_id][1].split(":")
+    return getattr(importlib.import_module(module), name)
 
 
 def __getattr__(name):          # the envs import gymnasium spaces etc. only when used
@@ -29,4 +47,7 @@ def __getattr__(name):          # the envs import gymnasium spaces etc. only whe
     if name == "HopRoverVectorEnv":
         from .vector_env import HopRoverVectorEnv
         return HopRoverVectorEnv
+    if name in ("HopRoverHopEnv", "HopRoverHopVectorEnv"):
+        from . import hop_env
+        return getattr(hop_env, name)
     raise AttributeError(name)

@@ -132,9 +132,11 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 
 class HopRoverEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+    config_class = EnvConfig
+    step_kernel = staticmethod(rl_kernel.env_step)    # one control period
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
-        self.config = EnvConfig.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(**kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, "
                              f"got {render_mode!r}")
@@ -175,7 +177,7 @@ class HopRoverEnv(gym.Env):
                 raise ValueError(f"action must be finite, got {a!r}")
         else:
             a = float(check_actions(action, (1,))[0])
-        reward, terminated, truncated, _, n_ev = rl_kernel.env_step(
+        reward, terminated, truncated, _, n_ev = self.step_kernel(
             self._s, self._p, self._o, self._e, a, self._obs, _NO_LOG, self._w)
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))

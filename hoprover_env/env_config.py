@@ -26,6 +26,7 @@ RANDOMIZABLE = {
     "restitution_x": (0.0, 1.0), "restitution_y": (0.0, 1.0),
 }
 SHAPINGS = {"contact": rl_kernel.SHAPING_CONTACT, "landing": rl_kernel.SHAPING_LANDING}
+ACTION_MAPS = {"linear": rl_kernel.ACTION_LINEAR, "cubic": rl_kernel.ACTION_CUBIC}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +50,10 @@ class EnvConfig:
     gamma: float = 0.99
     shaping: str = "contact"
     attitude_weight: float = 0.0
+    band_weight: float = 0.5
+    dist_cap: float = 5.0
+    action_map: str = "linear"
+    action_scale: float = 1.0
     info_level: str = "basic"
 
     def __post_init__(self):
@@ -87,7 +92,7 @@ class EnvConfig:
                                  f"[0, 1), got {rel!r}")
         object.__setattr__(self, "randomize", dict(sorted(rand.items())))
         for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
-                     "attitude_weight"):
+                     "attitude_weight", "band_weight"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {v!r}")
@@ -95,6 +100,14 @@ class EnvConfig:
             raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
         if self.shaping not in SHAPINGS:
             raise ValueError(f"shaping must be one of {sorted(SHAPINGS)}, got {self.shaping!r}")
+        if not (isinstance(self.dist_cap, (int, float)) and math.isfinite(self.dist_cap)
+                and self.dist_cap > 0):
+            raise ValueError(f"dist_cap must be a positive number [m], got {self.dist_cap!r}")
+        if self.action_map not in ACTION_MAPS:
+            raise ValueError(f"action_map must be one of {sorted(ACTION_MAPS)}, got "
+                             f"{self.action_map!r}")
+        if not (isinstance(self.action_scale, (int, float)) and 0.0 < self.action_scale <= 1.0):
+            raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
 
@@ -120,12 +133,59 @@ class EnvConfig:
         e[rl_kernel.E_GAMMA] = self.gamma
         e[rl_kernel.E_SHAPING] = SHAPINGS[self.shaping]
         e[rl_kernel.E_W_ATT] = self.attitude_weight
+        e[rl_kernel.E_W_BAND] = self.band_weight
+        e[rl_kernel.E_DIST_CAP] = self.dist_cap
+        e[rl_kernel.E_ACTION_MAP] = ACTION_MAPS[self.action_map]
+        e[rl_kernel.E_ACTION_SCALE] = self.action_scale
         return e
 
     @property
     def max_steps(self) -> int:
         """Control steps in a full episode."""
         return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
+
+
+@dataclasses.dataclass(frozen=True)
+class HopEnvConfig(EnvConfig):
+    """Arguments of HopRoverHopEnv: those of HopRoverEnv plus the built-in hop controller
+    (see the table in hop_env.py). `control_dt` is the controller's period here."""
+
+    gamma: float = 0.98
+    hold_kp: float = 0.15
+    hold_kd: float = 0.9
+    wait_time: float = 5.0
+    launch_max: float = 60.0
+    deadzone: float = 0.05
+    launch_min: float = 1.05
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name in ("hold_kp", "hold_kd", "wait_time", "launch_max"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and not isinstance(v, bool)
+                    and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if not (isinstance(self.deadzone, (int, float)) and 0.0 <= self.deadzone < 1.0):
+            raise ValueError(f"deadzone must lie in [0, 1), got {self.deadzone!r}")
+        if not (isinstance(self.launch_min, (int, float)) and 1.0 < self.launch_min < 1e3):
+            raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
+                             f"in (1, 1000), got {self.launch_min!r}")
+
+    def reward_vector(self) -> np.ndarray:
+        e = super().reward_vector()
+        e[rl_kernel.E_HOLD_KP] = self.hold_kp
+        e[rl_kernel.E_HOLD_KD] = self.hold_kd
+        e[rl_kernel.E_WAIT] = self.wait_time
+        e[rl_kernel.E_LAUNCH_MAX] = self.launch_max
+        e[rl_kernel.E_DEADZONE] = self.deadzone
+        e[rl_kernel.E_LAUNCH_MIN] = self.launch_min
+        return e
+
+    @property
+    def max_steps(self) -> int:
+        """An upper bound on the hop steps of an episode (each takes at least one control
+        period)."""
+        return int(math.ceil(self.episode_time / min(self.control_dt, self.wait_time) - 1e-9))
 
 
 def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:

@@ -24,9 +24,12 @@ from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT,
 from .params import P_H, P_R, P_G, P_TMIN, P_TMAX, P_BAND, P_DWELL
 
 E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAPING, \
-    E_W_ATT = range(9)
-N_ECONFIG = 9
+    E_W_ATT, E_W_BAND, E_DIST_CAP, E_ACTION_MAP, E_ACTION_SCALE, \
+    E_HOLD_KP, E_HOLD_KD, E_WAIT, E_LAUNCH_MAX, E_DEADZONE, E_LAUNCH_MIN = range(19)
+N_ECONFIG = 19
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
+ACTION_LINEAR, ACTION_CUBIC = 0, 1
+ATT_MAX = 3.0          # bound of the attitude term a(s): (1 - cos theta) <= 2, u / (1 + u) < 1
 
 # Observation layout and scales (documented in env.py's table).
 OBS_DIM = 19
@@ -82,24 +85,44 @@ def landing_x(S, P):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def potential(S, P, E):
-    """Phi(s) = -w_dist |x_ref - x_T| / 1 m - w_att a(s).
+    """Phi(s) = -w_dist min(|x_ref - x_T|, cap) / 1 m - w_att a(s) - w_band (1 - d(s)).
 
     x_ref is the contact point (or nearest bottom corner in flight), or with
     E_SHAPING = landing the ballistic landing point in flight (constant along a flight,
-    so a hop is credited at its launch). a(s) = (1 - cos theta) + (omega / 0.3)^2 / 2 in
-    flight, 0 in contact: a rover kept upright and still in the air lands on its bottom
-    face; the term turns that into immediate feedback instead of a penalty at landing.
+    so a hop is credited at its launch). a(s) = (1 - cos theta) + u / (1 + u) with
+    u = (omega / 0.3)^2 / 2, in flight only: near upright and still it is the quadratic
+    attitude cost, and it is bounded (< ATT_MAX), so no spin can make Phi arbitrarily
+    low and then release it at termination. d(s) is the judge's dwell fraction (time in
+    the band / 5 s, 0 out of it): settling in the band pays before the success bonus,
+    hovering next to it does not. Every term is bounded, so Phi >= phi_min(E).
     """
     flying = int(S[S_MODE]) == MODE_A
     if int(E[E_SHAPING]) == SHAPING_LANDING and flying:
         x = landing_x(S, P)
     else:
         x = reference_point(S, P)
-    phi = -E[E_W_DIST] * abs(x - S[S_XT]) / POS_SCALE
+    phi = -E[E_W_DIST] * min(abs(x - S[S_XT]), E[E_DIST_CAP]) / POS_SCALE
     if flying:
         w = S[S_W] / RATE_SCALE
-        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + 0.5 * w * w)
+        u = 0.5 * w * w
+        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + u / (1.0 + u))
+    if E[E_W_BAND] != 0.0:
+        phi -= E[E_W_BAND] * (1.0 - dwell_fraction(S, P))
     return phi
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def phi_min(E):
+    """The lowest value the potential can take (every term is bounded)."""
+    return -(E[E_W_DIST] * E[E_DIST_CAP] / POS_SCALE + E[E_W_ATT] * ATT_MAX + E[E_W_BAND])
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def dwell_fraction(S, P):
+    """The judge's clock: time in the band / dwell time, 0 out of the band."""
+    if S[S_INBAND] == 1.0:
+        return _clip((S[S_T] - S[S_TIN]) / P[P_DWELL], 0.0, 1.0)
+    return 0.0
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -117,44 +140,79 @@ def observe(S, P, E, obs):
     for i in range(7):
         obs[7 + i] = 1.0 if i == mode else 0.0
     obs[14] = _clip(S[S_T] / E[E_T_TOTAL], 0.0, 1.0)
-    dwell = 0.0
-    if S[S_INBAND] == 1.0:
-        dwell = _clip((S[S_T] - S[S_TIN]) / P[P_DWELL], 0.0, 1.0)
-    obs[15] = dwell
+    obs[15] = dwell_fraction(S, P)
     obs[16] = _clip((reference_point(S, P) - xt) / P[P_BAND], -20.0, 20.0)
     obs[17] = _clip((landing_x(S, P) - xt) / POS_SCALE, -5.0, 5.0)
     obs[18] = S[S_TORQUE] / max(abs(P[P_TMIN]), abs(P[P_TMAX]), 1e-300)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def action_to_torque(a, P):
-    """Box(-1, 1) onto [T_min, T_max], linearly; out-of-range actions are clipped."""
+def action_to_torque(a, P, E):
+    """Box(-1, 1) onto the torque range; out-of-range actions are clipped.
+
+    linear (the contest's task): [-1, 1] -> [T_min, T_max]. cubic: T = a^3 T_max for
+    a >= 0 and |a|^3 T_min below, so zero torque sits at a = 0 and the fine torques that
+    tip the rover (about 1 % of T_max) are 0.2 of the action range instead of 0.01.
+    Either is then scaled by action_scale (the fraction of the range reached at |a| = 1).
+    """
     a = _clip(a, -1.0, 1.0)
-    return P[P_TMIN] + 0.5 * (a + 1.0) * (P[P_TMAX] - P[P_TMIN])
+    if int(E[E_ACTION_MAP]) == ACTION_CUBIC:
+        c = a * a * a
+        t = c * P[P_TMAX] if c >= 0.0 else -c * P[P_TMIN]
+    else:
+        t = P[P_TMIN] + 0.5 * (a + 1.0) * (P[P_TMAX] - P[P_TMIN])
+    return E[E_ACTION_SCALE] * t
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
-def env_step(S, P, O, E, action, obs, ev, W):
-    """One control period. Returns (reward, terminated, truncated, success, n_events)."""
-    phi0 = S[core.S_PHI]
-    if math.isnan(phi0):                  # first step of an episode
-        phi0 = potential(S, P, E)
-    had_ttrtp = not math.isnan(S[S_TTRTP])
-    t_stop = min(S[S_T] + E[E_CONTROL_DT], E[E_T_TOTAL])
-    nev0 = S[S_NEVENTS]
-    core.advance(S, P, O, action_to_torque(action, P), t_stop, ev, W)
+def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
+    """Reward, termination and observation after the rover moved for `elapsed` seconds
+    from a state of potential phi0. Returns (reward, terminated, truncated, success).
+
+    Termination values of Phi: 0 on success (the top of Phi), phi_min / gamma when the
+    rover breaks, so that the shaping term of a breaking step, phi_min - phi0, is never
+    positive: breaking cannot release a potential, and with the penalty it is the worst
+    step there is.
+    """
     success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
     broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
-    phi1 = 0.0 if terminated else potential(S, P, E)
+    if broken:
+        phi1 = phi_min(E) / E[E_GAMMA]
+    elif success:
+        phi1 = 0.0
+    else:
+        phi1 = potential(S, P, E)
     S[core.S_PHI] = phi1
-    reward = E[E_GAMMA] * phi1 - phi0 - E[E_W_TIME] * E[E_CONTROL_DT]
+    reward = E[E_GAMMA] * phi1 - phi0 - E[E_W_TIME] * elapsed
     if success:
         reward += E[E_SUCCESS]
     if broken:
         reward -= E[E_BREAK]
     observe(S, P, E, obs)
+    return reward, terminated, truncated, success
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def start_potential(S, P, E):
+    phi0 = S[core.S_PHI]
+    if math.isnan(phi0):                  # first step of an episode
+        phi0 = potential(S, P, E)
+    return phi0
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def env_step(S, P, O, E, action, obs, ev, W):
+    """One control period. Returns (reward, terminated, truncated, success, n_events)."""
+    phi0 = start_potential(S, P, E)
+    had_ttrtp = not math.isnan(S[S_TTRTP])
+    t0 = S[S_T]
+    t_stop = min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL])
+    nev0 = S[S_NEVENTS]
+    core.advance(S, P, O, action_to_torque(action, P, E), t_stop, ev, W)
+    reward, terminated, truncated, success = finish_step(S, P, E, phi0, had_ttrtp,
+                                                         S[S_T] - t0, obs)
     return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
 
 

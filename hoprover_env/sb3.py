@@ -10,7 +10,8 @@ no subprocesses and no per-env Python objects.
 It follows SB3's VecEnv contract: same-step reset, `terminal_observation` and
 `TimeLimit.truncated` in the info of an env that ended, `is_success` (read by SB3's
 success-rate logging and EvalCallback) and the judge's `ttrtp`. Environment arguments
-are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does.
+are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does;
+`env_id` picks the task (HopRover-v0, HopRoverContest-v0 or the hop-level HopRoverHop-v0).
 """
 from __future__ import annotations
 
@@ -22,14 +23,17 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverSB3VecEnv(VecEnv):
     def __init__(self, num_envs: int = 1, seed: int | None = None, threads: bool | None = None,
-                 render_mode: str | None = None, **env_kwargs: Any):
-        self.venv = HopRoverVectorEnv(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
-                                      threads=threads, render_mode=render_mode, **env_kwargs)
+                 render_mode: str | None = None, env_id: str = "HopRover-v0",
+                 **env_kwargs: Any):
+        from . import ENVS, vector_env_class
+        cls = vector_env_class(env_id)
+        env_kwargs = {**ENVS[env_id][2], **env_kwargs}
+        self.venv = cls(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
+                        threads=threads, render_mode=render_mode, **env_kwargs)
         self.config = self.venv.config
         super().__init__(num_envs, self.venv.single_observation_space,
                          self.venv.single_action_space)

@@ -36,13 +36,15 @@ THREAD_THRESHOLD = 64
 class HopRoverVectorEnv(VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
+    config_class = EnvConfig
+    kernels = (rl_kernel.batch_step, rl_kernel.batch_step_threaded)    # serial, threaded
 
     def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
                  max_episode_steps: int | None = None, threads: bool | None = None,
                  render_mode: str | None = None, **kwargs: Any):
         if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.config = EnvConfig.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(**kwargs)
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -62,7 +64,7 @@ class HopRoverVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        self._kernel = rl_kernel.batch_step_threaded if self.threads else rl_kernel.batch_step
+        self._kernel = self.kernels[1] if self.threads else self.kernels[0]
 
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.single_observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,

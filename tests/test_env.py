@@ -182,15 +182,16 @@ def test_idle_at_target_succeeds_at_five_seconds_with_bonus():
         obs, r, te, tr, info = env.step(np.zeros(1, np.float32))
         total += r
     assert te and info["is_success"] and info["ttrtp"] == 5.0
-    # the last step: bonus + gamma * 0 - Phi(s) - time cost; Phi(s) = -0.05 (corner at 0.05 m)
-    assert r == pytest.approx(10.0 + 0.05 - 0.5 / 600.0, rel=1e-12)
+    # the last step: bonus + gamma * 0 - Phi(s) - time cost; Phi(s) = -0.05 (corner at
+    # 0.05 m) - band_weight 0.5 * (1 - 4.5 s / 5 s in the band)
+    assert r == pytest.approx(10.0 + 0.05 + 0.5 * 0.1 - 0.5 / 600.0, rel=1e-12)
 
 
 def test_reward_is_the_documented_shaping():
     env = HopRoverEnv(control_dt=1.0, gamma=0.9, time_cost=0.01, dist_weight=2.0)
     env.reset(seed=0, options={"target_x": 0.8})
     obs, r, te, tr, info = env.step(np.zeros(1, np.float32))       # at rest: Phi unchanged
-    phi = -2.0 * abs(0.05 - 0.8)
+    phi = -2.0 * abs(0.05 - 0.8) - 0.5          # out of the band: - band_weight
     assert r == pytest.approx(0.9 * phi - phi - 0.01 * 1.0, rel=1e-12)
 
 

@@ -1,0 +1,81 @@
+"""HopRoverHop: the same rover and judge, one action per hop.
+
+## Description
+
+The hop-level formulation of the hopping-rover literature (sequential hop planning as an
+MDP, e.g. Hockman & Pavone, "Stochastic motion planning for hopping rovers on small
+Solar System bodies", 2017): the agent chooses where to hop, a built-in controller flies
+the hop. Each step runs, inside the jitted kernel on the control grid of `control_dt`:
+
+1. **Launch**: hold the commanded torque until the rover leaves the ground (at most
+   `launch_max` s; if it has not lifted off by then, the torque drops to zero).
+2. **Flight**: a PD attitude hold, T = -I (kp theta + kd omega), clipped to the torque
+   limits, so the rover lands on its bottom face.
+3. **Landing**: zero torque while it bounces (attitude hold again in each bounce), slides
+   and stops.
+
+The step returns when the rover is at rest again (state F), when the judge's TTRTP is
+reached, when it breaks, or when the episode's time is up. It is the physics of
+HopRover-v0, the same kernel and the same judge; only the decision points differ.
+
+## Action space
+
+`Box(-1, 1, (1,), float32)`. The sign is the direction of the hop (positive torque tips
+the rover about its right corner and sends it towards +x). `|a| <= deadzone` (0.05) is
+**wait**: zero torque for `wait_time` s (5 s, the judge's dwell), the action to take once
+the rover rests in the band. Beyond the dead zone, |a| maps log-uniformly onto launch
+torques from `launch_min` x m g r (1.05 x the tipping torque) to the torque limit.
+
+## Observation space
+
+That of HopRover-v0 (`Box(float32, (19,))`, the table in env.py), observed at the end of
+each hop: at rest, so the useful parts are the offset from the target (0, 16, 17), the
+time (14) and the judge's dwell (15).
+
+## Rewards
+
+HopRover-v0's potential-based reward over the whole hop: `gamma * Phi(s') - Phi(s) -
+time_cost * (simulated seconds of the hop)`, plus `success_bonus` at TTRTP and minus
+`break_penalty` if a top corner touches the ground. The time cost makes a faster TTRTP
+pay; gamma defaults to 0.98 per decision (a hop, not a control period).
+
+## Starting state, episode end, info
+
+As HopRover-v0: upright at rest at x = 0, the target from `target_range`; termination
+on success or breaking, truncation at `episode_time` (600 s). `info["ttrtp"]` is the
+judge's TTRTP, `info["is_success"]`, `info["broken"]`, `info["state"]`.
+
+## Arguments
+
+Those of HopRover-v0 (`control_dt` is the controller's period, default 0.5 s) and:
+
+| Argument | Default | Description |
+|---|---|---|
+| `hold_kp`, `hold_kd` | 0.15, 0.9 | attitude-hold gains [1/s^2, 1/s] (times the inertia) |
+| `wait_time` | 5.0 | duration of a wait action [s] |
+| `launch_max` | 60.0 | longest a launch torque is held without lift-off [s] |
+| `deadzone` | 0.05 | |a| at or below which the action is wait |
+| `launch_min` | 1.05 | weakest launch torque, as a multiple of m g r |
+| `gamma` | 0.98 | discount per hop (shaping) |
+
+## Vectorized environment
+
+`gym.make_vec("HopRoverHop-v0", num_envs=N)` returns `HopRoverHopVectorEnv`: all N hops
+of a step in one jitted call, threaded over the cores from 64 sub-envs on.
+"""
+from __future__ import annotations
+
+from . import hop_kernel
+from .env import HopRoverEnv
+from .env_config import HopEnvConfig
+from .vector_env import HopRoverVectorEnv
+
+
+class HopRoverHopEnv(HopRoverEnv):
+    config_class = HopEnvConfig
+    step_kernel = staticmethod(hop_kernel.hop_step)
+
+
+class HopRoverHopVectorEnv(HopRoverVectorEnv):
+    config_class = HopEnvConfig
+    kernels = (hop_kernel.batch_hop_step, hop_kernel.batch_hop_step_threaded)
