@@ -19,7 +19,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import core
+from . import core, rollout
 from .params import RoverParams
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
@@ -252,16 +252,17 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     ratios = []
     pos_t = np.array([float(target_x), 0.0])
     sub = 1 if sample_dt is None else max(1, int(math.ceil(control_dt / sample_dt - 1e-9)))
+    if schedule is not None or rollout.is_compiled(controller):
+        # the whole run in one kernel call, bit-identical to the Python loop below
+        return rollout.simulate_compiled(s, sim.p, sim.o, schedule, controller, control_dt,
+                                         t_end, n_ctrl, sub, target_x, params)
     for k in range(n_ctrl):
         t_k = k * control_dt
         t_next = min((k + 1) * control_dt, t_end)
-        if schedule is not None:
-            cmd = schedule[k] if k < schedule.size else 0.0
-        else:
-            cmd = check_torque(controller(
-                s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
-                pos_t.copy(), float(s[core.S_T]), float(t_end),
-                core.MODE_LETTERS[int(s[core.S_MODE])]), "the controller's torque")
+        cmd = check_torque(controller(
+            s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
+            pos_t.copy(), float(s[core.S_T]), float(t_end),
+            core.MODE_LETTERS[int(s[core.S_MODE])]), "the controller's torque")
         for j in range(sub):
             t_stop = t_next if j == sub - 1 else min(t_k + (j + 1) * control_dt / sub, t_next)
             rows.append(s[:core.S_SIGMA + 1].copy())

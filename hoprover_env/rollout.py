@@ -1,0 +1,326 @@
+"""Whole runs inside the kernel: the control loop of `simulate` compiled with the physics.
+
+`simulate()` routes a torque schedule, or a numba-compiled controller, here: every
+control instant, every sample (t, x, y, theta, vx, vy, omega, state, sigma, torque) and
+every event is written into preallocated arrays by one jitted call, so a run costs what
+the kernel costs. The result is the same `Rollout`, bit for bit, as the Python loop that
+`simulate` runs for a plain Python controller (tests/test_rollout.py replays the same
+torques through both).
+
+Compiled controllers
+--------------------
+A controller compiled with ``numba.njit`` and the contest signature
+
+    @numba.njit
+    def control(pos, vel, the, omg, posT, t, smt, state_code):
+        return torque
+
+runs inside the same compiled loop. The arguments are those of the contest, as
+`simulate` passes them to a Python controller, except the state: ``state_code`` is an
+integer 0..6 for the contact states A..G (``"ABCDEFG"[state_code]``; 0 = flight, 5 = at
+rest). ``pos``, ``vel`` and ``posT`` are float64 arrays of length 2 (copies: writing to
+them does not touch the rover); ``the``, ``omg``, ``t`` and ``smt`` are floats. The
+function must return a float. It is called through a function pointer, so the loop is
+compiled (and cached) once for all controllers. A numba function cannot keep memory
+between calls: the state, the time and ``posT`` are what it decides on.
+`simulate_batch(..., controller_args=A)` appends row i of A to ``posT`` of run i
+(``posT = (x_T, 0, A[i, 0], ...)``) so that one compiled controller can run N different
+parameter sets (gains, launch torques) side by side.
+
+Kernel layout
+-------------
+One run writes rows of the kernel state S[:9] = (x, y, theta, vx, vy, omega, t, mode,
+sigma) taken before each advance, and the final state; the commanded and applied
+torque per row; and the event log (t, kind, mode before, mode after, value). The event
+log grows on demand: when the events of one advance do not fit, the run restores the
+state it had before that advance and returns; the caller enlarges the log and calls
+again, and the run continues where it stopped (same arithmetic, so the same result).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import get_thread_id, njit, prange, types as nt
+from numba.extending import is_jitted
+
+from ._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # this module's cached code embeds the core's
+
+from . import core  # noqa: E402
+from .params import P_TMIN, P_TMAX  # noqa: E402
+
+ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma
+EV_CAP = core.MAX_EVENTS + 64        # events one advance may log (as RoverSim keeps)
+
+# prog: where a run stands (float64 so one vector carries the held command too)
+G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD = range(6)
+N_PROG = 6
+ST_RUNNING, ST_DONE, ST_ROOM, ST_BUDGET, ST_BAD_TORQUE = range(5)
+POS_T = 4                             # scratch: pos 0:2, vel 2:4, posT 4:6, args 6:
+
+_V = nt.float64[::1]
+_M = nt.float64[:, ::1]
+_T3 = nt.float64[:, :, ::1]
+_F = nt.float64
+_I = nt.int64
+_B = nt.boolean
+CONTROL_SIG = _F(_V, _V, _F, _F, _V, _F, _F, _I)
+CONTROL_TYPE = nt.FunctionType(CONTROL_SIG)
+
+
+def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
+    """Stands in for the controller argument of a scheduled run (never called)."""
+    return 0.0
+
+
+def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, record,
+         rows, cmds, applied, log, prog, evbuf, W, backup, cbuf):
+    """One run from prog[G_K], prog[G_J] on; see the module docstring. The loop and its
+    arithmetic mirror `simulate`'s Python loop line for line (bit-identical results)."""
+    k = int(prog[G_K])
+    j = int(prog[G_J])
+    nr = int(prog[G_ROWS])
+    nl = int(prog[G_LOG])
+    tmin = P[P_TMIN]
+    tmax = P[P_TMAX]
+    n_args = cargs.shape[0]
+    while k < n_ctrl:
+        t_k = k * control_dt
+        t_next = (k + 1) * control_dt
+        if t_end < t_next:
+            t_next = t_end
+        if j == 0:
+            if use_ctrl:
+                cbuf[0] = S[core.S_X]
+                cbuf[1] = S[core.S_Y]
+                cbuf[2] = S[core.S_VX]
+                cbuf[3] = S[core.S_VY]
+                cbuf[POS_T] = S[core.S_XT]
+                cbuf[POS_T + 1] = 0.0
+                for a in range(n_args):
+                    cbuf[POS_T + 2 + a] = cargs[a]
+                cmd = ctrl(cbuf[0:2], cbuf[2:4], S[core.S_TH], S[core.S_W],
+                           cbuf[POS_T:POS_T + 2 + n_args], S[core.S_T], t_end,
+                           int(S[core.S_MODE]))
+                if not math.isfinite(cmd):
+                    prog[G_CMD] = cmd
+                    prog[G_STATUS] = ST_BAD_TORQUE
+                    return
+            else:
+                cmd = sched[k] if k < sched.shape[0] else 0.0
+            prog[G_CMD] = cmd
+        cmd = prog[G_CMD]
+        # Python's min(max(cmd, tmin), tmax), ties included
+        app = tmin if tmin > cmd else cmd
+        app = tmax if tmax < app else app
+        while j < sub:
+            if j == sub - 1:
+                t_stop = t_next
+            else:
+                t_stop = t_k + (j + 1) * control_dt / sub
+                if t_next < t_stop:
+                    t_stop = t_next
+            for c in range(core.N_STATE):
+                backup[c] = S[c]
+            S[core.S_STOP_ON] = -1.0
+            n = core.advance(S, P, O, cmd, t_stop, evbuf, W)
+            if S[core.S_ERROR] == 1.0:
+                prog[G_STATUS] = ST_BUDGET
+                return
+            m = n if n < evbuf.shape[0] else evbuf.shape[0]
+            if record:
+                if nl + m > log.shape[0]:
+                    for c in range(core.N_STATE):
+                        S[c] = backup[c]
+                    prog[G_K] = k
+                    prog[G_J] = j
+                    prog[G_ROWS] = nr
+                    prog[G_LOG] = nl
+                    prog[G_STATUS] = ST_ROOM
+                    return
+                for c in range(ROW_COLS):
+                    rows[nr, c] = backup[c]
+                cmds[nr] = cmd
+                applied[nr] = app
+                nr += 1
+                for e in range(m):
+                    for c in range(core.EV_COLS):
+                        log[nl, c] = evbuf[e, c]
+                    nl += 1
+            j += 1
+            if S[core.S_BROKEN] != 0.0:
+                break
+        if S[core.S_BROKEN] != 0.0:
+            break
+        j = 0
+        k += 1
+    if record:
+        for c in range(ROW_COLS):
+            rows[nr, c] = S[c]
+        cmds[nr] = cmds[nr - 1]
+        applied[nr] = applied[nr - 1]
+        nr += 1
+    prog[G_K] = k
+    prog[G_J] = j
+    prog[G_ROWS] = nr
+    prog[G_LOG] = nl
+    prog[G_STATUS] = ST_DONE
+
+
+def _run_many(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub,
+              record, rows, cmds, applied, log, prog, active, evbuf, W, backup, cbuf):
+    """`_run` over the rows where `active` is set, spread over numba's threads; each
+    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]."""
+    for i in prange(S.shape[0]):
+        if active[i]:
+            tid = get_thread_id()
+            run_one(S[i], P[i], O, sched[i], ctrl, use_ctrl, cargs[i], control_dt, t_end,
+                    n_ctrl, sub, record, rows[i], cmds[i], applied[i], log[i], prog[i],
+                    evbuf[tid], W[tid], backup[tid], cbuf[tid])
+
+
+_RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _B, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
+                   _V, _M, _V, _V, _V)
+_RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _B, _M, _F, _F, _I, _I, _B, _T3, _M,
+                        _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M)
+_OPTS = dict(cache=True, error_model="numpy", _nrt=False)
+# Explicit signatures make the controller a function pointer (one compiled loop for every
+# controller); they would also compile at import, so the two entry points are built on
+# first use: most sessions (the environments) never need them.
+run_one = run_many = no_control = None
+
+
+def kernel_one():
+    """The one-run loop, compiled (or loaded from numba's cache) on first use."""
+    global run_one, no_control
+    if run_one is None:
+        no_control = njit(CONTROL_SIG, **_OPTS)(_no_control)
+        run_one = njit(_RUN_SIG, **_OPTS)(_run)
+    return run_one
+
+
+def kernel_many():
+    """The threaded N-run loop (it calls the one-run loop), built on first use."""
+    global run_many
+    if run_many is None:
+        kernel_one()
+        run_many = njit(_RUN_MANY_SIG, parallel=True, **_OPTS)(_run_many)
+    return run_many
+
+
+def is_compiled(controller) -> bool:
+    """Is `controller` a numba-compiled function (run inside the kernel loop)?"""
+    return is_jitted(controller)
+
+
+def control_function(controller):
+    """The compiled controller checked against the contest signature (TypeError if it
+    cannot take it)."""
+    try:
+        controller.compile(CONTROL_SIG)
+    except Exception as exc:          # noqa: BLE001 - numba raises several error types
+        raise TypeError(
+            "a compiled controller must accept the contest signature (pos, vel, the, omg, "
+            "posT, t, smt, state_code) with float64 arrays pos, vel, posT, floats the, "
+            "omg, t, smt and an integer state_code 0..6, and return a float; compiling "
+            f"{getattr(controller, '__name__', controller)!r} for it failed: "
+            f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    return controller
+
+
+def budget_error(t: float) -> RuntimeError:
+    return RuntimeError(f"event budget of one control interval exhausted at t = {t:.9g} s "
+                        f"(more than {core.MAX_EVENTS} events); please report this state")
+
+
+STATE_LETTERS = np.array(list(core.MODE_LETTERS))
+
+
+class Buffers:
+    """The output arrays of N runs (leading axis N), the event log grown on demand."""
+
+    def __init__(self, n: int, n_rows: int, log_rows: int, record: bool = True):
+        rows = n_rows if record else 1
+        self.rows = np.zeros((n, rows, ROW_COLS))
+        self.cmds = np.zeros((n, rows))
+        self.applied = np.zeros((n, rows))
+        self.log = np.zeros((n, log_rows if record else 0, core.EV_COLS))
+        self.prog = np.zeros((n, N_PROG))
+
+    def grow_log(self, need: np.ndarray) -> None:
+        """Double the event log (at least EV_CAP more rows) for the runs that asked."""
+        n, cap, cols = self.log.shape
+        new = np.zeros((n, max(2 * cap, cap + EV_CAP), cols))
+        new[:, :cap] = self.log
+        self.log = new
+
+
+def scratch(threads: int, n_args: int):
+    """Per-thread scratch: event buffer, kernel workspace, state backup, controller I/O."""
+    return (np.zeros((threads, EV_CAP, core.EV_COLS)), np.zeros((threads, core.N_WORK)),
+            np.zeros((threads, core.N_STATE)), np.zeros((threads, POS_T + 2 + n_args)))
+
+
+def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
+    """Turn a run's error status into the exception `simulate` raises."""
+    status = prog[G_STATUS]
+    if status == ST_BUDGET:
+        err = budget_error(float(S[core.S_T]))
+        raise type(err)(where + str(err))
+    if status == ST_BAD_TORQUE:
+        from .simulate import check_torque
+        try:
+            check_torque(prog[G_CMD], "the controller's torque")
+        except ValueError as err:
+            raise ValueError(where + str(err)) from None
+
+
+def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
+    """The `Rollout` of one finished run from its kernel arrays."""
+    from .simulate import Rollout
+    nr = int(prog[G_ROWS])
+    nl = int(prog[G_LOG])
+    a = rows[:nr]
+    ev = log[:nl]
+    kinds = ev[:, 1].astype(np.int64).tolist()
+    names = core.EVENT_NAMES
+    letters = core.MODE_LETTERS
+    events = [(t, names[kd], letters[b], letters[af]) for t, kd, b, af in
+              zip(ev[:, 0].tolist(), kinds, ev[:, 2].astype(np.int64).tolist(),
+                  ev[:, 3].astype(np.int64).tolist())]
+    ttrtp = S[core.S_TTRTP]
+    return Rollout(
+        t=a[:, core.S_T], x=a[:, core.S_X], y=a[:, core.S_Y], theta=a[:, core.S_TH],
+        vx=a[:, core.S_VX], vy=a[:, core.S_VY], omega=a[:, core.S_W],
+        state=STATE_LETTERS[a[:, core.S_MODE].astype(np.int64)],
+        torque=applied[:nr].copy(), torque_cmd=cmds[:nr].copy(), events=events,
+        ttrtp=None if math.isnan(ttrtp) else float(ttrtp),
+        broken=bool(S[core.S_BROKEN]), target_x=float(target_x), params=params,
+        impact_energy_ratios=ev[ev[:, 1] == core.EV_IMPACT, 4],
+        n_events=int(S[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
+        min_corner_height=float(S[core.S_MIN_HEIGHT]))
+
+
+def simulate_compiled(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub,
+                      target_x, params):
+    """`simulate`'s loop for a torque schedule (1-D float64, checked finite) or a
+    compiled controller, in one kernel call (more only if the event log must grow)."""
+    use_ctrl = schedule is None
+    run = kernel_one()
+    ctrl = control_function(controller) if use_ctrl else no_control
+    sched = np.zeros(0) if use_ctrl else np.ascontiguousarray(schedule, dtype=np.float64)
+    buf = Buffers(1, n_ctrl * sub + 1, 256)
+    evbuf, w, backup, cbuf = scratch(1, 0)
+    no_args = np.zeros(0)
+    while True:
+        run(S, P, O, sched, ctrl, use_ctrl, no_args, float(control_dt), float(t_end),
+            n_ctrl, sub, True, buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0],
+            buf.prog[0], evbuf[0], w[0], backup[0], cbuf[0])
+        if buf.prog[0, G_STATUS] != ST_ROOM:
+            break
+        buf.grow_log(None)
+    check_status(buf.prog[0], S)
+    return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], buf.prog[0],
+                         S, params, target_x)

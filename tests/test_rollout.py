@@ -1,0 +1,163 @@
+"""The compiled whole-run loop (hoprover_env/rollout.py) against simulate's Python loop.
+
+A torque schedule or a compiled controller runs in one kernel call; a plain Python
+callable runs the Python loop. Replaying a schedule through a Python callable therefore
+exercises the old path on the same torques, and the two Rollouts must agree bit for bit.
+"""
+import dataclasses
+import math
+
+import numba
+import numpy as np
+import pytest
+
+import benchmarks.bench_stress as stress
+from hoprover_env import RoverParams, rollout, simulate
+
+
+def replay(schedule):
+    """A Python controller that returns schedule[k] at the k-th control instant."""
+    step = [0]
+
+    def control(pos, vel, the, omg, posT, t, smt, state):
+        k = step[0]
+        step[0] += 1
+        return float(schedule[k]) if k < len(schedule) else 0.0
+
+    return control
+
+
+def assert_identical(a, b):
+    for f in dataclasses.fields(a):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape, f.name
+            # bit for bit: compare the raw bytes (NaN and -0.0 included)
+            assert np.ascontiguousarray(x).tobytes() == np.ascontiguousarray(y).tobytes(), f.name
+        else:
+            assert x == y, f.name
+
+
+def stress_schedule_specs(max_per_family=6):
+    """Scheduled runs of the stress benchmark that `simulate` can start (make_state-able)."""
+    rng = np.random.default_rng(11)
+    specs = []
+    for family in (stress.family_extreme_torques, stress.family_near_flat,
+                   stress.family_flat, stress.family_random_params, stress.family_found_cases):
+        got = [s for s in family(rng, True)
+               if s.kind == stress.CTRL_SCHEDULE and s.initial is not None]
+        step = max(1, len(got) // max_per_family)
+        specs += got[::step][:max_per_family]
+    return specs
+
+
+SPECS = stress_schedule_specs()
+
+
+@pytest.mark.parametrize("spec", SPECS, ids=[f"{s.family}|{s.integrator}|{s.law}|{s.label}"
+                                             for s in SPECS])
+def test_compiled_loop_equals_python_loop_on_stress_schedules(spec):
+    t_end = min(spec.t_end, 400 * spec.control_dt)        # keep the Python side short
+    kw = dict(t_end=t_end, control_dt=spec.control_dt, target_x=stress.TARGET_X,
+              integrator=spec.integrator, impact_law=spec.law, params=spec.params,
+              initial_state=spec.initial, euler_dt=spec.euler_dt)
+    fast = simulate(spec.sched, **kw)
+    slow = simulate(replay(spec.sched), **kw)
+    assert_identical(fast, slow)
+    assert len(fast.t) > 1
+
+
+@pytest.mark.parametrize("kw", [
+    dict(t_end=60.0, control_dt=0.7, sample_dt=0.05),          # samples between instants
+    dict(t_end=7, control_dt=2),                                # ints, a short last interval
+    dict(t_end=40.0, control_dt=0.5, integrator="euler", euler_dt=1e-3),
+])
+def test_compiled_loop_equals_python_loop_variants(kw):
+    sched = 4e-4 * np.sin(np.arange(200) * 0.37)
+    assert_identical(simulate(sched, target_x=0.1, **kw),
+                     simulate(replay(sched), target_x=0.1, **kw))
+
+
+def test_event_log_grows_past_its_first_size():
+    # Euler bounces of a corner pressed down (a stress benchmark case) log an event every
+    # other step: the log starts at 256 rows and the run resumes after each enlargement
+    spec = next(s for s in stress.family_found_cases(np.random.default_rng(0), True)
+                if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
+    kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, target_x=stress.TARGET_X,
+              integrator="euler", impact_law=spec.law, initial_state=spec.initial)
+    fast = simulate(np.full(1, spec.sched[0]), **kw)
+    assert len(fast.events) > 1000
+    assert_identical(fast, simulate(replay(spec.sched), **kw))
+
+
+def test_broken_run_stops_like_the_python_loop():
+    sched = 1e-5 * np.ones(10)             # a spinning drop lands on a top corner
+    kw = dict(t_end=600.0, control_dt=0.5, target_x=0.5, initial_state=(0, 0.3, 0, 0, 0, 0.5))
+    fast = simulate(sched, **kw)
+    assert fast.broken and fast.t[-1] < 600.0
+    assert_identical(fast, simulate(replay(sched), **kw))
+
+
+@numba.njit
+def hold_then_launch(pos, vel, the, omg, posT, t, smt, state_code):
+    if state_code == 0:                        # flight: PD attitude hold
+        th = (the + math.pi) % (2 * math.pi) - math.pi
+        return -0.0017 * (0.15 * th + 0.9 * omg)
+    if t < 8.0:
+        return 3e-4 if posT[0] > pos[0] else -3e-4
+    return 0.0
+
+
+def test_compiled_controller_equals_its_python_twin():
+    kw = dict(t_end=300.0, control_dt=0.1, target_x=-0.4)
+    fast = simulate(hold_then_launch, **kw)
+
+    def twin(pos, vel, the, omg, posT, t, smt, state):
+        return hold_then_launch.py_func(pos, vel, the, omg, posT, t, smt, "ABCDEFG".index(state))
+
+    assert_identical(fast, simulate(twin, **kw))
+    assert "liftoff" in [e[1] for e in fast.events]
+
+
+def test_compiled_controller_sees_copies_and_the_contest_arguments():
+    @numba.njit
+    def scribble(pos, vel, the, omg, posT, t, smt, state_code):
+        pos[0] = 99.0                        # must not move the rover
+        posT[1] = 5.0
+        return 1e-4 * state_code + posT[0] * 0.0 + smt * 0.0
+
+    roll = simulate(scribble, t_end=3.0, control_dt=1.0, target_x=0.25)
+    assert np.all(np.abs(roll.x) < 1.0)
+    assert roll.torque_cmd[0] == 1e-4 * 5         # at rest: state F = code 5
+
+
+def test_compiled_controller_errors():
+    @numba.njit
+    def nan_after(pos, vel, the, omg, posT, t, smt, state_code):
+        return math.nan if t >= 2.0 else 0.0
+
+    with pytest.raises(ValueError, match="the controller's torque must be finite"):
+        simulate(nan_after, t_end=5.0, control_dt=1.0)
+
+    @numba.njit
+    def wrong(pos, vel):
+        return 0.0
+
+    with pytest.raises(TypeError, match="contest signature"):
+        simulate(wrong, t_end=1.0)
+
+
+def test_no_compile_at_import():
+    # the explicit-signature loops are built on first use, not when simulate is imported
+    import subprocess
+    import sys
+    code = ("import hoprover_env.rollout as r; import hoprover_env; "
+            "print(r.run_one is None and r.run_many is None)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "True"
+
+
+def test_default_params_object_is_kept():
+    p = RoverParams(mu_static=0.7)
+    assert simulate(np.zeros(2), t_end=1.0, params=p).params is p
