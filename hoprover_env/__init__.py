@@ -10,8 +10,10 @@ from gymnasium.envs.registration import register, registry
 
 from .params import RoverParams
 from .simulate import Rollout, RoverSim, simulate
+from .batch import BatchRollout, simulate_batch
 
-__all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "HopRoverEnv",
+__all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
+           "BatchRollout", "HopRoverEnv",
            "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv", "ENVS",
            "vector_env_class"]
 __version__ = "0.1.0"

@@ -169,16 +169,18 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
     prog[G_STATUS] = ST_DONE
 
 
-def _run_many(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub,
-              record, rows, cmds, applied, log, prog, active, evbuf, W, backup, cbuf):
+def _run_many(Sb, Pb, Ob, schedb, ctrlb, use_ctrlb, cargsb, control_dtb, t_endb, n_ctrlb,
+              subb, recordb, rowsb, cmdsb, appliedb, logb, progb, activeb, evbufb, Wb,
+              backupb, cbufb):
     """`_run` over the rows where `active` is set, spread over numba's threads; each
-    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]."""
-    for i in prange(S.shape[0]):
-        if active[i]:
+    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]. (Argument
+    names differ from `_run`'s: numba's parfor outlining clashes on shared names.)"""
+    for i in prange(Sb.shape[0]):
+        if activeb[i]:
             tid = get_thread_id()
-            run_one(S[i], P[i], O, sched[i], ctrl, use_ctrl, cargs[i], control_dt, t_end,
-                    n_ctrl, sub, record, rows[i], cmds[i], applied[i], log[i], prog[i],
-                    evbuf[tid], W[tid], backup[tid], cbuf[tid])
+            run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, use_ctrlb, cargsb[i], control_dtb,
+                    t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
+                    progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
 
 
 _RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _B, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
@@ -249,8 +251,8 @@ class Buffers:
         self.log = np.zeros((n, log_rows if record else 0, core.EV_COLS))
         self.prog = np.zeros((n, N_PROG))
 
-    def grow_log(self, need: np.ndarray) -> None:
-        """Double the event log (at least EV_CAP more rows) for the runs that asked."""
+    def grow_log(self) -> None:
+        """Double the event log (at least EV_CAP more rows)."""
         n, cap, cols = self.log.shape
         new = np.zeros((n, max(2 * cap, cap + EV_CAP), cols))
         new[:, :cap] = self.log
@@ -320,7 +322,7 @@ def simulate_compiled(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, 
             buf.prog[0], evbuf[0], w[0], backup[0], cbuf[0])
         if buf.prog[0, G_STATUS] != ST_ROOM:
             break
-        buf.grow_log(None)
+        buf.grow_log()
     check_status(buf.prog[0], S)
     return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], buf.prog[0],
                          S, params, target_x)
