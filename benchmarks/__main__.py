@@ -16,7 +16,8 @@ import time
 from benchmarks.report import machine
 
 SECTIONS = [("accuracy", "benchmarks.bench_accuracy"), ("env", "benchmarks.bench_env"),
-            ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training")]
+            ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training"),
+            ("oracle", "benchmarks.bench_oracle")]
 
 
 def main(argv=None) -> int:

@@ -1,6 +1,9 @@
 """The benchmark suite's quick mode runs end to end (its numbers are not asserted:
 speed targets live in BENCHMARKS.md, not in timed unit tests)."""
+import math
+
 import benchmarks.bench_core as bench_core
+import benchmarks.bench_oracle as bench_oracle
 from benchmarks.__main__ import main
 
 
@@ -18,3 +21,15 @@ def test_bench_core_runs(capsys):
     bench_core.main(["--repeat", "1", "--t-end", "120", "--no-compile"])
     out = capsys.readouterr().out
     assert "event" in out and "euler dt=1e-4" in out and "open loop" in out
+
+
+def test_bench_oracle_quick():
+    sec = bench_oracle.run(quick=True)
+    text = sec.markdown
+    assert "not a proof of optimality" in text and "scripted regret" in text
+    assert sec.headline["oracle_targets"] == 3
+    # the contest target is reachable by one hop: the search must find a plan, and each
+    # found TTRTP was re-simulated through simulate() inside the benchmark
+    assert sec.headline["oracle_found"] == 3
+    assert 5.0 <= sec.headline["oracle_contest_ttrtp"] < 600.0
+    assert math.isfinite(sec.headline["regret_median_scripted"])
