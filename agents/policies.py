@@ -84,7 +84,7 @@ class ControllerPolicy:
             torque = float(torque)
             if not math.isfinite(torque):
                 raise ValueError(f"{self.name}: the controller returned torque {torque!r}")
-            out[i, 0] = torque_to_action(torque, p)
+            out[i, 0] = torque_to_action(torque, p, venv.config)
         return out
 
 
@@ -101,12 +101,21 @@ class RandomPolicy:
         return self.rng.uniform(-1.0, 1.0, (len(obs), 1))
 
 
-def torque_to_action(torque: float, params: RoverParams) -> float:
-    """The inverse of the env's action map (clipped to the torque range)."""
+def torque_to_action(torque: float, params: RoverParams, config=None) -> float:
+    """The inverse of the env's action map (`rl_kernel.action_to_torque`; linear unless
+    the env config says otherwise), clipped to [-1, 1]."""
     lo, hi = params.torque_min, params.torque_max
+    amap = getattr(config, "action_map", "linear")
+    scale = getattr(config, "action_scale", 1.0)
+    t = torque / scale
+    if amap == "cubic":
+        ref = hi if t >= 0.0 else -lo
+        if ref <= 0.0:
+            return 0.0
+        return float(np.clip(np.cbrt(t / ref), -1.0, 1.0))
     if hi == lo:
         return 0.0
-    return float(np.clip(2.0 * (torque - lo) / (hi - lo) - 1.0, -1.0, 1.0))
+    return float(np.clip(2.0 * (t - lo) / (hi - lo) - 1.0, -1.0, 1.0))
 
 
 # ---- loading ------------------------------------------------------------------------

@@ -153,20 +153,16 @@ class HopEnvConfig(EnvConfig):
     gamma: float = 0.98
     hold_kp: float = 0.15
     hold_kd: float = 0.9
-    wait_time: float = 5.0
     launch_max: float = 60.0
-    deadzone: float = 0.05
     launch_min: float = 1.05
 
     def __post_init__(self):
         super().__post_init__()
-        for name in ("hold_kp", "hold_kd", "wait_time", "launch_max"):
+        for name in ("hold_kp", "hold_kd", "launch_max"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and not isinstance(v, bool)
                     and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not (isinstance(self.deadzone, (int, float)) and 0.0 <= self.deadzone < 1.0):
-            raise ValueError(f"deadzone must lie in [0, 1), got {self.deadzone!r}")
         if not (isinstance(self.launch_min, (int, float)) and 1.0 < self.launch_min < 1e3):
             raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
                              f"in (1, 1000), got {self.launch_min!r}")
@@ -175,9 +171,7 @@ class HopEnvConfig(EnvConfig):
         e = super().reward_vector()
         e[rl_kernel.E_HOLD_KP] = self.hold_kp
         e[rl_kernel.E_HOLD_KD] = self.hold_kd
-        e[rl_kernel.E_WAIT] = self.wait_time
         e[rl_kernel.E_LAUNCH_MAX] = self.launch_max
-        e[rl_kernel.E_DEADZONE] = self.deadzone
         e[rl_kernel.E_LAUNCH_MIN] = self.launch_min
         return e
 
@@ -185,7 +179,7 @@ class HopEnvConfig(EnvConfig):
     def max_steps(self) -> int:
         """An upper bound on the hop steps of an episode (each takes at least one control
         period)."""
-        return int(math.ceil(self.episode_time / min(self.control_dt, self.wait_time) - 1e-9))
+        return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
 
 
 def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:

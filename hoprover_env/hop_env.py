@@ -14,17 +14,19 @@ the hop. Each step runs, inside the jitted kernel on the control grid of `contro
 3. **Landing**: zero torque while it bounces (attitude hold again in each bounce), slides
    and stops.
 
-The step returns when the rover is at rest again (state F), when the judge's TTRTP is
-reached, when it breaks, or when the episode's time is up. It is the physics of
+The step returns when the rover is at rest again outside the band, when the judge's TTRTP
+is reached, when it breaks, or when the episode's time is up. A rover that comes to rest
+with a contact point in the band is left at rest until the judge's 5 s are up (so a
+step that starts in the band, e.g. a target within 0.1 m of the start, only waits). It is the physics of
 HopRover-v0, the same kernel and the same judge; only the decision points differ.
 
 ## Action space
 
-`Box(-1, 1, (1,), float32)`. The sign is the direction of the hop (positive torque tips
-the rover about its right corner and sends it towards +x). `|a| <= deadzone` (0.05) is
-**wait**: zero torque for `wait_time` s (5 s, the judge's dwell), the action to take once
-the rover rests in the band. Beyond the dead zone, |a| maps log-uniformly onto launch
-torques from `launch_min` x m g r (1.05 x the tipping torque) to the torque limit.
+`Box(-1, 1, (1,), float32)`. The sign is the direction of the hop (positive torque sends
+the rover towards +x). |a| maps log-uniformly onto launch torques from `launch_min` x
+m g r (1.05 x the tipping torque) at a = 0 to the torque limit at |a| = 1: the hop length
+grows about geometrically with the torque, so this gives equal resolution to short and
+long hops.
 
 ## Observation space
 
@@ -41,8 +43,12 @@ pay; gamma defaults to 0.98 per decision (a hop, not a control period).
 
 ## Starting state, episode end, info
 
-As HopRover-v0: upright at rest at x = 0, the target from `target_range`; termination
-on success or breaking, truncation at `episode_time` (600 s). `info["ttrtp"]` is the
+As HopRover-v0: upright at rest at x = 0, the target from `target_range`. Termination on
+success, on breaking, and when `episode_time` (600 s) runs out: the contest's time limit
+is part of this task and the time is observed, so it is a terminal state (with its
+potential: a rover far from the target is not let off), not a truncation. A learner that
+bootstraps at a truncation would value a rover the clock caught mid-flight, a state no
+hop decision is ever taken in; PPO exploited exactly that with long hops. `info["ttrtp"]` is the
 judge's TTRTP, `info["is_success"]`, `info["broken"]`, `info["state"]`.
 
 ## Arguments
@@ -52,9 +58,7 @@ Those of HopRover-v0 (`control_dt` is the controller's period, default 0.5 s) an
 | Argument | Default | Description |
 |---|---|---|
 | `hold_kp`, `hold_kd` | 0.15, 0.9 | attitude-hold gains [1/s^2, 1/s] (times the inertia) |
-| `wait_time` | 5.0 | duration of a wait action [s] |
 | `launch_max` | 60.0 | longest a launch torque is held without lift-off [s] |
-| `deadzone` | 0.05 | |a| at or below which the action is wait |
 | `launch_min` | 1.05 | weakest launch torque, as a multiple of m g r |
 | `gamma` | 0.98 | discount per hop (shaping) |
 
