@@ -8,9 +8,13 @@ Contest (2015) as an exact, fast simulator and a Gymnasium environment.
 """
 from gymnasium.envs.registration import register, registry
 
-from .params import RoverParams
-from .simulate import Rollout, RoverSim, simulate
-from .batch import BatchRollout, simulate_batch
+from . import _progress
+
+_progress.install()             # one line on stderr while numba compiles the kernel
+
+from .params import RoverParams  # noqa: E402
+from .simulate import Rollout, RoverSim, simulate  # noqa: E402
+from .batch import BatchRollout, simulate_batch  # noqa: E402
 
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",
