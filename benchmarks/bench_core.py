@@ -85,6 +85,7 @@ def schedule_table(scheds, t_end, repeat):
     print(f"{'integrator':<16}{'ms/episode':>12}{'x event':>10}{'events':>8}")
     base, out = None, {}
     for name, kw in RUNS:
+        simulate(scheds[0][:10], t_end=1.0, control_dt=0.1, **kw)     # load the kernel
         walls, events = [], 0
         for sched in scheds:
             wall, roll = best_time(lambda: simulate(sched, t_end=t_end, control_dt=0.1,

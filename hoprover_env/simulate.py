@@ -10,6 +10,11 @@ the contest signature ``control(pos, vel, the, omg, posT, t, smt, state) -> torq
 called at every control instant with the state at that instant (no delay). The torque
 is clipped to [T_min, T_max] and held (zero-order hold). A NaN or infinite torque raises
 ``ValueError``; it never reaches the state.
+
+A torque schedule, or a controller compiled with ``numba.njit`` (state passed as an
+integer code 0..6 for A..G; see hoprover_env/rollout.py), runs the whole run in one
+kernel call; a plain Python callable runs the Python loop below. Both give the same
+`Rollout` bit for bit. For many runs at once see `hoprover_env.simulate_batch`.
 """
 from __future__ import annotations
 
