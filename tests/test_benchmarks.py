@@ -11,7 +11,9 @@ def test_benchmark_suite_quick(tmp_path):
     out = tmp_path / "BENCHMARKS.md"
     assert main(["--quick", "--out", str(out)]) == 0
     text = out.read_text()
-    for title in ("Throughput and scaling", "Training cost"):
+    for title in ("Throughput and scaling", "Training cost",
+                  "Optimal-control reference (best-known hop plans)",
+                  "Whole runs in the kernel: simulate, batches, cold start"):
         assert f"## {title}" in text
     assert text.count("## ") >= 4
     assert list((tmp_path / "figures").glob("*.png"))
