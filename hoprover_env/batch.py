@@ -236,9 +236,15 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     evbuf, w, backup, cbuf = rollout.scratch(threads, cargs.shape[1])
     active = np.ones(n, dtype=bool)
     while True:
-        run_many(S, P, opts, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub,
-                 record, buf.rows, buf.cmds, buf.applied, buf.log, buf.prog, active, evbuf, w,
-                 backup, cbuf)
+        # runs differ in cost (a rover at rest is cheap, a bouncing one is not): hand
+        # them to the threads one at a time instead of in equal static blocks
+        chunk = numba.set_parallel_chunksize(1)
+        try:
+            run_many(S, P, opts, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl,
+                     sub, record, buf.rows, buf.cmds, buf.applied, buf.log, buf.prog, active,
+                     evbuf, w, backup, cbuf)
+        finally:
+            numba.set_parallel_chunksize(chunk)
         status = buf.prog[:, rollout.G_STATUS]
         for i in np.flatnonzero(active & (status != rollout.ST_DONE)
                                 & (status != rollout.ST_ROOM)):
