@@ -17,7 +17,8 @@ from benchmarks.report import machine
 
 SECTIONS = [("accuracy", "benchmarks.bench_accuracy"), ("env", "benchmarks.bench_env"),
             ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training"),
-            ("oracle", "benchmarks.bench_oracle"), ("runs", "benchmarks.bench_runs")]
+            ("oracle", "benchmarks.bench_oracle"), ("learning", "benchmarks.bench_learning"),
+            ("runs", "benchmarks.bench_runs")]
 
 
 def main(argv=None) -> int:
