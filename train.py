@@ -53,6 +53,21 @@ def parse_args(argv=None):
 
 
 # ---- files --------------------------------------------------------------------------
+def git_commit() -> str | None:
+    """The commit of this checkout (with '+dirty' if it has uncommitted changes), or None."""
+    import subprocess
+    root = Path(__file__).resolve().parent
+    try:
+        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
+                             text=True, timeout=10).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return (rev + ("+dirty" if dirty else "")) if rev else None
+
+
+
 def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> None:
     """model.zip, _vecnormalize.pkl, .json (and _replay_buffer.pkl) next to `stem`,
     each written to a temporary name first and renamed, so a crash leaves either the
@@ -95,8 +110,10 @@ class Trainer:
     def __init__(self, cfg: dict, out: Path, resume: bool, device: str, progress: bool):
         self.cfg, self.out, self.device, self.progress = cfg, out, device, progress
         self.ckpt = out / "checkpoints" / "last"
+        # how the model was trained: enough to reproduce it with train.py --config
         self.meta_base = {"algo": cfg["algo"], "env_id": cfg["env_id"],
-                          "env_kwargs": env_kwargs(cfg)}
+                          "env_kwargs": env_kwargs(cfg), "seed": cfg["seed"],
+                          "config": cfg, "git_commit": git_commit()}
         ev = cfg["evaluation"]
         self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
                                            *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))

@@ -30,6 +30,9 @@ from hoprover_env.params import RoverParams
 
 BUNDLED_DIR = Path(__file__).resolve().parent.parent / "hoprover_env" / "policies"
 BUNDLED_NAME = "ppo_hoprover"
+# the bundled models by name: cloned (+ PPO), PPO from scratch, PPO from scratch on the
+# hop-level task; each file's .json says how it was trained
+BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop"}
 ALGOS = ("ppo", "sac", "td3")
 
 
@@ -185,12 +188,13 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
-    """'bundled', 'scripted', 'random', a model path or run dir, or 'module.py:Control'."""
-    if spec == "bundled":
-        path = BUNDLED_DIR / f"{BUNDLED_NAME}.zip"
+    """'bundled', 'scratch', 'hop', 'scripted', 'random', a model path or run dir, or
+    'module.py:Control'."""
+    if spec in BUNDLED:
+        path = BUNDLED_DIR / f"{BUNDLED[spec]}.zip"
         if not path.exists():
-            raise FileNotFoundError(f"the bundled policy is missing: {path}")
-        return load_sb3(path, name="bundled")
+            raise FileNotFoundError(f"the bundled policy {spec!r} is missing: {path}")
+        return load_sb3(path, name=spec)
     if spec == "scripted":
         from agents.scripted import ScriptedHopper
         return ControllerPolicy(lambda: ScriptedHopper(control_dt=control_dt), name="scripted",
@@ -201,5 +205,5 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scripted, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, scripted, random, a model "
                      ".zip or run directory, or module.py:Control")
