@@ -44,6 +44,10 @@ from .params import RoverParams
 from .simulate import DEFAULT_RTOL, make_options, make_state, simulate
 
 
+MAX_STEPS = 10**9                 # control intervals x samples per run
+MAX_RECORD_BYTES = 4 * 10**9      # sample arrays of a recorded batch
+
+
 @dataclasses.dataclass
 class BatchRollout:
     """N runs. Sample arrays have shape (N, M), M the longest run's sample count; a run
@@ -136,11 +140,23 @@ def _run_params(params, randomize, seed, n) -> list:
     return out
 
 
+def _real_array(name, value) -> np.ndarray:
+    """A float64 array of `value`, refusing what is not real numbers (strings, booleans,
+    complex numbers, objects) with an error that names the argument."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):          # ragged nested sequences
+        raise ValueError(f"{name} must be a rectangular array of real numbers") from None
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    return np.ascontiguousarray(raw, dtype=np.float64)
+
+
 def _per_run_rows(name, value, n, width):
     """None, one row of `width`, or (n, width) -> list of n rows (or Nones)."""
     if value is None:
         return [None] * n
-    a = np.asarray(value, dtype=np.float64)
+    a = _real_array(name, value)
     if a.shape == (width,):
         return [a] * n
     if a.ndim != 2 or a.shape[1] != width:
@@ -157,7 +173,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
                    sample_dt: float | None = None, controller_args=None,
                    record: bool = True) -> BatchRollout:
     """N runs in one threaded kernel call; see the module docstring."""
-    targets = np.asarray(targets, dtype=np.float64)
+    targets = _real_array("targets", targets)
     if targets.ndim != 1 or targets.size == 0:
         raise ValueError(f"targets must be a non-empty 1-D array (one per run), got shape "
                          f"{targets.shape}")
@@ -182,11 +198,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
                         "numba-compiled controller; loop over simulate() for a Python "
                         "controller")
     else:
-        try:
-            sched = np.ascontiguousarray(controller, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError("torque schedules must be a numeric array of shape (N, K)") \
-                from None
+        sched = _real_array("torque schedules", controller)
         if sched.ndim != 2:
             raise ValueError(f"torque schedules must have shape (N, K), one row per run, got "
                              f"shape {sched.shape}")
@@ -204,7 +216,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         if not use_ctrl:
             raise ValueError("controller_args are passed to a compiled controller; a torque "
                              "schedule takes none")
-        cargs = np.ascontiguousarray(controller_args, dtype=np.float64)
+        cargs = _real_array("controller_args", controller_args)
         if cargs.ndim != 2 or cargs.shape[0] != n:
             raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
                              f"{cargs.shape}")
@@ -228,6 +240,13 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     # the control grid of simulate()
     n_ctrl = max(1, int(math.ceil(t_end / control_dt - 1e-9)))
     sub = 1 if sample_dt is None else max(1, int(math.ceil(control_dt / sample_dt - 1e-9)))
+    if n_ctrl * sub > MAX_STEPS:
+        raise ValueError(f"t_end / control_dt (x control_dt / sample_dt) gives {n_ctrl * sub:.3g} "
+                         f"kernel calls per run; at most {MAX_STEPS:.0e}")
+    if record and n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 > MAX_RECORD_BYTES:
+        raise ValueError(f"recording {n} runs of {n_ctrl * sub + 1} samples needs "
+                         f"{n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 / 1e9:.1f} GB; pass "
+                         "record=False (summaries only; rollout(i) re-runs run i)")
     run_many = rollout.kernel_many()
     if not use_ctrl:
         ctrl = rollout.no_control

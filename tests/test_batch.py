@@ -160,6 +160,16 @@ def nan_in_run_two(pos, vel, the, omg, posT, t, smt, state_code):
     (lambda: simulate_batch(np.zeros((2, 2)), np.zeros(2), controller_args=np.zeros((2, 1))),
      ValueError, "controller_args"),
     (lambda: simulate_batch(np.zeros((2, 2)), np.zeros(2), t_end=-1.0), ValueError, "t_end"),
+    (lambda: simulate_batch(np.zeros((2, 2)), np.zeros(2), t_end=True), ValueError, "t_end"),
+    (lambda: simulate_batch(np.zeros((2, 2)), ["0.1", "0.2"]), ValueError, "targets must hold"),
+    (lambda: simulate_batch(np.zeros((2, 2), bool), np.zeros(2)), ValueError,
+     "torque schedules must hold"),
+    (lambda: simulate_batch(np.zeros((2, 2), complex), np.zeros(2)), ValueError,
+     "torque schedules must hold"),
+    (lambda: simulate_batch(np.zeros((2, 2)), np.zeros(2), t_end=1e300), ValueError,
+     "at most"),
+    (lambda: simulate_batch(np.zeros((5000, 2)), np.zeros(5000), t_end=600.0,
+                            control_dt=0.001), ValueError, "record=False"),
 ])
 def test_bad_input_names_the_run(call, error, words):
     with pytest.raises(error, match=words):
