@@ -143,9 +143,16 @@ def _run_params(params, randomize, seed, n) -> list:
 def _real_array(name, value) -> np.ndarray:
     """A float64 array of `value`, refusing what is not real numbers (strings, booleans,
     complex numbers, objects) with an error that names the argument."""
+    if isinstance(value, (list, tuple)) and value and all(
+            isinstance(row, (list, tuple, np.ndarray)) for row in value):
+        lengths = [len(row) for row in value]
+        for i, length in enumerate(lengths):
+            if length != lengths[0]:
+                raise ValueError(f"run {i}: {name} row has {length} entries, run 0 has "
+                                 f"{lengths[0]}")
     try:
         raw = np.asarray(value)
-    except (TypeError, ValueError):          # ragged nested sequences
+    except (TypeError, ValueError):          # ragged deeper down
         raise ValueError(f"{name} must be a rectangular array of real numbers") from None
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
