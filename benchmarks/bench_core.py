@@ -123,7 +123,8 @@ def compiled_controller_table(t_end, repeat):
     base = res["numba-compiled, in kernel"][0]
     assert np.array_equal(res["Python twin"][1].x, res["numba-compiled, in kernel"][1].x)
     for name, (wall, roll) in res.items():
-        print(f"{name:<28}{wall * 1e3:>12.3f}{wall / base:>12.1f}{roll.ttrtp or float('nan'):>10.2f}")
+        ttrtp = roll.ttrtp if roll.ttrtp is not None else float("nan")
+        print(f"{name:<28}{wall * 1e3:>12.3f}{wall / base:>12.1f}{ttrtp:>10.2f}")
     return {k: v[0] for k, v in res.items()}
 
 
