@@ -14,9 +14,14 @@ located exactly, so TTRTP is exact.
 
 ## Action space
 
-`Box(-1, 1, (1,), float32)`, mapped linearly onto [T_min, T_max] = [-5e-4, 5e-4] N m and
-held for one control period (`control_dt`, default 0.5 s). Out-of-range actions are
-clipped; a NaN or infinite action raises `ValueError`.
+`Box(-1, 1, (1,), float32)`, held for one control period (`control_dt`, default 0.5 s).
+`action_map="linear"` (the default, the contest's task) maps [-1, 1] linearly onto
+[T_min, T_max] = [-5e-4, 5e-4] N m. The rover tips at m g r = 4.9e-6 N m, 1 % of the
+range, so resting needs |a| < 0.01 and an exploration noise of std 1 (SB3's default)
+means random full-scale torques. `action_map="cubic"` (T = a^3 T_max) puts zero torque
+at a = 0 and the tipping torque at |a| ~ 0.2; `action_scale` (default 1) shrinks the
+range either way. Out-of-range actions are clipped; a NaN or infinite action raises
+`ValueError`.
 
 ## Observation space
 
@@ -43,15 +48,27 @@ velocity, attitude, rate, target, time, state); 15-18 are closed forms of them.
 
 ## Rewards
 
-Per step: `gamma * Phi(s') - Phi(s) - time_cost * control_dt`, plus `success_bonus`
-when the judge's TTRTP is reached and minus `break_penalty` when a top corner hits the
-ground. `Phi(s) = -dist_weight * |x_ref - x_T| / 1 m - attitude_weight * a(s)` is a
-potential (so the shaping leaves the optimal policy unchanged, Ng et al. 1999), with
-x_ref the contact point, or in flight the bottom corner nearest the target
-(`shaping="contact"`) or the ballistic landing point (`shaping="landing"`), and
-a(s) = (1 - cos theta) + (omega / 0.3 rad/s)^2 / 2 in flight (0 in contact): it rewards
-keeping the rover upright and still in the air, long before a bad landing would be
-penalised. Phi = 0 at termination. Defaults: dist_weight 1, attitude_weight 0,
+Per step: `gamma * Phi(s') - Phi(s) - time_cost * (seconds simulated)`, plus
+`success_bonus` when the judge's TTRTP is reached and minus `break_penalty` when a top
+corner hits the ground. The potential
+
+    Phi(s) = -dist_weight * min(|x_ref - x_T|, dist_cap) / 1 m
+             - attitude_weight * a(s) - band_weight * (1 - d(s))
+
+shapes the reward without changing the optimal policy (Ng et al. 1999). x_ref is the
+contact point, or in flight the bottom corner nearest the target (`shaping="contact"`)
+or the ballistic landing point (`shaping="landing"`, so a hop is credited at launch).
+a(s) = (1 - cos theta) + 10 tanh(u / 10), u = (omega / 0.3 rad/s)^2 / 2, in flight only
+(0 in contact): an upright, still flight pays at once, long before a bad landing would
+be penalised. d(s) is the judge's clock (time in the band / 5 s, 0 out of it), so
+settling in the band pays before the bonus and hovering next to it does not.
+
+Every term is bounded, so Phi >= phi_min = -(dist_weight dist_cap + 12 attitude_weight +
+band_weight). At termination Phi is 0 on success and phi_min / gamma when the rover
+breaks: a breaking step's shaping term, phi_min - Phi(s), is never positive, so breaking
+cannot release a potential and is always the worst step (spinning up and crashing once
+paid up to +142 under the unbounded attitude term). The time cost makes a faster TTRTP
+pay. Defaults: dist_weight 1, dist_cap 5 m, attitude_weight 0, band_weight 0.5,
 time_cost 1/600 per second (-1 over a full episode), success_bonus 10, break_penalty 10,
 gamma 0.99 (set it to your algorithm's discount).
 
@@ -90,6 +107,9 @@ state and the contact forces.
 | `dist_weight`, `time_cost`, `success_bonus`, `break_penalty`, `gamma` | 1, 1/600, 10, 10, 0.99 | reward |
 | `shaping` | "contact" | potential in flight: "contact" or "landing" |
 | `attitude_weight` | 0.0 | weight of the flight-attitude potential |
+| `band_weight` | 0.5 | weight of the judge's-clock potential |
+| `dist_cap` | 5.0 | distances beyond this [m] count as this |
+| `action_map`, `action_scale` | "linear", 1.0 | action -> torque map and its range fraction |
 | `info_level` | "basic" | "full" adds state and forces to info |
 | `render_mode` | None | "rgb_array" or "human" |
 
@@ -97,7 +117,8 @@ state and the contact forces.
 
 `gym.make_vec("HopRover-v0", num_envs=N)` returns `HopRoverVectorEnv`, which steps all
 sub-envs in one jitted call; `hoprover_env.sb3.HopRoverSB3VecEnv` is the same for
-Stable-Baselines3.
+Stable-Baselines3. The hop-level task, one action per hop: `HopRoverHop-v0`
+(hop_env.py).
 """
 from __future__ import annotations
 
