@@ -29,8 +29,12 @@ E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAP
 N_ECONFIG = 17
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 ACTION_LINEAR, ACTION_CUBIC = 0, 1
-SPIN_CAP = 10.0        # the spin term of a(s) saturates here (u = 10: |omega| ~ 1.3 rad/s)
-ATT_MAX = 2.0 + SPIN_CAP   # bound of a(s): (1 - cos theta) <= 2, the spin term < SPIN_CAP
+# The spin term of a(s) is ln(1 + u), u = (omega / 0.3)^2 / 2, with u capped at U_MAX
+# (|omega| = 134 rad/s, more than full torque builds up in 600 s). The logarithm keeps a
+# pull back towards omega = 0 at any spin (a term that saturated at |omega| ~ 1.3 rad/s
+# let PPO spin the rover at 30 rad/s for whole episodes), the cap keeps it bounded.
+U_MAX = 1e5
+ATT_MAX = 2.0 + math.log1p(U_MAX)   # bound of a(s): (1 - cos theta) <= 2, ln(1 + U_MAX)
 
 # Observation layout and scales (documented in env.py's table).
 OBS_DIM = 19
@@ -90,10 +94,10 @@ def potential(S, P, E):
 
     x_ref is the contact point (or nearest bottom corner in flight), or with
     E_SHAPING = landing the ballistic landing point in flight (constant along a flight,
-    so a hop is credited at its launch). a(s) = (1 - cos theta) + C tanh(u / C) with
-    u = (omega / 0.3)^2 / 2 and C = SPIN_CAP, in flight only: up to spins of about 1 rad/s
-    it is the quadratic attitude cost (it keeps pulling a spinning rover back), and it is
-    bounded (< ATT_MAX), so no spin can make Phi arbitrarily low and then release it at
+    so a hop is credited at its launch). a(s) = (1 - cos theta) + ln(1 + min(u, U_MAX))
+    with u = (omega / 0.3)^2 / 2, in flight only: near upright and still it is the
+    quadratic attitude cost, at any spin it still pulls back, and it is bounded
+    (<= ATT_MAX), so no spin can make Phi arbitrarily low and then release it at
     termination. d(s) is the judge's dwell fraction (time in
     the band / 5 s, 0 out of it): settling in the band pays before the success bonus,
     hovering next to it does not. Every term is bounded, so Phi >= phi_min(E).
@@ -107,7 +111,7 @@ def potential(S, P, E):
     if flying:
         w = S[S_W] / RATE_SCALE
         u = 0.5 * w * w
-        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + SPIN_CAP * math.tanh(u / SPIN_CAP))
+        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + math.log1p(min(u, U_MAX)))
     if E[E_W_BAND] != 0.0:
         phi -= E[E_W_BAND] * (1.0 - dwell_fraction(S, P))
     return phi
