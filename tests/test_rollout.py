@@ -108,8 +108,10 @@ def hold_then_launch(pos, vel, the, omg, posT, t, smt, state_code):
     return 0.0
 
 
-def test_compiled_controller_equals_its_python_twin():
-    kw = dict(t_end=300.0, control_dt=0.1, target_x=-0.4)
+@pytest.mark.parametrize("kw", [dict(t_end=300.0, control_dt=0.1, target_x=-0.4),
+                                dict(t_end=120.0, control_dt=0.5, sample_dt=0.2, target_x=0.3,
+                                     integrator="euler", euler_dt=2e-3)])
+def test_compiled_controller_equals_its_python_twin(kw):
     fast = simulate(hold_then_launch, **kw)
 
     def twin(pos, vel, the, omg, posT, t, smt, state):
