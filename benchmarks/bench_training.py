@@ -65,6 +65,65 @@ def ppo_run(kind: str, n_envs: int, steps: int) -> tuple[float, float]:
     return time.perf_counter() - t0, env_time() - e0
 
 
+# PPO settings tried for training speed (issue: as fast as SB3 allows on 2 cores).
+# (label, torch threads, numba threads, n_envs, n_steps, batch, epochs, net)
+SPEED_GRID = [
+    ("SB3 defaults (64x64, 2048/64, 10 epochs)", 1, 2, 8, 256, 64, 10, [64, 64]),
+    ("old configs/ppo.yaml (32 envs, batch 2048)", 1, 2, 32, 256, 2048, 5, [128, 128]),
+    ("128 envs, batch 4096, 5 epochs", 1, 2, 128, 256, 4096, 5, [128, 128]),
+    ("128 envs, batch 4096, 5 epochs, torch 2 threads", 2, 2, 128, 256, 4096, 5, [128, 128]),
+    ("128 envs, batch 4096, 5 epochs, numba 1 thread", 1, 1, 128, 256, 4096, 5, [128, 128]),
+    ("256 envs, batch 8192, 5 epochs", 1, 2, 256, 128, 8192, 5, [128, 128]),
+    ("128 envs, batch 8192, 3 epochs", 1, 2, 128, 256, 8192, 3, [128, 128]),
+]
+
+
+def ppo_speed(torch_threads, numba_threads, n_envs, n_steps, batch, epochs, net, rollouts,
+              env_kwargs=None) -> tuple[float, float]:
+    """(steps/s, env share) of PPO on the native env with these settings, after one
+    warm-up rollout; the thread counts are restored afterwards."""
+    import numba
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    old = torch.get_num_threads(), numba.get_num_threads()
+    torch.set_num_threads(torch_threads)
+    numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
+    try:
+        base = HopRoverSB3VecEnv(n_envs, seed=0, threads=numba_threads > 1,
+                                 **(env_kwargs or {"control_dt": 2.0}))
+        venv = VecNormalize(VecMonitor(base))
+        model = PPO("MlpPolicy", venv, n_steps=n_steps, batch_size=batch, n_epochs=epochs,
+                    policy_kwargs={"net_arch": net}, seed=0, verbose=0, device="cpu")
+        model.learn(n_envs * n_steps)
+        steps = n_envs * n_steps * rollouts
+        e0, t0 = base.step_seconds, time.perf_counter()
+        model.learn(steps, reset_num_timesteps=False)
+        wall = time.perf_counter() - t0
+        return steps / wall, (base.step_seconds - e0) / wall
+    finally:
+        torch.set_num_threads(old[0])
+        numba.set_num_threads(old[1])
+
+
+def speed_table(quick: bool) -> tuple[str, dict]:
+    rows = []
+    grid = SPEED_GRID[:2] if quick else SPEED_GRID
+    for label, tt, nt, n_envs, n_steps, batch, epochs, net in grid:
+        rollouts = 1 if quick else max(2, 200_000 // (n_envs * n_steps))
+        sps, share = ppo_speed(tt, nt, n_envs, n_steps if not quick else 32,
+                               min(batch, n_envs * (n_steps if not quick else 32)), epochs,
+                               net, rollouts)
+        rows.append([label, sps, share])
+    base = rows[0][1]
+    for r in rows:
+        r.append(r[1] / base)
+    md = table(["settings", "steps/s", "env share", "vs SB3 defaults"], rows,
+               {"steps/s": ",.0f", "env share": ".0%", "vs SB3 defaults": ".2f"})
+    return md, {"speed_rows": rows}
+
+
 def bundled_training_record() -> list:
     """Phases of the bundled policy's training, from the metadata train.py wrote."""
     rows = []
@@ -100,6 +159,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
                 {"wall s": ".1f", "steps/s": ",.0f", "env share of wall": ".1%"}),
           f"Native / DummyVecEnv training throughput: {res['native'] / res['dummy']:.2f}x. "
           "With the native env, PPO's own updates dominate the wall time."]
+    speed_md, speed = speed_table(quick)
+    md += ["PPO settings on the native env (HopRover-v0, control_dt 2, MlpPolicy, one run "
+           "each, same process, ~200 k steps after a warm-up rollout). The configs use the "
+           "fastest row that keeps a batch of at least 4096:", speed_md]
     rec = bundled_training_record()
     if rec:
         md += ["Recorded training of the bundled policy (`python train.py --config "
