@@ -58,12 +58,14 @@ corner hits the ground. The potential
 shapes the reward without changing the optimal policy (Ng et al. 1999). x_ref is the
 contact point, or in flight the bottom corner nearest the target (`shaping="contact"`)
 or the ballistic landing point (`shaping="landing"`, so a hop is credited at launch).
-a(s) = (1 - cos theta) + ln(1 + min(u, 1e5)), u = (omega / 0.3 rad/s)^2 / 2, in flight
-only (0 in contact): an upright, still flight pays at once, long before a bad landing
-would be penalised; the logarithm still pulls back a fast spin, the cap bounds it. d(s) is the judge's clock (time in the band / 5 s, 0 out of it), so
+a(s) = (1 - cos theta) + 50 ln(1 + min(u, 5000) / 50), u = (omega / 0.3 rad/s)^2 / 2,
+in flight only (0 in contact): an upright, still flight pays at once, long before a bad
+landing would be penalised. It is the quadratic cost u up to about 2 rad/s, grows
+logarithmically beyond (PPO settled for spinning flights under terms that weakened
+earlier) and is constant past 30 rad/s. d(s) is the judge's clock (time in the band / 5 s, 0 out of it), so
 settling in the band pays before the bonus and hovering next to it does not.
 
-Every term is bounded, so Phi >= phi_min = -(dist_weight dist_cap + 13.5 attitude_weight
+Every term is bounded, so Phi >= phi_min = -(dist_weight dist_cap + 232.8 attitude_weight
 + band_weight). At termination Phi is 0 on success and phi_min / gamma when the rover
 breaks: a breaking step's shaping term, phi_min - Phi(s), is never positive, so breaking
 cannot release a potential and is always the worst step (spinning up and crashing once

@@ -29,12 +29,14 @@ E_CONTROL_DT, E_T_TOTAL, E_W_DIST, E_W_TIME, E_SUCCESS, E_BREAK, E_GAMMA, E_SHAP
 N_ECONFIG = 17
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 ACTION_LINEAR, ACTION_CUBIC = 0, 1
-# The spin term of a(s) is ln(1 + u), u = (omega / 0.3)^2 / 2, with u capped at U_MAX
-# (|omega| = 134 rad/s, more than full torque builds up in 600 s). The logarithm keeps a
-# pull back towards omega = 0 at any spin (a term that saturated at |omega| ~ 1.3 rad/s
-# let PPO spin the rover at 30 rad/s for whole episodes), the cap keeps it bounded.
-U_MAX = 1e5
-ATT_MAX = 2.0 + math.log1p(U_MAX)   # bound of a(s): (1 - cos theta) <= 2, ln(1 + U_MAX)
+# The spin term of a(s) is U_Q ln(1 + min(u, U_MAX) / U_Q), u = (omega / 0.3)^2 / 2: the
+# quadratic cost u up to spins of about 2 rad/s (u = U_Q is 3 rad/s), logarithmic beyond,
+# constant past U_MAX (30 rad/s). A pull that weakens early lets PPO settle for spinning
+# flights: with ln(1 + u) (twenty times weaker at 3 rad/s) it spun the rover at 1-4 rad/s
+# for whole episodes; with a term saturating at 1.3 rad/s, at 30 rad/s.
+U_Q = 50.0
+U_MAX = 5000.0
+ATT_MAX = 2.0 + U_Q * math.log1p(U_MAX / U_Q)   # bound of a(s): (1 - cos theta) <= 2
 
 # Observation layout and scales (documented in env.py's table).
 OBS_DIM = 19
@@ -94,11 +96,10 @@ def potential(S, P, E):
 
     x_ref is the contact point (or nearest bottom corner in flight), or with
     E_SHAPING = landing the ballistic landing point in flight (constant along a flight,
-    so a hop is credited at its launch). a(s) = (1 - cos theta) + ln(1 + min(u, U_MAX))
-    with u = (omega / 0.3)^2 / 2, in flight only: near upright and still it is the
-    quadratic attitude cost, at any spin it still pulls back, and it is bounded
-    (<= ATT_MAX), so no spin can make Phi arbitrarily low and then release it at
-    termination. d(s) is the judge's dwell fraction (time in
+    so a hop is credited at its launch). a(s) = (1 - cos theta) + U_Q ln(1 + min(u, U_MAX)
+    / U_Q) with u = (omega / 0.3)^2 / 2, in flight only: the quadratic attitude cost up
+    to spins of about 2 rad/s, a pull back at any faster spin, and bounded (<= ATT_MAX),
+    so no spin can make Phi arbitrarily low and then release it at termination. d(s) is the judge's dwell fraction (time in
     the band / 5 s, 0 out of it): settling in the band pays before the success bonus,
     hovering next to it does not. Every term is bounded, so Phi >= phi_min(E).
     """
@@ -111,7 +112,7 @@ def potential(S, P, E):
     if flying:
         w = S[S_W] / RATE_SCALE
         u = 0.5 * w * w
-        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + math.log1p(min(u, U_MAX)))
+        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + U_Q * math.log1p(min(u, U_MAX) / U_Q))
     if E[E_W_BAND] != 0.0:
         phi -= E[E_W_BAND] * (1.0 - dwell_fraction(S, P))
     return phi
