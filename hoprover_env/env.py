@@ -66,10 +66,11 @@ earlier) and is constant past 30 rad/s. d(s) is the judge's clock (time in the b
 settling in the band pays before the bonus and hovering next to it does not.
 
 Every term is bounded, so Phi >= phi_min = -(dist_weight dist_cap + 232.8 attitude_weight
-+ band_weight). At termination Phi is 0 on success and phi_min / gamma when the rover
-breaks: a breaking step's shaping term, phi_min - Phi(s), is never positive, so breaking
-cannot release a potential and is always the worst step (spinning up and crashing once
-paid up to +142 under the unbounded attitude term). The time cost makes a faster TTRTP
++ band_weight). At termination Phi is 0 on success; when the rover breaks it is set so
+that the breaking step's shaping term is exactly 0: breaking cannot release a potential
+(with Phi = 0 there, spinning up and crashing once paid up to +142), its reward is
+-break_penalty minus the time cost, and a breaking episode keeps every potential it lost
+on the way. The time cost makes a faster TTRTP
 pay. Defaults: dist_weight 1, dist_cap 5 m, attitude_weight 0, band_weight 0.5,
 time_cost 1/600 per second (-1 over a full episode), success_bonus 10, break_penalty 10,
 gamma 0.99 (set it to your algorithm's discount).

@@ -176,17 +176,19 @@ def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
     """Reward, termination and observation after the rover moved for `elapsed` seconds
     from a state of potential phi0. Returns (reward, terminated, truncated, success).
 
-    Termination values of Phi: 0 on success (the top of Phi), phi_min / gamma when the
-    rover breaks, so that the shaping term of a breaking step, phi_min - phi0, is never
-    positive: breaking cannot release a potential, and with the penalty it is the worst
-    step there is.
+    Termination values of Phi: 0 on success (the top of Phi), phi0 / gamma when the rover
+    breaks, so that the shaping term of a breaking step is exactly 0: breaking cannot
+    release a potential (setting Phi = 0 there paid up to +142 for spinning into the
+    ground), its reward is -break_penalty - time cost < 0, and an episode that breaks
+    keeps every potential it lost on the way down. (Phi = phi_min there instead made a
+    landing so costly that PPO from scratch learned to launch and never come down.)
     """
     success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
     broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
     if broken:
-        phi1 = phi_min(E) / E[E_GAMMA]
+        phi1 = phi0 / E[E_GAMMA]
     elif success:
         phi1 = 0.0
     else:
