@@ -113,7 +113,8 @@ class Trainer:
         # how the model was trained: enough to reproduce it with train.py --config
         self.meta_base = {"algo": cfg["algo"], "env_id": cfg["env_id"],
                           "env_kwargs": env_kwargs(cfg), "seed": cfg["seed"],
-                          "config": cfg, "git_commit": git_commit()}
+                          "config": {k: v for k, v in cfg.items() if v is not None},
+                          "git_commit": git_commit()}
         ev = cfg["evaluation"]
         self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
                                            *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))
