@@ -208,3 +208,30 @@ def test_controller_policy_uses_the_envs_action_map():
     a = pol.act(obs, venv)
     t = rl_kernel.action_to_torque(a[0, 0], RoverParams().as_array(), venv.config.reward_vector())
     assert t == pytest.approx(1e-5, rel=1e-9)
+
+
+# ---- the bundled from-scratch policies -------------------------------------------------
+@pytest.mark.parametrize("name", ["hop", "scratch"])
+def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
+    import json
+    from agents.policies import BUNDLED, BUNDLED_DIR
+    path = BUNDLED_DIR / f"{BUNDLED[name]}.json"
+    if name == "scratch" and not path.exists():
+        pytest.skip("no bundled torque-level policy from scratch")
+    text = path.read_text()
+    for word in ("clon", "dagger", "expert", "pretrain", "scripted"):
+        assert word not in text.lower(), word
+    meta = json.loads(text)
+    for key in ("config", "seed", "git_commit", "timesteps", "wall_s", "evaluation"):
+        assert meta[key] is not None, key
+    assert meta["config"]["seed"] == meta["seed"]
+    assert "pretrain" not in meta["config"]
+
+
+def test_bundled_hop_policy_runs_in_the_hop_task():
+    from agents.evaluation import run_episodes, summarize
+    from agents.policies import load_policy
+    pol = load_policy("hop")
+    assert pol.env_id == "HopRoverHop-v0" and pol.name == "hop"
+    res = summarize(run_episodes(pol, np.linspace(-0.9, 0.9, 7)))
+    assert res["success_rate"] >= 6 / 7 and res["broken"] == 0
