@@ -1,6 +1,6 @@
 """Evaluate policies with the contest judge on a fixed, seeded set of random targets.
 
-    python evaluate.py                                   # bundled PPO vs scripted, 200 targets
+    python evaluate.py                                   # the four bundled policies, 200 targets
     python evaluate.py --policy scripted --policy runs/ppo1 --episodes 50
     python evaluate.py --targets 0.5,-0.8 --plot figs --video hop.gif
     python evaluate.py --controller my_entry.py:Control  # a 2015 contest entry, unchanged
@@ -31,8 +31,9 @@ def parse_args(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog=__doc__.split("\n", 2)[2])
     ap.add_argument("--policy", action="append", default=None,
-                    help="bundled, scripted, random, or a model .zip / run directory "
-                         "(repeat to compare; default: bundled and scripted)")
+                    help="scratch, hop, bundled, scripted, random, or a model .zip / run "
+                         "directory (repeat to compare; default: scratch, hop, bundled "
+                         "and scripted)")
     ap.add_argument("--controller", action="append", default=[],
                     help="a contest controller module.py:Function (repeatable)")
     ap.add_argument("--episodes", type=int, default=200, help="number of targets (default 200)")
@@ -80,7 +81,7 @@ def main(argv=None) -> int:
     else:
         targets = seeded_targets(args.episodes, args.seed, *args.target_range)
     specs = args.policy if args.policy is not None else (
-        [] if args.controller else ["bundled", "scripted"])
+        [] if args.controller else ["scratch", "hop", "bundled", "scripted"])
     try:
         policies = [load_policy(s, control_dt=args.control_dt, seed=args.seed) for s in specs]
         policies += [load_controller(c, args.control_dt) for c in args.controller]
