@@ -106,7 +106,15 @@ def _band(runs: list[dict], col: int, ycol: int, grid: np.ndarray):
             return np.nanmean(ys, 0), np.nanmin(ys, 0), np.nanmax(ys, 0)
 
 
-def figure(results: dict, path: str) -> None:
+def scripted_median(episodes: int = 100) -> float:
+    """The scripted hopper's median TTRTP on train.py's validation targets (seed 7)."""
+    from agents.evaluation import run_episodes, seeded_targets, summarize
+    from agents.policies import load_policy
+    return summarize(run_episodes(load_policy("scripted"), seeded_targets(episodes, 7)))[
+        "median_ttrtp"]
+
+
+def figure(results: dict, path: str, reference: float | None = None) -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -122,8 +130,12 @@ def figure(results: dict, path: str) -> None:
                 ax.fill_between(grid, lo, hi, color=color, alpha=0.2)
                 ax.set_xlabel(xlabel)
                 ax.set_ylabel(ylabel)
+    for ax in axes[1]:
+        if reference is not None:
+            ax.axhline(reference, color="k", ls="--", lw=1, label="scripted hopper")
     for ax in axes.ravel():
         ax.grid(alpha=0.3)
+    axes[1, 0].legend(fontsize=8)
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("PPO learning curves on hoprover: mean over seeds, band = min..max "
                  "(100 validation targets)")
@@ -156,12 +168,14 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures", runs_dir: str 
                      float(np.mean([r["env_share"] for r in rs]))])
     os.makedirs(fig_dir, exist_ok=True)
     fig = os.path.join(fig_dir, "learning_curves.png")
-    figure(results, fig)
+    ref = scripted_median(4 if quick else 100)
+    figure(results, fig, ref)
     md = [f"Runs in `{runs}` (one `train.py` run per task and seed; seeds "
           f"{', '.join(map(str, seeds))}). Per seed, separated by /: the success rate and "
           "median TTRTP of the last evaluation, the best success rate, the wall seconds "
           "until the first evaluation at >= 95 % ('-': never), and the run's wall seconds "
-          "(cloning included). steps/s and the environment's share are over the RL phase.",
+          "(cloning included). steps/s and the environment's share are over the RL phase. "
+          f"The scripted hopper's median TTRTP on the same targets: {ref:.1f} s.",
           table(["task", "what", "seeds", "final success", "best success", "final median TTRTP s",
                  "wall s to 95 %", "wall s", "RL steps/s", "env share"], rows,
                 {"RL steps/s": ",.0f", "env share": ".0%"})]
