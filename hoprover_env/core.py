@@ -119,6 +119,12 @@ H_IMPACT = 1e-9
 MAX_CA_ITER = 20000
 RK_SAFETY = 0.9
 RK_MIN_FACTOR = 0.2
+# Error codes in S[S_ERROR] (0 = fine): the event budget of one advance exhausted, a
+# non-finite torque, the integrator unable to go on (step-size underflow, a non-finite
+# state, or the step / phase bounds below), each ending the loop it happened in.
+ERR_BUDGET, ERR_TORQUE, ERR_STEP = 1.0, 2.0, 3.0
+MAX_RK_STEPS = 10_000_000       # DOP853 steps in one contact phase
+MAX_PHASES = 100_000            # phases in one advance (each normally logs an event)
 RK_MAX_FACTOR = 10.0
 TWO_PI = 2.0 * math.pi
 
@@ -987,6 +993,12 @@ def _rhs(P, k, sliding, sigma, T, u, out):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
+def _finite4(u):
+    return (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2])
+            and math.isfinite(u[3]))
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol):
     """One DOP853 step of length h from u (f0 = f(u)); returns the scaled error norm."""
     for j in range(4):
@@ -1199,10 +1211,11 @@ def contact_phase(S, P, O, t_stop, W):
         armed[2] = 1.0
         level[2] = min(gv[2], 0.0)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
-    if not (h_prop > 0.0):
+    if not (h_prop > 0.0 and h_prop < math.inf):
         h_prop = 1e-3
     t = S[S_T]
     kind = PH_NONE
+    n_steps = 0
     while t < t_stop:
         h = h_prop
         last = False
@@ -1210,10 +1223,20 @@ def contact_phase(S, P, O, t_stop, W):
             h = t_stop - t
             last = True
         err = _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
-        if err > 1.0:
-            h_prop = h * max(RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0))
+        n_steps += 1
+        if n_steps > MAX_RK_STEPS:
+            S[S_ERROR] = ERR_STEP           # a bound on every loop: never a hang
+            break
+        # written so that a NaN error (an overflowing trial step) is a rejection: with
+        # `err > 1.0` it was accepted, and time crept towards a limit short of t_stop
+        if not (err <= 1.0) or not _finite4(unew):
+            if err > 1.0 and err < math.inf:
+                h_prop = h * max(RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0))
+            else:
+                h_prop = h * RK_MIN_FACTOR
             if h_prop < 1e-14 * (1.0 + abs(t)):
-                break                       # cannot happen for a smooth, bounded field
+                S[S_ERROR] = ERR_STEP       # step-size underflow: the field is too stiff
+                break
             continue
         for j in range(4):
             f1[j] = kst[12, j]          # kst is scratch for the searches below
@@ -1407,9 +1430,16 @@ def _after_phase(S, P, O, ev, n, kind, W):
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _advance_event(S, P, O, t_stop, ev, n, W):
     n_start = n
+    phases = 0
     while S[S_T] < t_stop and S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
         if n - n_start > MAX_EVENTS:
-            S[S_ERROR] = 1.0
+            S[S_ERROR] = ERR_BUDGET
+            break
+        if S[S_ERROR] != 0.0:
+            break
+        phases += 1
+        if phases > MAX_PHASES:         # phases that log no event would otherwise spin
+            S[S_ERROR] = ERR_STEP
             break
         mode = int(S[S_MODE])
         if mode == MODE_F:

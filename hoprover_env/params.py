@@ -18,6 +18,7 @@ import numpy as np
 P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN, P_VYMIN, P_TMIN, P_TMAX, \
     P_BAND, P_DWELL = range(15)
 N_PARAMS = 15
+PAINLEVE_MARGIN = 1e-6      # smallest slide denominator accepted, relative to I + m l^2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,10 +71,15 @@ class RoverParams:
             raise ValueError(f"RoverParams.torque_min ({self.torque_min}) exceeds "
                              f"torque_max ({self.torque_max})")
         d_min = self.min_slide_denominator()
-        if d_min <= 1e-12 * (self.inertia + self.mass * self.corner_distance ** 2):
+        # PAINLEVE_MARGIN: slide accelerations scale as J / D; within 1e-6 of the limit
+        # they are a million times their normal size and the slide is, in practice, a
+        # jump the rigid model does not describe. (At 1e-12 the check let through sets
+        # on which a slide's first integration step overflowed.)
+        if d_min <= PAINLEVE_MARGIN * (self.inertia + self.mass * self.corner_distance ** 2):
             raise ValueError(
                 "RoverParams: Painleve regime, the sliding-state denominator "
-                f"I + m dx (dx + sigma mu_d dy) reaches {d_min:.3g} <= 0 for some attitude "
+                f"I + m dx (dx + sigma mu_d dy) reaches {d_min:.3g}, within "
+                f"{PAINLEVE_MARGIN:g} (I + m l^2) of 0, for some attitude "
                 f"(mu_dynamic={self.mu_dynamic}, inertia={self.inertia}, mass={self.mass}, "
                 f"half_width={self.half_width}, half_height={self.half_height}); the rigid "
                 "model has no unique solution there")

@@ -127,7 +127,7 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
                 backup[c] = S[c]
             S[core.S_STOP_ON] = -1.0
             n = core.advance(S, P, O, cmd, t_stop, evbuf, W)
-            if S[core.S_ERROR] == 1.0:
+            if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP:
                 prog[G_STATUS] = ST_BUDGET
                 return
             m = n if n < evbuf.shape[0] else evbuf.shape[0]
@@ -249,7 +249,13 @@ def control_function(controller):
     return controller
 
 
-def budget_error(t: float) -> RuntimeError:
+def budget_error(t: float, code: float = core.ERR_BUDGET) -> RuntimeError:
+    """The exception for a kernel that stopped on one of its bounds (S[S_ERROR])."""
+    if code == core.ERR_STEP:
+        return RuntimeError(
+            f"the integrator could not continue at t = {t:.9g} s (step-size underflow, a "
+            "non-finite state or an iteration bound): the motion is too stiff to integrate, "
+            "e.g. parameters close to the Painleve limit of a slide; please report this state")
     return RuntimeError(f"event budget of one control interval exhausted at t = {t:.9g} s "
                         f"(more than {core.MAX_EVENTS} events); please report this state")
 
@@ -286,7 +292,7 @@ def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
     """Turn a run's error status into the exception `simulate` raises."""
     status = prog[G_STATUS]
     if status == ST_BUDGET:
-        err = budget_error(float(S[core.S_T]))
+        err = budget_error(float(S[core.S_T]), float(S[core.S_ERROR]))
         raise type(err)(where + str(err))
     if status == ST_BAD_TORQUE:
         from .simulate import check_torque

@@ -179,10 +179,9 @@ class RoverSim:
         torque = check_torque(torque)
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
         n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev, self._w)
-        if self.s[core.S_ERROR] == 1.0:
-            raise RuntimeError(f"event budget of one control interval exhausted at "
-                               f"t = {self.t:.9g} s (more than {core.MAX_EVENTS} events); "
-                               "please report this state")
+        if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP):
+            from .rollout import budget_error
+            raise budget_error(self.t, float(self.s[core.S_ERROR]))
         ev = self._ev
         return [(float(ev[i, 0]), core.EVENT_NAMES[int(ev[i, 1])],
                  core.MODE_LETTERS[int(ev[i, 2])], core.MODE_LETTERS[int(ev[i, 3])],

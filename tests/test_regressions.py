@@ -66,3 +66,67 @@ def test_euler_breaking_step_leaves_no_bottom_corner_under_the_ground():
     roll = simulate(np.array([7.426682180536331e-05]), t_end=0.1, control_dt=0.1, params=p,
                     integrator="euler", initial_state=init)
     assert roll.broken and roll.min_corner_height >= -1e-9
+
+
+# ---- issue 9: a hang near the Painleve limit --------------------------------------------
+HANG_SCRIPT = r"""
+import math, sys, numpy as np
+from hoprover_env import core
+from hoprover_env.params import RoverParams, PAINLEVE_MARGIN
+base = RoverParams(mu_static=1.0, mu_dynamic=1.0)
+j_of = lambda inertia: inertia + base.mass * base.corner_distance ** 2
+def d_rel(inertia):     # the slide denominator relative to I + m l^2, for this inertia
+    return (base.min_slide_denominator() - base.inertia + inertia) / j_of(inertia)
+# the inertia where the old check (margin 1e-12) stopped: D_min = 1e-12 J
+lo, hi = 0.0, base.inertia
+for _ in range(200):
+    mid = 0.5 * (lo + hi)
+    lo, hi = (mid, hi) if d_rel(mid) <= float(sys.argv[1]) else (lo, mid)
+P = base.as_array()
+P[1] = hi                                  # bypass RoverParams: the kernel on its own
+th = 0.3927
+r, h = base.half_width, base.half_height
+dy = -r * math.sin(th) - h * math.cos(th)
+S = np.zeros(core.N_STATE)
+S[core.S_Y], S[core.S_TH], S[core.S_VX] = -dy, th, 1e-3
+S[core.S_MODE], S[core.S_SIGMA] = core.MODE_C, 1.0
+S[core.S_XT], S[core.S_TTRTP], S[core.S_STOP_ON], S[core.S_PHI] = 5.0, math.nan, -1.0, math.nan
+S[core.S_HSTEP] = float(sys.argv[2])
+from hoprover_env.simulate import make_options
+core.advance(S, P, make_options("event", "contest", 1e-11, 1e-3), 0.0, 1.0,
+             np.zeros((64, core.EV_COLS)), np.zeros(core.N_WORK))
+print("returned", S[core.S_T], S[core.S_ERROR])
+"""
+
+
+@pytest.mark.parametrize("h_carried", [0.0, 10.0])
+def test_slide_at_the_old_painleve_margin_returns_instead_of_hanging(h_carried):
+    """Issue 9.1: mu = 1, inertia at the old 1e-12 margin, a slide at the attitude of the
+    smallest denominator. The first DOP853 step overflowed, its NaN error was accepted
+    (`err > 1.0` is False for NaN) and the loop crept towards t_stop for ever. Now the
+    kernel rejects the step, ends on its bounds and returns (here: an error state)."""
+    import subprocess
+    import sys
+    out = subprocess.run([sys.executable, "-c", HANG_SCRIPT, "1e-12", str(h_carried)],
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    t, err = map(float, out.stdout.split()[-2:])
+    assert t == 1.0 or err == 3.0
+
+
+def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
+    from hoprover_env.params import PAINLEVE_MARGIN
+    base = RoverParams(mu_static=1.0, mu_dynamic=1.0)
+    j = lambda i: i + base.mass * base.corner_distance ** 2     # noqa: E731
+    shift = base.min_slide_denominator() - base.inertia          # D_min = I + shift
+    at_old_limit = -shift + 1e-11 * j(-shift)
+    with pytest.raises(ValueError, match="Painleve"):
+        RoverParams(mu_static=1.0, mu_dynamic=1.0, inertia=at_old_limit)
+    # just inside the new margin the slide integrates: it sticks, no error
+    ok = -shift + 2 * PAINLEVE_MARGIN * j(-shift)
+    p = RoverParams(mu_static=1.0, mu_dynamic=1.0, inertia=ok)
+    th = 0.3927
+    dy = -p.half_width * math.sin(th) - p.half_height * math.cos(th)
+    roll = simulate(np.zeros(1), t_end=1.0, control_dt=1.0, params=p, target_x=5.0,
+                    initial_state=(0.0, -dy, th, 1e-3, 0.0, 0.0))
+    assert roll.t[-1] == 1.0 and roll.events and roll.events[0][1] == "stick"
