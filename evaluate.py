@@ -51,10 +51,42 @@ def parse_args(argv=None):
     ap.add_argument("--plot-episode", type=int, default=None,
                     help="which target to plot/film (default: the first one that needs a hop)")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
-    args = ap.parse_args(argv)
+    args = ap.parse_args(_join_dash_values(sys.argv[1:] if argv is None else list(argv)))
     if args.episodes < 1:
-        ap.error("--episodes must be at least 1")
+        ap.error(f"--episodes must be at least 1, got {args.episodes}")
+    if not (math.isfinite(args.control_dt) and args.control_dt > 0):
+        ap.error(f"--control-dt must be a finite number > 0, got {args.control_dt}")
+    low, high = args.target_range
+    if not (math.isfinite(low) and math.isfinite(high) and low < high):
+        ap.error(f"--target-range wants finite LOW < HIGH, got {low} {high}")
+    if args.targets is not None:
+        try:
+            args.targets = np.array([float(v) for v in args.targets.split(",")])
+        except ValueError:
+            ap.error(f"--targets must be comma-separated numbers, got {args.targets!r}")
+        if not np.all(np.isfinite(args.targets)):
+            ap.error(f"--targets must be finite numbers, got {','.join(map(str, args.targets))}")
+    n_targets = len(args.targets) if args.targets is not None else args.episodes
+    if args.plot_episode is not None and not 0 <= args.plot_episode < n_targets:
+        ap.error(f"--plot-episode {args.plot_episode} is not a target index "
+                 f"(0..{n_targets - 1})")
     return args
+
+
+def _join_dash_values(argv: list[str]) -> list[str]:
+    """`--targets -0.5,0.3`: argparse takes a value starting with '-' for an option unless it
+    is a plain negative number, so a negative first target needs the `--targets=...` form.
+    Glue the value to its option before argparse sees it."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] == "--targets" and i + 1 < len(argv) and argv[i + 1].startswith("-") \
+                and not argv[i + 1].startswith("--"):
+            out.append(f"--targets={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
 
 
 def format_table(rows) -> str:
@@ -70,14 +102,18 @@ def format_table(rows) -> str:
 
 
 def main(argv=None) -> int:
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        # one line, not a traceback; 130 is the shell's code for a SIGINT exit
+        print("\ninterrupted", file=sys.stderr)
+        return 130
+
+
+def _main(argv=None) -> int:
     args = parse_args(argv)
-    if args.targets:
-        try:
-            targets = np.array([float(v) for v in args.targets.split(",")])
-        except ValueError:
-            print(f"error: --targets must be comma-separated numbers, got {args.targets!r}",
-                  file=sys.stderr)
-            return 2
+    if args.targets is not None:
+        targets = args.targets
     else:
         targets = seeded_targets(args.episodes, args.seed, *args.target_range)
     specs = args.policy if args.policy is not None else (
@@ -88,6 +124,11 @@ def main(argv=None) -> int:
     except (FileNotFoundError, ValueError, AttributeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    names = [p.name for p in policies]
+    for pol, spec in zip(policies, specs):
+        # two run directories both hold best_model.zip: name those rows by what was asked for
+        if names.count(pol.name) > 1:
+            pol.name = spec.rstrip("/\\")
 
     rows, all_results = [], []
     for pol in policies:
@@ -125,10 +166,6 @@ def main(argv=None) -> int:
         if k is None:        # the first target more than a body width away: a real hop
             far = np.flatnonzero(np.abs(targets) > 0.15)
             k = int(far[0]) if far.size else 0
-        if not 0 <= k < len(targets):
-            print(f"error: --plot-episode {k} is not a target index (0..{len(targets) - 1})",
-                  file=sys.stderr)
-            return 2
         rec = record_episode(policies[0], float(targets[k]))
         if args.plot:
             from agents.plots import nine_figures

@@ -13,12 +13,20 @@ def atomic_write(path: str | os.PathLike, text: str) -> None:
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
     try:
+        # mkstemp creates 0600 and the rename keeps it: give the file what open() would
+        os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "w", newline="") as fh:
             fh.write(text)
         os.replace(tmp, path)
     except BaseException:
         os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)     # reading the umask means setting it: put it straight back
+    os.umask(mask)
+    return mask
 
 
 def _nan_to_none(obj):

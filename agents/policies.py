@@ -132,6 +132,8 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
     beside it), or a run directory (its best model)."""
     path = Path(path)
     if path.is_dir():
+        # every run directory holds a best_model.zip: the directory is what names the run
+        name = name or path.resolve().name
         for cand in ("best_model.zip", "final_model.zip"):
             if (path / cand).exists():
                 path = path / cand

@@ -240,6 +240,15 @@ class HopRoverEnv(gym.Env):
                                    float(s[core.S_T]), STATE_LETTERS[int(s[core.S_MODE])],
                                    float(s[core.S_TORQUE]))
 
+    def __getstate__(self):
+        # a pygame window/font cannot be pickled or deep-copied; render() rebuilds it on demand
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+
     def close(self):
         if self._renderer is not None:
             self._renderer.close()

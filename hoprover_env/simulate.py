@@ -177,6 +177,9 @@ class RoverSim:
         """Hold `torque` from now to `t_stop` (or to the first `stop_on` event).
         Returns the events as (time, kind, state before, state after, value)."""
         torque = check_torque(torque)
+        if stop_on is not None and stop_on not in core.EVENT_NAMES:
+            raise ValueError(f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; "
+                             f"got {stop_on!r}")
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
         n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev, self._w)
         if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP):

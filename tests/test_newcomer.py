@@ -1,0 +1,129 @@
+"""Issue 12: what a new user hits -- CLI arguments, config errors, file modes, resume, pickling."""
+import copy
+import json
+import os
+import pickle
+import shutil
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import evaluate
+from agents.files import atomic_write, write_json
+from agents.policies import BUNDLED_DIR
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+# ---------------------------------------------------------------- evaluate.py arguments
+def test_negative_first_target_is_accepted(capsys):
+    assert evaluate.main(["--policy", "scripted", "--targets", "-0.5,0.3",
+                          "--no-progress"]) == 0
+    assert "2 targets" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--targets="], "--targets must be comma-separated numbers, got ''"),
+    (["--targets=nan"], "--targets must be finite"),
+    (["--targets", "0.2,inf"], "--targets must be finite"),
+    (["--target-range", "1", "-1"], "--target-range wants finite LOW < HIGH"),
+    (["--control-dt", "0"], "--control-dt must be a finite number > 0"),
+    (["--control-dt", "nan"], "--control-dt must be a finite number > 0"),
+    (["--episodes", "0"], "--episodes must be at least 1"),
+    (["--targets", "0.5", "--plot-episode", "3"], "--plot-episode 3 is not a target index"),
+])
+def test_bad_arguments_are_argparse_errors(argv, words, capsys, monkeypatch):
+    # checked before any policy is loaded or episode run
+    monkeypatch.setattr(evaluate, "run_episodes", lambda *a, **k: pytest.fail("evaluated"))
+    with pytest.raises(SystemExit) as exc:
+        evaluate.main(["--policy", "scripted", *argv])
+    assert exc.value.code == 2
+    assert words in capsys.readouterr().err
+
+
+def test_ctrl_c_exits_with_one_line(monkeypatch, capsys):
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(evaluate, "run_episodes", interrupted)
+    assert evaluate.main(["--policy", "scripted", "--targets", "0.5"]) == 130
+    err = capsys.readouterr().err.strip()
+    assert err == "interrupted"
+
+
+def _fake_run(tmp_path, name):
+    run = tmp_path / name
+    run.mkdir()
+    for suffix in (".zip", ".json", "_vecnormalize.pkl"):
+        shutil.copy(BUNDLED_DIR / f"ppo_hop{suffix}", run / f"best_model{suffix}")
+    return run
+
+
+def test_two_run_directories_get_two_rows(tmp_path, capsys):
+    a, b = _fake_run(tmp_path, "runA"), _fake_run(tmp_path, "runB")
+    out = tmp_path / "res.json"
+    assert evaluate.main(["--policy", str(a), "--policy", str(b), "--targets", "0.5",
+                          "--json", str(out), "--no-progress"]) == 0
+    table = capsys.readouterr().out
+    assert "runA" in table and "runB" in table and "best_model" not in table
+    res = json.loads(out.read_text())
+    assert set(res["summary"]) == {"runA", "runB"}
+    assert {e["policy"] for e in res["episodes"]} == {"runA", "runB"}
+
+
+def test_evaluate_cli_errors_are_one_line(tmp_path):
+    proc = subprocess.run([sys.executable, "evaluate.py", "--targets=nan"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    assert proc.stderr.strip().splitlines()[-1].startswith("evaluate.py: error: --targets")
+
+
+# ---------------------------------------------------------------- file modes
+@pytest.mark.parametrize("mask", [0o022, 0o002, 0o077])
+def test_atomic_write_follows_umask(tmp_path, mask):
+    old = os.umask(mask)
+    try:
+        atomic_write(tmp_path / "a.csv", "x\n")
+        write_json(tmp_path / "b.json", {"a": 1})
+        with open(tmp_path / "plain", "w") as fh:
+            fh.write("x")
+    finally:
+        os.umask(old)
+    want = stat.S_IMODE(os.stat(tmp_path / "plain").st_mode)
+    assert want == 0o666 & ~mask
+    for f in ("a.csv", "b.json"):
+        assert stat.S_IMODE(os.stat(tmp_path / f).st_mode) == want, f
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".tmp-")]
+
+
+# ---------------------------------------------------------------- env pickling, RoverSim
+def test_env_deepcopy_and_pickle_after_render():
+    pytest.importorskip("pygame")
+    from hoprover_env.env import HopRoverEnv
+    env = HopRoverEnv(render_mode="rgb_array")
+    env.reset(seed=3)
+    env.step(np.array([0.0], dtype=np.float32))
+    frame = env.render()
+    assert env._renderer is not None
+    for clone in (copy.deepcopy(env), pickle.loads(pickle.dumps(env))):
+        assert clone._renderer is None
+        np.testing.assert_array_equal(clone._s, env._s)
+        again = clone.render()          # rebuilt lazily, same picture
+        np.testing.assert_array_equal(again, frame)
+        clone.close()
+    env.close()
+
+
+def test_advance_names_the_valid_event_kinds():
+    from hoprover_env import core
+    from hoprover_env.simulate import RoverSim
+    sim = RoverSim()
+    with pytest.raises(ValueError, match="stop_on must be None or one of liftoff, slip"):
+        sim.advance(3e-4, 1.0, stop_on="liftof")
+    assert sim.t == 0.0
+    sim.advance(3e-4, 10.0, stop_on="liftoff")     # a valid kind still works
+    assert sim.t < 10.0 and "liftoff" in core.EVENT_NAMES
