@@ -41,7 +41,7 @@ import numpy as np
 
 from . import core, rollout
 from .params import RoverParams
-from .simulate import DEFAULT_RTOL, make_options, make_state, simulate
+from .simulate import DEFAULT_RTOL, control_grid, make_options, make_state, simulate
 
 
 MAX_STEPS = 10**9                 # control intervals x samples per run
@@ -245,8 +245,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         P[i] = plist[i].as_array()
 
     # the control grid of simulate()
-    n_ctrl = max(1, int(math.ceil(t_end / control_dt - 1e-9)))
-    sub = 1 if sample_dt is None else max(1, int(math.ceil(control_dt / sample_dt - 1e-9)))
+    n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
     if n_ctrl * sub > MAX_STEPS:
         raise ValueError(f"t_end / control_dt (x control_dt / sample_dt) gives {n_ctrl * sub:.3g} "
                          f"kernel calls per run; at most {MAX_STEPS:.0e}")

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import core, rl_kernel
 from .params import RoverParams
-from .simulate import make_options, make_state, DEFAULT_RTOL
+from .simulate import make_options, make_state, positive_real, DEFAULT_RTOL
 
 # Parameters that domain randomisation may scale, and the bounds they are clipped to.
 RANDOMIZABLE = {
@@ -58,9 +58,7 @@ class EnvConfig:
 
     def __post_init__(self):
         def positive(name):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
+            object.__setattr__(self, name, positive_real(name, getattr(self, name)))
 
         positive("control_dt")
         positive("episode_time")

@@ -221,6 +221,42 @@ class RoverSim:
         return core.contact_forces(self.s, self.p)
 
 
+def positive_real(name: str, v) -> float:
+    """A positive finite real number as float (numpy scalars welcome); strings, booleans
+    and complex numbers are refused with a message naming the argument."""
+    import numbers
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(v).__name__} {v!r}")
+    v = float(v)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+    return v
+
+
+MAX_SAMPLES = 10**8     # control intervals x samples per interval that one call may produce
+MAX_EULER_STEPS = 10**10    # fixed Euler steps one simulate() call may take (hours of CPU)
+
+
+def control_grid(t_end: float, control_dt: float, sample_dt: float | None) -> tuple[int, int]:
+    """(control intervals, samples per interval) of a run. The last interval always ends
+    at t_end exactly (a t_end a hair past a multiple of control_dt gets its own short
+    interval; rounding the count down once ended such runs early). Refuses grids that
+    would never finish or fill memory: at most MAX_SAMPLES samples per call."""
+    ratio = t_end / control_dt
+    sub_ratio = 1.0 if sample_dt is None else control_dt / sample_dt
+    if ratio * max(sub_ratio, 1.0) > MAX_SAMPLES:
+        raise ValueError(
+            f"t_end / control_dt = {ratio:.3g} control intervals"
+            + ("" if sample_dt is None else f" x {sub_ratio:.3g} samples each")
+            + f" is more than one call may produce (at most {MAX_SAMPLES:.0e} samples): shorten "
+            "t_end, lengthen control_dt or sample_dt, or split the run with RoverSim")
+    n_ctrl = max(1, int(math.ceil(ratio - 1e-9)))
+    if n_ctrl * control_dt < t_end:
+        n_ctrl += 1
+    sub = 1 if sample_dt is None else max(1, int(math.ceil(sub_ratio - 1e-9)))
+    return n_ctrl, sub
+
+
 def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float = 600.0,
              control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
              impact_law: str = "contest", params: RoverParams | None = None,
@@ -237,11 +273,10 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     params = RoverParams() if params is None else params
     if not isinstance(params, RoverParams):
         raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
-    for name, v in (("t_end", t_end), ("control_dt", control_dt)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-    if sample_dt is not None and not (math.isfinite(sample_dt) and sample_dt > 0):
-        raise ValueError(f"sample_dt must be a positive finite number, got {sample_dt!r}")
+    t_end = positive_real("t_end", t_end)
+    control_dt = positive_real("control_dt", control_dt)
+    if sample_dt is not None:
+        sample_dt = positive_real("sample_dt", sample_dt)
     sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt)
     s = sim.s
     if callable(controller):
@@ -254,11 +289,14 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         if bad.size:
             raise ValueError(f"torque schedule element {bad[0]} is {float(schedule[bad[0]])!r}; "
                              "torques must be finite")
-    n_ctrl = max(1, int(math.ceil(t_end / control_dt - 1e-9)))
+    n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
+    if integrator == "euler" and t_end / euler_dt > MAX_EULER_STEPS:
+        raise ValueError(f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
+                         f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
+                         "or the event integrator")
     rows, cmds, applied, events = [], [], [], []
     ratios = []
     pos_t = np.array([float(target_x), 0.0])
-    sub = 1 if sample_dt is None else max(1, int(math.ceil(control_dt / sample_dt - 1e-9)))
     if schedule is not None or rollout.is_compiled(controller):
         # the whole run in one kernel call, bit-identical to the Python loop below
         return rollout.simulate_compiled(s, sim.p, sim.o, schedule, controller, control_dt,

@@ -130,3 +130,39 @@ def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
     roll = simulate(np.zeros(1), t_end=1.0, control_dt=1.0, params=p, target_x=5.0,
                     initial_state=(0.0, -dy, th, 1e-3, 0.0, 0.0))
     assert roll.t[-1] == 1.0 and roll.events and roll.events[0][1] == "stick"
+
+
+# ---- issue 9.5 and 9.6: runs reach t_end exactly; grids that would never finish ---------
+def test_run_reaches_t_end_exactly_past_a_multiple_of_control_dt():
+    t_end = 100 + 4e-8
+    for ctrl in (np.zeros(3), lambda *a: 0.0):
+        roll = simulate(ctrl, t_end=t_end, control_dt=50.0)
+        assert roll.t[-1] == t_end
+
+
+@pytest.mark.parametrize("kw", [dict(t_end=1e300), dict(control_dt=1e-300),
+                                dict(sample_dt=1e-300)])
+def test_grids_that_would_never_finish_are_refused(kw):
+    args = dict(t_end=10.0, control_dt=1.0)
+    args.update(kw)
+    with pytest.raises(ValueError, match="more than one call may produce"):
+        simulate(np.zeros(1), **args)
+
+
+def test_an_euler_step_that_would_never_finish_is_refused():
+    with pytest.raises(ValueError, match="Euler steps"):
+        simulate(np.zeros(1), t_end=10.0, control_dt=1.0, integrator="euler", euler_dt=1e-300)
+
+
+# ---- issue 9.7: numpy scalars accepted, strings / booleans / complex refused by name -----
+def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
+    from hoprover_env.env import HopRoverEnv
+    roll = simulate(np.zeros(2), t_end=np.float32(1.0), control_dt=np.int64(1))
+    assert roll.t[-1] == 1.0
+    env = HopRoverEnv(control_dt=np.float32(0.5), episode_time=np.int64(60))
+    assert env.config.control_dt == 0.5 and env.config.episode_time == 60.0
+    for bad in ("1.0", True, 1 + 2j):
+        with pytest.raises(TypeError, match="t_end"):
+            simulate(np.zeros(1), t_end=bad)
+        with pytest.raises(TypeError, match="control_dt"):
+            HopRoverEnv(control_dt=bad)

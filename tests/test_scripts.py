@@ -84,7 +84,7 @@ def test_train_interrupted_saves_a_checkpoint(tmp_path, monkeypatch):
     ({"polcy": {}}, "unknown config key 'polcy'"),
     ({"algo": "dqn"}, "algo must be one of"),
     ({"pretrain": {"expert": "scripted", "epochz": 3}}, "pretrain.epochz"),
-    ({"env": {"control_dt": -1}}, "control_dt must be a positive number"),
+    ({"env": {"control_dt": -1}}, "control_dt must be a positive finite number"),
 ])
 def test_bad_config_keys_are_named(tmp_path, capsys, bad, words):
     cfg = write_cfg(tmp_path, {**TINY, **bad})
