@@ -1442,16 +1442,28 @@ def _advance_event(S, P, O, t_stop, ev, n, W):
             S[S_ERROR] = ERR_STEP
             break
         mode = int(S[S_MODE])
+        # a phase ends where the judge's dwell would complete, so that TTRTP is logged
+        # (and `stop_on="ttrtp"` stops) at its time, in order with the other events
+        t_lim = t_stop
+        if S[S_INBAND] == 1.0 and math.isnan(S[S_TTRTP]):
+            t_star = S[S_TIN] + P[P_DWELL]
+            if S[S_T] < t_star < t_stop:
+                t_lim = t_star
         if mode == MODE_F:
-            S[S_T] = t_stop                 # at rest: nothing to integrate
+            S[S_T] = t_lim                  # at rest: nothing to integrate
+            if t_lim < t_stop:
+                n = _judge_check(S, P, ev, n)
+                continue
             break
         if mode == MODE_A:
-            kind, _ = flight_phase(S, P, t_stop, W)
+            kind, _ = flight_phase(S, P, t_lim, W)
         elif mode == MODE_G:
-            kind = g_phase(S, P, t_stop)
+            kind = g_phase(S, P, t_lim)
         else:
-            kind = contact_phase(S, P, O, t_stop, W)
+            kind = contact_phase(S, P, O, t_lim, W)
         n = _after_phase(S, P, O, ev, n, kind, W)
+        if kind == PH_NONE and t_lim < t_stop:
+            n = _judge_check(S, P, ev, n)   # the phase ended at the judge's deadline
     return n
 
 

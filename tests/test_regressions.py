@@ -166,3 +166,15 @@ def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
             simulate(np.zeros(1), t_end=bad)
         with pytest.raises(TypeError, match="control_dt"):
             HopRoverEnv(control_dt=bad)
+
+
+# ---- issue 9.4: TTRTP is logged when it happens ------------------------------------------
+def test_ttrtp_is_logged_in_time_order_and_stop_on_ttrtp_stops_there():
+    from hoprover_env import RoverSim
+    roll = simulate(np.full(1, 2e-5), t_end=20.0, control_dt=20.0, target_x=0.0)
+    times = [e[0] for e in roll.events]
+    assert times == sorted(times)
+    assert ("ttrtp" in [e[1] for e in roll.events]) and roll.ttrtp == 5.0
+    sim = RoverSim(target_x=0.0)
+    events = sim.advance(2e-5, 20.0, stop_on="ttrtp")
+    assert sim.t == 5.0 and events[-1][1] == "ttrtp"
