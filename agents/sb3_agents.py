@@ -73,7 +73,13 @@ def load_config(path: str | Path | None, overrides: dict | None = None) -> dict:
         path = Path(path)
         if not path.exists():
             raise FileNotFoundError(f"config file not found: {path}")
-        raw = yaml.safe_load(path.read_text()) or {}
+        try:
+            raw = yaml.safe_load(path.read_text()) or {}
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+            raise ConfigError(f"{path}: not valid YAML{where}: {problem}") from None
         if not isinstance(raw, dict):
             raise ConfigError(f"{path}: the config must be a mapping")
     bad = sorted(set(raw) - TOP_KEYS)
@@ -124,8 +130,87 @@ def validate(cfg: dict) -> None:
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
-        if not (isinstance(cfg[key], int) and cfg[key] >= 1):
-            raise ConfigError(f"config key '{key}' must be a positive integer, got {cfg[key]!r}")
+        _check_value(key, cfg[key], POS_INT)
+    _check_value("seed", cfg["seed"], INT)
+    for section, types in (("normalize", NORMALIZE_TYPES), ("policy", POLICY_TYPES),
+                           ("hyperparams", HYPER_TYPES), ("pretrain", PRETRAIN_TYPES),
+                           ("evaluation", EVAL_TYPES), ("checkpoint", CHECKPOINT_TYPES)):
+        for key, value in (cfg.get(section) or {}).items():
+            if key in types:
+                _check_value(f"{section}.{key}", value, types[key])
+
+
+# Value kinds: (test, what is expected). The test sees the raw YAML value, so 64.5, "fifty"
+# or True where an integer belongs are refused here, not deep inside torch or SB3.
+def _is_int(v):
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_real(v):
+    return (isinstance(v, (int, float)) and not isinstance(v, bool)
+            and bool(np.isfinite(v)))
+
+
+def _is_layers(v):
+    return isinstance(v, list) and len(v) > 0 and all(_is_int(n) and n > 0 for n in v)
+
+
+INT = (_is_int, "an integer")
+POS_INT = (lambda v: _is_int(v) and v >= 1, "a positive integer")
+NONNEG_INT = (lambda v: _is_int(v) and v >= 0, "an integer >= 0")
+BOOL = (lambda v: isinstance(v, bool), "true or false")
+REAL = (_is_real, "a finite number")
+POS_REAL = (lambda v: _is_real(v) and v > 0, "a finite number > 0")
+NONNEG_REAL = (lambda v: _is_real(v) and v >= 0, "a finite number >= 0")
+UNIT = (lambda v: _is_real(v) and 0 < v <= 1, "a number in (0, 1]")
+UNIT_CLOSED = (lambda v: _is_real(v) and 0 <= v <= 1, "a number in [0, 1]")
+OPT_POS_REAL = (lambda v: v is None or POS_REAL[0](v), "null or a finite number > 0")
+NET_ARCH = (lambda v: _is_layers(v) or (isinstance(v, dict) and len(v) > 0 and all(
+    k in ("pi", "vf", "qf") and _is_layers(x) for k, x in v.items())),
+    "a list of positive layer sizes, e.g. [64, 64], or {pi: [...], vf: [...]} / {pi, qf}")
+ENT_COEF = (lambda v: NONNEG_REAL[0](v) or (isinstance(v, str) and v.startswith("auto")),
+            "a finite number >= 0 (or 'auto' for SAC)")
+TRAIN_FREQ = (lambda v: POS_INT[0](v) or (isinstance(v, list) and len(v) == 2 and POS_INT[0](
+    v[0]) and v[1] in ("step", "episode")), "a positive integer or [n, step|episode]")
+GRADIENT_STEPS = (lambda v: _is_int(v) and (v >= 1 or v == -1), "a positive integer or -1")
+
+NORMALIZE_TYPES = {"obs": BOOL, "reward": BOOL, "update": BOOL, "clip_obs": POS_REAL,
+                   "clip_reward": POS_REAL}
+POLICY_TYPES = {"net_arch": NET_ARCH, "log_std_init": REAL, "ortho_init": BOOL,
+                "use_expln": BOOL, "squash_output": BOOL, "n_critics": POS_INT,
+                "share_features_extractor": BOOL}
+PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
+                  "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
+                  "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,
+                  "log_std": REAL, "noise": NONNEG_REAL, "dagger_rounds": NONNEG_INT,
+                  "dagger_episodes": POS_INT}
+EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
+CHECKPOINT_TYPES = {"freq": POS_INT}
+# the common keyword arguments of PPO / SAC / TD3 (which ones an algorithm takes is checked
+# against its constructor's signature in validate)
+HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_INT,
+               "n_epochs": POS_INT, "gamma": UNIT, "gae_lambda": UNIT_CLOSED,
+               "clip_range": POS_REAL, "clip_range_vf": OPT_POS_REAL, "normalize_advantage": BOOL,
+               "ent_coef": ENT_COEF, "vf_coef": NONNEG_REAL, "max_grad_norm": POS_REAL,
+               "target_kl": OPT_POS_REAL, "use_sde": BOOL, "sde_sample_freq": INT,
+               "buffer_size": POS_INT, "learning_starts": NONNEG_INT, "tau": UNIT,
+               "train_freq": TRAIN_FREQ, "gradient_steps": GRADIENT_STEPS,
+               "policy_delay": POS_INT, "target_policy_noise": NONNEG_REAL,
+               "target_noise_clip": NONNEG_REAL, "action_noise": NONNEG_REAL,
+               "target_update_interval": POS_INT, "stats_window_size": POS_INT}
+
+
+def _check_value(key: str, value, kind) -> None:
+    test, expected = kind
+    if not test(value):
+        hint = ""
+        if isinstance(value, str):
+            try:
+                float(value)
+                hint = " (YAML reads a number like 3e-4 as text: write 3.0e-4)"
+            except ValueError:
+                pass
+        raise ConfigError(f"config key '{key}' must be {expected}, got {value!r}{hint}")
 
 
 def env_kwargs(cfg: dict) -> dict:

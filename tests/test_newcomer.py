@@ -127,3 +127,65 @@ def test_advance_names_the_valid_event_kinds():
     assert sim.t == 0.0
     sim.advance(3e-4, 10.0, stop_on="liftoff")     # a valid kind still works
     assert sim.t < 10.0 and "liftoff" in core.EVENT_NAMES
+
+
+# ---------------------------------------------------------------- config validation
+TINY_CFG = {
+    "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
+    "env": {"control_dt": 1.0, "episode_time": 60.0, "target_range": [-0.3, 0.3]},
+    "hyperparams": {"n_steps": 128, "batch_size": 256, "n_epochs": 2},
+    "evaluation": {"freq": 1024, "episodes": 4, "seed": 1},
+    "checkpoint": {"freq": 512},
+}
+
+
+@pytest.mark.parametrize("section, key, value, expected", [
+    ("hyperparams", "learning_rate", "abc", "a finite number > 0"),
+    ("hyperparams", "learning_rate", "3e-4", "write 3.0e-4"),
+    ("hyperparams", "batch_size", 64.5, "a positive integer"),
+    ("hyperparams", "gamma", 1.5, "a number in (0, 1]"),
+    ("hyperparams", "n_epochs", True, "a positive integer"),
+    ("evaluation", "freq", "fifty", "a positive integer"),
+    ("checkpoint", "freq", 0, "a positive integer"),
+    ("policy", "net_arch", "big", "a list of positive layer sizes"),
+    ("policy", "net_arch", [64, -1], "a list of positive layer sizes"),
+    ("normalize", "obs", "yes please", "true or false"),
+    ("pretrain", "epochs", 2.5, "a positive integer"),
+])
+def test_config_values_are_type_checked(tmp_path, section, key, value, expected):
+    import yaml
+    from agents.sb3_agents import ConfigError, load_config
+    cfg = copy.deepcopy(TINY_CFG)
+    cfg.setdefault(section, {})[key] = value
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    with pytest.raises(ConfigError) as exc:
+        load_config(path)
+    msg = str(exc.value)
+    assert f"'{section}.{key}'" in msg and repr(value) in msg and expected in msg
+    assert "\n" not in msg
+
+
+def test_broken_yaml_and_env_id_are_one_line_errors(tmp_path):
+    from agents.sb3_agents import ConfigError, load_config
+    path = tmp_path / "c.yaml"
+    path.write_text("algo: ppo\nhyperparams: {n_steps: 8\n")
+    with pytest.raises(ConfigError, match=r"not valid YAML \(line \d+, column \d+\)"):
+        load_config(path)
+    path.write_text("algo: ppo\nenv_id: HopRover-v1\n")
+    with pytest.raises(ConfigError, match="'env_id' must be one of"):
+        load_config(path)
+
+
+def test_train_cli_refuses_a_bad_value_before_any_work(tmp_path):
+    import yaml
+    cfg = copy.deepcopy(TINY_CFG)
+    cfg["hyperparams"]["learning_rate"] = "abc"
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    proc = subprocess.run([sys.executable, "train.py", "--config", str(path), "--out",
+                           str(tmp_path / "run"), "--no-progress"], cwd=ROOT,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr
+    assert "hyperparams.learning_rate" in proc.stderr.strip().splitlines()[-1]
+    assert not (tmp_path / "run").exists()
