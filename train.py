@@ -281,8 +281,11 @@ class Trainer:
         if self.cfg["algo"] == "ppo":
             self.model.num_timesteps = self.trained_steps
         try:
+            # evaluations of steps the checkpoint does not count are redone by --resume:
+            # keeping them too would list those steps twice
+            done = [e for e in self.evals if e["timesteps"] <= self.model.num_timesteps]
             meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
-                    "evaluations": self.evals, "best": list(self.best), "wall_s": self.wall(),
+                    "evaluations": done, "best": list(self.best), "wall_s": self.wall(),
                     "env_s": self.env_seconds()}
             save_model(self.model, self.venv, self.ckpt, meta, replay=self.cfg["algo"] != "ppo")
             return meta["timesteps"]
@@ -344,14 +347,15 @@ class Trainer:
             interrupted = True
         finally:
             signal.signal(signal.SIGTERM, previous)
-        saved = self.checkpoint()
         if interrupted:
+            saved = self.checkpoint()
             print(f"\ninterrupted; checkpoint saved at {saved} trained steps. "
                   f"Continue with: python train.py --config {self.out / 'config.yaml'} "
                   f"--out {self.out} --resume", file=sys.stderr)
             return 130
         if not self.evals or self.evals[-1]["timesteps"] != self.model.num_timesteps:
             self.evaluate()
+        self.checkpoint()           # after the last evaluation: --resume must know it and its best
         save_model(self.model, self.venv, self.out / "final_model",
                    {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
                     "wall_s": self.wall(), "env_s": self.env_seconds()})

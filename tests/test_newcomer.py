@@ -189,3 +189,57 @@ def test_train_cli_refuses_a_bad_value_before_any_work(tmp_path):
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "hyperparams.learning_rate" in proc.stderr.strip().splitlines()[-1]
     assert not (tmp_path / "run").exists()
+
+
+# ---------------------------------------------------------------- train.py --resume
+def _rows(run):
+    import csv
+    return list(csv.DictReader(open(run / "evaluations.csv")))
+
+
+def _check_run_files(run):
+    from agents.sb3_agents import load_config  # noqa: F401 - same import path as train
+    rows = _rows(run)
+    steps = [int(r["timesteps"]) for r in rows]
+    assert steps == sorted(set(steps)), steps            # every evaluation exactly once
+    meta = json.loads((run / "checkpoints" / "last.json").read_text())
+    assert [e["timesteps"] for e in meta["evaluations"]] == steps   # last.json holds them all
+    assert meta["timesteps"] == steps[-1]                # the final evaluation is in it
+    return rows, meta
+
+
+def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, monkeypatch):
+    import yaml
+    import train
+    cfg = dict(TINY_CFG)
+    path = tmp_path / "c.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    whole, split = tmp_path / "whole", tmp_path / "split"
+    assert train.main(["--config", str(path), "--out", str(whole), "--timesteps", "2048",
+                       "--no-progress"]) == 0
+    # interrupt during the rollout after the first in-learning evaluation
+    calls = {"n": 0}
+    orig = train.Trainer.evaluate
+
+    def evaluate_then_interrupt(self):
+        orig(self)
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+    monkeypatch.setattr(train.Trainer, "evaluate", evaluate_then_interrupt)
+    assert train.main(["--config", str(path), "--out", str(split), "--timesteps", "2048",
+                       "--no-progress"]) == 130
+    monkeypatch.setattr(train.Trainer, "evaluate", orig)
+    best_before = json.loads((split / "checkpoints" / "last.json").read_text())["best"]
+    assert train.main(["--config", str(path), "--out", str(split), "--resume",
+                       "--no-progress"]) == 0
+    rows_w, meta_w = _check_run_files(whole)
+    rows_s, meta_s = _check_run_files(split)
+    assert [r["timesteps"] for r in rows_s] == [r["timesteps"] for r in rows_w]
+    assert tuple(meta_s["best"]) >= tuple(best_before)    # best only ever improves
+    # then more steps: the old final evaluation stays, the new ones follow
+    assert train.main(["--config", str(path), "--out", str(whole), "--resume", "--timesteps",
+                       "3072", "--no-progress"]) == 0
+    rows_w2, meta_w2 = _check_run_files(whole)
+    assert rows_w2[:len(rows_w)] == rows_w and int(rows_w2[-1]["timesteps"]) >= 3072
+    assert tuple(meta_w2["best"]) >= tuple(meta_w["best"])
