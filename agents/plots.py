@@ -37,14 +37,16 @@ def nine_figures(rec, out_dir: str) -> list[str]:
         if name == "7_state":
             fig, ax = plt.subplots(figsize=(8, 3))
             codes = np.array(["ABCDEFG".index(s) for s in r.state])
-            ax.step(t, codes, where="post")
+            ax.step(t, codes, where="post", label="contact state A-G (docs/PHYSICS.md)")
+            ax.legend(loc="upper right", fontsize=8)
             ax.set_yticks(range(7), list("ABCDEFG"))
             ax.set_ylabel("state")
             axes = [ax]
         elif name == "9_torque":
             fig, ax = plt.subplots(figsize=(8, 3))
-            ax.step(t, r.torque_cmd, where="post", label="command", alpha=0.7)
-            ax.step(t, r.torque, where="post", label="applied", linestyle="--")
+            # policies clip before the env sees the command, so command and applied torque
+            # are one curve: draw it once
+            ax.step(t, r.torque, where="post", label="applied")
             ax.set_ylabel("torque [N m]")
             ax.legend()
             axes = [ax]

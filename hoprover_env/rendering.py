@@ -93,7 +93,7 @@ class Renderer:
         pg.draw.circle(surf, (20, 20, 20), px(*corners[0]), 3)
         pg.draw.circle(surf, (255, 255, 255), px(*corners[3]), 3)
         lines = [f"t = {t:7.2f} s   state {STATE_NAMES.get(letter, letter)}",
-                 f"x = {x:+.3f} m   target {target:+.3f} m   T = {torque * 1e4:+.2f}e-4 N m"]
+                 f"x = {x:+.3f} m   target {target:+.3f} m   T = {_torque_text(torque)} N m"]
         for i, text in enumerate(lines):
             surf.blit(self.font.render(text, True, (20, 20, 20)), (8, 6 + 18 * i))
         if self.mode == "human":
@@ -117,3 +117,9 @@ class Renderer:
         if self.window is not None:
             self.pg.display.quit()
             self.window = None
+
+
+def _torque_text(torque: float) -> str:
+    """'+3.00e-4', and '0' rather than '-0.00e-4' for a torque that rounds to nothing."""
+    text = f"{torque * 1e4:+.2f}"
+    return "0" if float(text) == 0.0 else f"{text}e-4"

@@ -243,3 +243,19 @@ def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, 
     rows_w2, meta_w2 = _check_run_files(whole)
     assert rows_w2[:len(rows_w)] == rows_w and int(rows_w2[-1]["timesteps"]) >= 3072
     assert tuple(meta_w2["best"]) >= tuple(meta_w["best"])
+
+
+# ---------------------------------------------------------------- plots and overlay
+def test_torque_overlay_text():
+    from hoprover_env.rendering import _torque_text
+    assert _torque_text(-1e-9) == "0" and _torque_text(0.0) == "0"
+    assert _torque_text(3e-4) == "+3.00e-4" and _torque_text(-2.5e-4) == "-2.50e-4"
+
+
+def test_recording_of_a_success_has_its_ttrtp(tmp_path):
+    from agents.plots import nine_figures
+    from agents.policies import load_policy
+    from agents.replay import record_episode
+    rec = record_episode(load_policy("scripted"), 0.5)
+    assert rec.ttrtp is not None and rec.ttrtp > 0
+    assert len(nine_figures(rec, tmp_path)) == 9
