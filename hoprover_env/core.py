@@ -17,13 +17,13 @@ slide direction, applied torque, target, judge and diagnostics. Parameter vector
 The kernel takes no Python objects, so the vector env loops it over rows of 2-D
 arrays in one jitted call.
 
-Conventions (MODEL.md section 2): x right, y up, theta clockwise-positive, positive T
+Conventions (docs/MODEL.md section 2): x right, y up, theta clockwise-positive, positive T
 clockwise. A body point with world offset d = (dx, dy) from the c.m. moves with
 v + w (dy, -dx); a force f there has the clockwise moment dy fx - dx fy. Corner k has
 body coordinates (bx, by): A = (r, -h), B = (-r, -h), TR = (r, h), TL = (-r, h), and
 world offset dx = bx cos(th) + by sin(th), dy = -bx sin(th) + by cos(th).
 
-Decisions beyond MODEL.md are documented in docs/PHYSICS.md and marked "Decision" here.
+Decisions beyond docs/MODEL.md are documented in docs/PHYSICS.md and marked "Decision" here.
 The kernel allocates nothing: scratch space comes in a workspace row ``W`` (N_WORK floats).
 All kernels use numba's numpy error model: a float division never raises (every divisor
 here is a positive physical quantity), which keeps calls cheap (the Python model costs
@@ -103,7 +103,7 @@ W_FLT = 24       # flight: 8
 W_RK = 32        # contact phases: 134
 
 # ----------------------------------------------------------------------------------
-# Tolerances. Round-off must not make a contact state chatter (MODEL.md section 5).
+# Tolerances. Round-off must not make a contact state chatter (docs/MODEL.md section 5).
 # Scales: lengths ~0.05 m, speeds 1e-6..1e-2 m/s, accelerations ~1e-4 m/s^2.
 # ----------------------------------------------------------------------------------
 H_TOL = 1e-12     # m: a corner this close to the ground is on it
@@ -172,7 +172,7 @@ def contact_corner(mode):
 
 
 # ----------------------------------------------------------------------------------
-# Forces (MODEL.md section 4), written once for a generic contact corner.
+# Forces (docs/MODEL.md section 4), written once for a generic contact corner.
 # ----------------------------------------------------------------------------------
 @njit(_F5(_V, _I, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
 def pivot_dynamics(P, k, T, th, w):
@@ -339,7 +339,7 @@ def flight_at(S, P, tau):
 def _resting_corner_driven_down(S, P, k):
     """A corner on the ground at rest vertically, in flight: is it pressed down?
 
-    Decided by the flight dynamics (MODEL.md section 5): the sign of the corner's
+    Decided by the flight dynamics (docs/MODEL.md section 5): the sign of the corner's
     vertical acceleration h'' = -g - beta dx - w^2 dy, or when that vanishes (a lift-off
     instant) of its jerk h''' = -3 beta w dy + w^3 dx.
     """
@@ -356,7 +356,7 @@ def _resting_corner_driven_down(S, P, k):
 
 
 # ----------------------------------------------------------------------------------
-# Event log and judge (MODEL.md section 8)
+# Event log and judge (docs/MODEL.md section 8)
 # ----------------------------------------------------------------------------------
 @njit(_I(_V, _M, _I, _F, _F, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
 def _log(S, ev, n, t, kind, before, after, value):
@@ -423,7 +423,7 @@ def _judge_update(S, P, ev, n):
 
 
 # ----------------------------------------------------------------------------------
-# Instantaneous transitions (MODEL.md section 5)
+# Instantaneous transitions (docs/MODEL.md section 5)
 # ----------------------------------------------------------------------------------
 @njit(_F(_V, _V, _I, _F), cache=True, error_model="numpy", _nrt=False)
 def _consistent_slide_direction(S, P, k, T):
@@ -575,7 +575,7 @@ def settle(S, P, ev, n):
 
 
 # ----------------------------------------------------------------------------------
-# Impacts (MODEL.md section 6)
+# Impacts (docs/MODEL.md section 6)
 # ----------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
@@ -695,7 +695,7 @@ def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
 
     Returns the kinetic energy ratio (after / before) of the impact, after the
-    post-impact classification. See MODEL.md section 6 and docs/PHYSICS.md.
+    post-impact classification. See docs/MODEL.md section 6 and docs/PHYSICS.md.
     """
     S[S_TH] = wrap_angle(S[S_TH])
     th = S[S_TH]
@@ -1468,7 +1468,7 @@ def _advance_event(S, P, O, t_stop, ev, n, W):
 
 
 # ----------------------------------------------------------------------------------
-# Euler integrator: the contest-style fixed-step baseline (MODEL.md section 10)
+# Euler integrator: the contest-style fixed-step baseline (docs/MODEL.md section 10)
 # ----------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy", _nrt=False)
 def _euler_contact_step(S, P, dt):

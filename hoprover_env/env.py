@@ -9,7 +9,7 @@ slides, until the contact force vanishes and the rover hops; it flies for tens t
 hundreds of seconds, bounces (restitution 0.8 horizontal, 0.2 vertical), slides and
 stops. The goal: keep a bottom corner within +-0.05 m of the target for 5 s, as early as
 possible (the contest's "time to reach the target point", TTRTP). Physics:
-`docs/PHYSICS.md` and MODEL.md; every event (lift-off, impact, band crossing) is
+`docs/PHYSICS.md` and docs/MODEL.md; every event (lift-off, impact, band crossing) is
 located exactly, so TTRTP is exact.
 
 ## Action space

@@ -1,6 +1,6 @@
 """Physical parameters of the rover and the contest rules, as a frozen dataclass.
 
-`RoverParams()` holds the contest values (MODEL.md section 1). Every field can be set
+`RoverParams()` holds the contest values (docs/MODEL.md section 1). Every field can be set
 (domain randomisation builds new instances with `dataclasses.replace`); the constructor
 validates the set and raises `ValueError` naming the offending field.
 

@@ -61,7 +61,7 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
 
 
 def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
-    """A kernel state vector at t = 0: the upright rest of MODEL.md section 9, or
+    """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
     if not math.isfinite(target_x):
         raise ValueError(f"target_x must be finite, got {target_x!r}")

@@ -259,3 +259,18 @@ def test_recording_of_a_success_has_its_ttrtp(tmp_path):
     rec = record_episode(load_policy("scripted"), 0.5)
     assert rec.ttrtp is not None and rec.ttrtp > 0
     assert len(nine_figures(rec, tmp_path)) == 9
+
+
+# ---------------------------------------------------------------- the model is in the repository
+def test_model_is_documented_in_the_repository():
+    text = (ROOT / "docs" / "MODEL.md").read_text()
+    for heading in ("Parameters", "Frame", "seven contact states", "Transitions", "Impacts",
+                    "judge", "Decision"):
+        assert heading in text, heading
+    for state in "ABCDEFG":
+        assert f"\n| {state} |" in text, state
+    files = [ROOT / "README.md", ROOT / "docs" / "PHYSICS.md",
+             *sorted((ROOT / "hoprover_env").glob("*.py"))]
+    for f in files:
+        assert "shared/spec" not in f.read_text(), f
+    assert "must come to rest" not in (ROOT / "README.md").read_text()
