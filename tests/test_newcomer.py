@@ -274,3 +274,18 @@ def test_model_is_documented_in_the_repository():
     for f in files:
         assert "shared/spec" not in f.read_text(), f
     assert "must come to rest" not in (ROOT / "README.md").read_text()
+
+
+def test_readme_example_prints_a_ttrtp(tmp_path):
+    text = (ROOT / "README.md").read_text()
+    block = text.split("## Using it\n\n```python\n", 1)[1].split("```", 1)[0]
+    script = tmp_path / "example.py"
+    script.write_text(block)
+    proc = subprocess.run([sys.executable, str(script)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    lines = proc.stdout.splitlines()
+    ttrtp = float(lines[0].split()[1])
+    assert 0 < ttrtp < 600 and "broken: False" in lines[0]
+    assert f"TTRTP {ttrtp}" in proc.stdout              # the schedule replays the same run
+    assert "last contact state (letters A-G): F" in proc.stdout
