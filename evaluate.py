@@ -111,7 +111,10 @@ def main(argv=None) -> int:
 
 
 def _main(argv=None) -> int:
-    args = parse_args(argv)
+    try:
+        args = parse_args(argv)
+    except SystemExit as exc:      # argparse has printed its one-line error (or --help)
+        return exc.code if isinstance(exc.code, int) else 2
     if args.targets is not None:
         targets = args.targets
     else:

@@ -139,7 +139,7 @@ def test_evaluate_every_policy_kind(tmp_path, capsys):
                           "--plot", str(figs), "--video", str(vid), "--no-progress"])
     assert code == 0
     out = capsys.readouterr().out
-    for name in ("bundled", "scripted", "random", "best_model", "entry:Control"):
+    for name in ("bundled", "scripted", "random", "run", "entry:Control"):   # run dir names its row
         assert name in out
     data = strict_json(js)
     assert data["summary"]["random"]["success_rate"] == 0.0
