@@ -173,12 +173,6 @@ class HopEnvConfig(EnvConfig):
         e[rl_kernel.E_LAUNCH_MIN] = self.launch_min
         return e
 
-    @property
-    def max_steps(self) -> int:
-        """An upper bound on the hop steps of an episode (each takes at least one control
-        period)."""
-        return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
-
 
 def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
     """The base parameters, each randomised field scaled by U(1 - r, 1 + r)."""

@@ -29,7 +29,7 @@ from .rl_kernel import E_CONTROL_DT, E_T_TOTAL, E_HOLD_KP, E_HOLD_KD, E_LAUNCH_M
     E_LAUNCH_MIN  # noqa: E402
 
 # A hop that never ends (it cannot: every state decays to rest or flies ballistically)
-# would still stop here, as an error the env reports as a truncation.
+# would still stop here, in the kernel's error state, which ends the episode.
 MAX_SUBSTEPS = 1_000_000
 
 
@@ -67,7 +67,8 @@ def _ended(S, had_ttrtp):
 
 @njit(cache=True, error_model="numpy", _nrt=False)
 def hop_step(S, P, O, E, action, obs, ev, W):
-    """One hop (or one wait). Returns (reward, terminated, truncated, success, n_events)."""
+    """One hop (or, at rest in the band, the wait for the judge). Returns (reward,
+    terminated, truncated, success, n_events)."""
     phi0 = rl_kernel.start_potential(S, P, E)
     had_ttrtp = not math.isnan(S[S_TTRTP])
     t0 = S[S_T]
@@ -97,7 +98,7 @@ def hop_step(S, P, O, E, action, obs, ev, W):
         k += 1
         core.advance(S, P, O, cmd, min(t0 + k * dt, t_end), ev, W)
         if k >= MAX_SUBSTEPS:
-            S[S_ERROR] = 1.0
+            S[S_ERROR] = core.ERR_STEP
             break
     reward, terminated, truncated, success = rl_kernel.finish_step(
         S, P, E, phi0, had_ttrtp, S[S_T] - t0, obs)

@@ -99,9 +99,9 @@ def potential(S, P, E):
     so a hop is credited at its launch). a(s) = (1 - cos theta) + U_Q ln(1 + min(u, U_MAX)
     / U_Q) with u = (omega / 0.3)^2 / 2, in flight only: the quadratic attitude cost up
     to spins of about 2 rad/s, a pull back at any faster spin, and bounded (<= ATT_MAX),
-    so no spin can make Phi arbitrarily low and then release it at termination. d(s) is the judge's dwell fraction (time in
-    the band / 5 s, 0 out of it): settling in the band pays before the success bonus,
-    hovering next to it does not. Every term is bounded, so Phi >= phi_min(E).
+    so no spin can make Phi arbitrarily low and then release it at termination. d(s) is
+    the judge's dwell fraction (time in the band / 5 s, 0 out of it): settling in the band
+    pays before the success bonus, hovering next to it does not. Every term is bounded, so Phi >= phi_min(E).
     """
     flying = int(S[S_MODE]) == MODE_A
     if int(E[E_SHAPING]) == SHAPING_LANDING and flying:
@@ -112,7 +112,8 @@ def potential(S, P, E):
     if flying:
         w = S[S_W] / RATE_SCALE
         u = 0.5 * w * w
-        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + U_Q * math.log1p(min(u, U_MAX) / U_Q))
+        spin = U_Q * math.log1p(min(u, U_MAX) / U_Q)
+        phi -= E[E_W_ATT] * ((1.0 - math.cos(S[S_TH])) + spin)
     if E[E_W_BAND] != 0.0:
         phi -= E[E_W_BAND] * (1.0 - dwell_fraction(S, P))
     return phi
