@@ -101,6 +101,7 @@ N_WORK = 192
 W_IMP = 0        # impacts: 22 floats
 W_FLT = 24       # flight: 8
 W_RK = 32        # contact phases: 134
+W_WORK = 176     # integration steps (flight + DOP853) taken in the current advance
 
 # ----------------------------------------------------------------------------------
 # Tolerances. Round-off must not make a contact state chatter (docs/MODEL.md section 5).
@@ -117,13 +118,19 @@ CA_TOL = 1e-15    # m: conservative advancement stops this close to a touchdown
 # ~1e-11 rad depending on round-off, so the switch must sit well above round-off.
 H_IMPACT = 1e-9
 MAX_CA_ITER = 20000
+FLIGHT_WINDOW_MAX = 1e6  # s: longest stretch of a flight one curvature bound covers
 RK_SAFETY = 0.9
 RK_MIN_FACTOR = 0.2
 # Error codes in S[S_ERROR] (0 = fine): the event budget of one advance exhausted, a
 # non-finite torque, the integrator unable to go on (step-size underflow, a non-finite
 # state, or the step / phase bounds below), each ending the loop it happened in.
-ERR_BUDGET, ERR_TORQUE, ERR_STEP = 1.0, 2.0, 3.0
+ERR_BUDGET, ERR_TORQUE, ERR_STEP, ERR_WORK = 1.0, 2.0, 3.0, 4.0
 MAX_RK_STEPS = 10_000_000       # DOP853 steps in one contact phase
+# Integration steps (flight + DOP853) in one advance, all phases together: about a
+# second of CPU. A contest interval takes tens to thousands; only inputs far outside the
+# rover's range (a torque of 1e10 N m spinning it at 1e12 rad/s) come near, and those
+# would otherwise run MAX_PHASES x MAX_CA_ITER flight steps, i.e. hours (ERR_WORK).
+MAX_WORK = 10_000_000
 MAX_PHASES = 100_000            # phases in one advance (each normally logs an event)
 RK_MAX_FACTOR = 10.0
 TWO_PI = 2.0 * math.pi
@@ -333,6 +340,37 @@ def flight_at(S, P, tau):
     y = S[S_Y] + S[S_VY] * tau - 0.5 * g * tau * tau
     th = S[S_TH] + S[S_W] * tau + 0.5 * beta * tau * tau
     return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def flight_rise(S, P, k, tau):
+    """Height gained by corner k after a flight of duration tau, h_k(tau) - h_k(0),
+    computed as a difference (sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2)): a corner
+    that returns to the ground microseconds after a lift-off moves 1e-14 m, below the
+    round-off of y + dy(theta) (~1e-17 m at y ~ 0.05 m, i.e. 1e-8 s at 1e-9 m/s)."""
+    bx, by = corner_body(P, k)
+    dth = S[S_W] * tau + 0.5 * S[S_TORQUE] / P[P_I] * tau * tau
+    mid = S[S_TH] + 0.5 * dth
+    sh = math.sin(0.5 * dth)
+    d_sin = 2.0 * math.cos(mid) * sh
+    d_cos = -2.0 * math.sin(mid) * sh
+    return S[S_VY] * tau - 0.5 * P[P_G] * tau * tau - bx * d_sin + by * d_cos
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
+def _bisect_touchdown(S, P, k, lo, hi, drop):
+    """The time in [lo, hi] at which corner k has risen by `drop` (< 0: it is back at
+    the level where it should touch), given rise(lo) >= drop > rise(hi). Bisection on
+    the closed form: robust where Newton divides by a vanishing vertical speed."""
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if flight_rise(S, P, k, mid) >= drop:
+            lo = mid
+        else:
+            hi = mid
+    return hi
 
 
 @njit(nt.boolean(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
@@ -807,6 +845,10 @@ def resolve_impact(S, P, law, W):
 
 @njit(_I(_V, _V, _V, _M, _I, _V), cache=True, error_model="numpy", _nrt=False)
 def _impact_event(S, P, O, ev, n, W):
+    # a touchdown is only ever reported with a bottom corner on the ground
+    if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) \
+            + S[S_Y] > H_IMPACT:
+        return n
     before = S[S_MODE]
     ratio = resolve_impact(S, P, int(O[O_LAW]), W)
     return _log(S, ev, n, S[S_T], EV_IMPACT, before, S[S_MODE], ratio)
@@ -831,16 +873,52 @@ def _commit_flight(S, P, tau):
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
+def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
+    """Place a detected touchdown of corner k (at tau, height f above its trigger level,
+    descending at v) on the closed form's root, safeguarded against small v."""
+    c0 = math.cos(S[S_TH])
+    s0 = math.sin(S[S_TH])
+    h0 = S[S_Y] + corner_offset_cs(P, k, c0, s0)[1]
+    if armed == 0.0:
+        # back down before it ever rose above H_TOL (it triggered H_TOL under the
+        # ground): the touchdown is where it returns to the level it left from
+        target = level + H_TOL
+        if h0 >= target:
+            return _bisect_touchdown(S, P, k, 0.0, tau, target - h0)
+        return tau
+    if f <= 0.0 or v >= 0.0:
+        return tau
+    # CA_TOL is a height: at the 1e-9 m/s of a slow return it is still 1e-6 s from the
+    # root, and one Newton step (f / v) can land anywhere. Bracket the root (from the
+    # Newton step, doubled while the corner is still above ground) and bisect it.
+    dt = f / (-v)
+    for _ in range(64):
+        hi = min(tau + dt, tau_end)
+        if flight_rise(S, P, k, hi) + h0 < 0.0:
+            return _bisect_touchdown(S, P, k, tau, hi, -h0)
+        if hi >= tau_end:
+            break
+        dt *= 2.0
+    return tau      # it curves away within CA_TOL of the ground: touching at tau
+
+
+@njit(cache=True, error_model="numpy", _nrt=False)
 def flight_phase(S, P, t_stop, W):
     """Advance a flight under constant torque to t_stop or the first touchdown.
 
     Each corner height h_k(t) = y(t) + dy_k(theta(t)) is known in closed form, with
-    |h_k''| <= K = g + l (|T|/I + w_max^2) over the interval. Stepping by the smallest
-    positive root of h + h' s - K s^2 / 2 = 0 can never pass a root (conservative
-    advancement), converges quadratically at a transversal touchdown, and finishes a
-    high flight in a few steps. A corner that starts on the ground (just lifted off or
-    bounced) is only armed once it has risen above H_TOL; until then it triggers if it
-    comes back below -H_TOL. Returns (kind, corner).
+    |h_k''| <= K = g + l (|T|/I + w_max^2) over a window. Stepping by the smallest
+    positive root of h + h' s - K s^2 / 2 = 0 (and no further than the window) can
+    never pass a root (conservative advancement), converges quadratically at a
+    transversal touchdown, and finishes a high flight in a few steps. The window is
+    local, not the whole interval: under a torque held for minutes the spin rate at
+    the end of the interval can be 100x the current one, and a bound built on it
+    shrank steps to 1e-7 s right after a lift-off until the iteration budget ran out
+    mid-air. The window grows 4x per step, so w_max follows the spin as it builds.
+    A corner that starts on the ground (just lifted off or bounced) is only armed once
+    it has risen above H_TOL; until then it triggers if it comes back below -H_TOL.
+    Returns (kind, corner); (PH_NONE, -1) with t < t_stop when the iteration budget
+    runs out away from the ground (the caller calls again).
     """
     tau_end = t_stop - S[S_T]
     if tau_end <= 0.0:
@@ -849,9 +927,6 @@ def flight_phase(S, P, t_stop, W):
     beta = S[S_TORQUE] / P[P_I]
     ell = math.hypot(P[P_R], P[P_H])
     w0 = S[S_W]
-    w1 = w0 + beta * tau_end
-    wmax = max(abs(w0), abs(w1))
-    kbound = g + ell * (abs(beta) + wmax * wmax)
     level = W[W_FLT:W_FLT + 4]
     armed = W[W_FLT + 4:W_FLT + 8]        # 1.0 / 0.0 flags
     for k in range(4):
@@ -878,8 +953,24 @@ def flight_phase(S, P, t_stop, W):
             # step 2 v / K lands exactly on the earliest possible return; arming only
             # above H_TOL let a pressed corner touch down H_TOL low and gain energy.
     tau = 0.0
+    # capped so that w_max^2 stays finite for a t_stop of 1e300 (an infinite K made
+    # every step NaN, and the flight jumped to t_stop through the ground)
+    window = min(tau_end, FLIGHT_WINDOW_MAX)
     for _ in range(MAX_CA_ITER):
         x, y, th, vx, vy, w = flight_at(S, P, tau)
+        # |omega| is linear in time, so its bound over [tau, tau + window] is at an end
+        window = min(window, tau_end - tau)
+        W[W_WORK] += 1.0
+        if W[W_WORK] > MAX_WORK:
+            S[S_ERROR] = ERR_WORK
+            _commit_flight(S, P, tau)
+            return PH_NONE, -1
+        wmax = max(abs(w), abs(w0 + beta * (tau + window)))
+        kbound = g + ell * (abs(beta) + wmax * wmax)
+        if not kbound < math.inf:
+            S[S_ERROR] = ERR_STEP
+            _commit_flight(S, P, tau)
+            return PH_NONE, -1
         c = math.cos(th)
         s = math.sin(th)
         step = np.inf
@@ -906,20 +997,27 @@ def flight_phase(S, P, t_stop, W):
                 if sk < step:
                     step = sk
         if hit >= 0:
-            if hit_v < 0.0 and hit_f > 0.0:
-                tau = min(tau + hit_f / (-hit_v), tau_end)   # one Newton polish
+            tau = _polish_touchdown(S, P, hit, tau, tau_end, level[hit], armed[hit],
+                                    hit_f, hit_v)
             _commit_flight(S, P, tau)
             return (PH_BROKEN if hit >= 2 else PH_TOUCH), hit
+        step = min(step, window)
         if tau + step >= tau_end:
             _commit_flight(S, P, tau_end)
             S[S_T] = t_stop
             return PH_NONE, -1
         tau += step
-    # Iteration budget spent creeping along a grazing approach: the corner is within
-    # a round-off distance of the ground; treat it as touching.
+        window = min(4.0 * step, FLIGHT_WINDOW_MAX)
+    # Iteration budget spent. Creeping along a grazing approach, the lowest bottom
+    # corner is within a round-off distance of the ground: it touches. Anywhere else
+    # nothing happened: hand back the time reached (never report a touchdown that did
+    # not happen; the caller's phase bound keeps this finite).
     _commit_flight(S, P, tau)
-    return PH_TOUCH, 0 if (S[S_Y] + corner_offset(P, 0, S[S_TH])[1]
-                           <= S[S_Y] + corner_offset(P, 1, S[S_TH])[1]) else 1
+    h0 = S[S_Y] + corner_offset(P, 0, S[S_TH])[1]
+    h1 = S[S_Y] + corner_offset(P, 1, S[S_TH])[1]
+    if min(h0, h1) > H_IMPACT:
+        return PH_NONE, -1
+    return PH_TOUCH, 0 if h0 <= h1 else 1
 
 
 # ----------------------------------------------------------------------------------
@@ -1226,6 +1324,10 @@ def contact_phase(S, P, O, t_stop, W):
         n_steps += 1
         if n_steps > MAX_RK_STEPS:
             S[S_ERROR] = ERR_STEP           # a bound on every loop: never a hang
+            break
+        W[W_WORK] += 1.0
+        if W[W_WORK] > MAX_WORK:
+            S[S_ERROR] = ERR_WORK
             break
         # written so that a NaN error (an overflowing trial step) is a rejection: with
         # `err > 1.0` it was accepted, and time crept towards a limit short of t_stop
@@ -1616,6 +1718,7 @@ def advance(S, P, O, torque_cmd, t_stop, ev, W):
         return 0
     S[S_TORQUE] = min(max(torque_cmd, P[P_TMIN]), P[P_TMAX])
     S[S_STOPPED] = 0.0
+    W[W_WORK] = 0.0
     n = settle(S, P, ev, 0)
     n = _judge_update(S, P, ev, n)
     if S[S_STOPPED] != 0.0:

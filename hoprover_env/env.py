@@ -139,14 +139,17 @@ _NO_LOG = np.zeros((0, core.EV_COLS))
 
 
 def check_actions(action, shape, what="action") -> np.ndarray:
-    """float64 array of the expected shape, or ValueError naming the problem."""
-    try:
-        a = np.asarray(action, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be numeric, got {action!r}") from None
-    if a.size != int(np.prod(shape)):
-        raise ValueError(f"{what} must have shape {shape}, got shape {a.shape}")
-    a = a.reshape(shape)
+    """float64 array of the expected shape, or ValueError naming the problem. The shape
+    may omit its trailing 1 ((n,) for (n, 1); a scalar for (1,)); strings, booleans and
+    complex numbers are refused, not converted, and so are other shapes of the same
+    size ((1, 4) or (2, 2) for 4 sub-envs)."""
+    a = np.asarray(action)
+    if a.dtype.kind not in "iuf":
+        raise ValueError(f"{what} must be real numbers, got {type(action).__name__} "
+                         f"{action!r} (dtype {a.dtype})")
+    if a.shape != tuple(shape) and a.shape != tuple(shape[:-1]):
+        raise ValueError(f"{what} must have shape {tuple(shape)}, got shape {a.shape}")
+    a = a.astype(np.float64).reshape(shape)
     if not np.all(np.isfinite(a)):
         bad = np.flatnonzero(~np.isfinite(a.ravel()))
         raise ValueError(f"{what} must be finite, got {a.ravel()[bad[0]]!r} "
@@ -174,6 +177,7 @@ class HopRoverEnv(gym.Env):
         self._w = np.zeros(core.N_WORK)
         self._s = None
         self._p = None
+        self._done = False
         self.params = self.config.params
         self.target_x = 0.0
         self._renderer = None
@@ -186,6 +190,7 @@ class HopRoverEnv(gym.Env):
             self.config, self.np_random, options)
         rl_kernel.observe(self._s, self._p, self._e, self._obs)
         self._trace = []
+        self._done = False
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
             if self.render_mode == "human":
@@ -195,7 +200,10 @@ class HopRoverEnv(gym.Env):
     def step(self, action):
         if self._s is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        if type(action) is np.ndarray and action.shape == (1,):
+        if self._done:
+            raise gym.error.ResetNeeded("the episode has ended (terminated or truncated): "
+                                        "call reset() before step()")
+        if type(action) is np.ndarray and action.shape == (1,) and action.dtype.kind == "f":
             a = float(action[0])                    # the common case, kept cheap
             if not math.isfinite(a):
                 raise ValueError(f"action must be finite, got {a!r}")
@@ -207,6 +215,7 @@ class HopRoverEnv(gym.Env):
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
             if self.render_mode == "human":
                 self.render()
+        self._done = bool(terminated or truncated)
         return self._obs.copy(), float(reward), bool(terminated), bool(truncated), \
             self._info(n_ev)
 

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from typing import Any, Mapping
 
 import numpy as np
 
 from . import core, rl_kernel
 from .params import RoverParams
-from .simulate import make_options, make_state, positive_real, DEFAULT_RTOL
+from .simulate import make_options, make_state, finite_real, positive_real, DEFAULT_RTOL
 
 # Parameters that domain randomisation may scale, and the bounds they are clipped to.
 RANDOMIZABLE = {
@@ -27,6 +28,11 @@ RANDOMIZABLE = {
 }
 SHAPINGS = {"contact": rl_kernel.SHAPING_CONTACT, "landing": rl_kernel.SHAPING_LANDING}
 ACTION_MAPS = {"linear": rl_kernel.ACTION_LINEAR, "cubic": rl_kernel.ACTION_CUBIC}
+
+
+def _is_real(v) -> bool:
+    """A real number, numpy scalars included; booleans are not numbers here."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,46 +71,48 @@ class EnvConfig:
         if self.control_dt > self.episode_time:
             raise ValueError(f"control_dt ({self.control_dt}) exceeds episode_time "
                              f"({self.episode_time})")
-        lo, hi = (tuple(self.target_range) + (None, None))[:2]
-        if not (isinstance(lo, (int, float)) and isinstance(hi, (int, float))
-                and math.isfinite(lo) and math.isfinite(hi) and lo <= hi
-                and len(tuple(self.target_range)) == 2):
+        rng = self.target_range
+        if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
+                and all(_is_real(v) and math.isfinite(v) for v in rng) and rng[0] <= rng[1]):
             raise ValueError(f"target_range must be (low, high) with low <= high, got "
                              f"{self.target_range!r}")
-        object.__setattr__(self, "target_range", (float(lo), float(hi)))
-        if self.target_x is not None and not math.isfinite(self.target_x):
-            raise ValueError(f"target_x must be finite or None, got {self.target_x!r}")
+        object.__setattr__(self, "target_range", (float(rng[0]), float(rng[1])))
+        if self.target_x is not None:
+            object.__setattr__(self, "target_x", finite_real("target_x", self.target_x))
         make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
         if isinstance(self.params, Mapping):
             object.__setattr__(self, "params", RoverParams(**self.params))
         if not isinstance(self.params, RoverParams):
             raise ValueError(f"params must be a RoverParams or a dict of its fields, got "
                              f"{type(self.params).__name__}")
+        if self.randomize is not None and not isinstance(self.randomize, Mapping):
+            raise ValueError("randomize must map parameter names to relative half-ranges, "
+                             f"e.g. {{'mass': 0.1}}; got {self.randomize!r}")
         rand = dict(self.randomize or {})
         for key, rel in rand.items():
             if key not in RANDOMIZABLE:
                 raise ValueError(f"randomize: unknown parameter {key!r}; choose from "
                                  f"{sorted(RANDOMIZABLE)}")
-            if not (isinstance(rel, (int, float)) and 0.0 <= rel < 1.0):
+            if not (_is_real(rel) and 0.0 <= rel < 1.0):
                 raise ValueError(f"randomize[{key!r}] must be a relative half-range in "
                                  f"[0, 1), got {rel!r}")
         object.__setattr__(self, "randomize", dict(sorted(rand.items())))
         for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
                      "attitude_weight", "band_weight"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+            if not (_is_real(v) and math.isfinite(v) and v >= 0):
                 raise ValueError(f"{name} must be a non-negative number, got {v!r}")
-        if not (isinstance(self.gamma, (int, float)) and 0.0 < self.gamma <= 1.0):
+        if not (_is_real(self.gamma) and 0.0 < self.gamma <= 1.0):
             raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
         if self.shaping not in SHAPINGS:
             raise ValueError(f"shaping must be one of {sorted(SHAPINGS)}, got {self.shaping!r}")
-        if not (isinstance(self.dist_cap, (int, float)) and math.isfinite(self.dist_cap)
+        if not (_is_real(self.dist_cap) and math.isfinite(self.dist_cap)
                 and self.dist_cap > 0):
             raise ValueError(f"dist_cap must be a positive number [m], got {self.dist_cap!r}")
         if self.action_map not in ACTION_MAPS:
             raise ValueError(f"action_map must be one of {sorted(ACTION_MAPS)}, got "
                              f"{self.action_map!r}")
-        if not (isinstance(self.action_scale, (int, float)) and 0.0 < self.action_scale <= 1.0):
+        if not (_is_real(self.action_scale) and 0.0 < self.action_scale <= 1.0):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
@@ -161,7 +169,7 @@ class HopEnvConfig(EnvConfig):
             if not (isinstance(v, (int, float)) and not isinstance(v, bool)
                     and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not (isinstance(self.launch_min, (int, float)) and 1.0 < self.launch_min < 1e3):
+        if not (_is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
             raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
                              f"in (1, 1000), got {self.launch_min!r}")
 

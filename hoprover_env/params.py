@@ -21,6 +21,12 @@ N_PARAMS = 15
 PAINLEVE_MARGIN = 1e-6      # smallest slide denominator accepted, relative to I + m l^2
 
 
+# Largest |value| of any parameter or initial-state component (SI units). The contest's
+# values are 1e-6..1; 1e9 leaves squares (1e18) and the products of event location far
+# from overflow, where 1e300 overflowed (a raw OverflowError, or a kernel that spun).
+MAX_MAGNITUDE = 1e9
+
+
 @dataclasses.dataclass(frozen=True)
 class RoverParams:
     """Rover, ground and judge parameters (SI units). Defaults: the 2015 contest."""
@@ -48,6 +54,10 @@ class RoverParams:
                 raise ValueError(f"RoverParams.{f.name} must be a real number, got {v!r}")
             if not math.isfinite(float(v)):
                 raise ValueError(f"RoverParams.{f.name} must be finite, got {v!r}")
+            if abs(float(v)) > MAX_MAGNITUDE:
+                raise ValueError(f"RoverParams.{f.name} = {v!r} is beyond {MAX_MAGNITUDE:g} "
+                                 "in SI units: the kernel's squares and products of such "
+                                 "values overflow or lose all precision")
             object.__setattr__(self, f.name, float(v))
         for name in ("mass", "inertia", "half_width", "half_height", "gravity",
                      "band_half_width", "dwell_time"):

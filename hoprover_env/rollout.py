@@ -127,7 +127,8 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
                 backup[c] = S[c]
             S[core.S_STOP_ON] = -1.0
             n = core.advance(S, P, O, cmd, t_stop, evbuf, W)
-            if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP:
+            if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP \
+                    or S[core.S_ERROR] == core.ERR_WORK:
                 prog[G_STATUS] = ST_BUDGET
                 return
             m = n if n < evbuf.shape[0] else evbuf.shape[0]
@@ -249,8 +250,16 @@ def control_function(controller):
     return controller
 
 
-def budget_error(t: float, code: float = core.ERR_BUDGET) -> RuntimeError:
+def budget_error(t: float, code: float = core.ERR_BUDGET) -> Exception:
     """The exception for a kernel that stopped on one of its bounds (S[S_ERROR])."""
+    if code == core.ERR_WORK:
+        # a ValueError: the call asked for more than one call may do (like a grid of too
+        # many samples), not a failure of the integrator
+        return ValueError(
+            f"the control interval ending after t = {t:.9g} s needs more than "
+            f"{core.MAX_WORK:.0e} integration steps (control_dt / t_stop too long for "
+            "the torque: held for that long it spins the rover at up to millions of "
+            "rad/s); shorten control_dt / t_stop or lower the torque (torque_max)")
     if code == core.ERR_STEP:
         return RuntimeError(
             f"the integrator could not continue at t = {t:.9g} s (step-size underflow, a "

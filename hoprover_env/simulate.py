@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from typing import Callable, Sequence
 
 import numpy as np
 
 from . import core, rollout
-from .params import RoverParams
+from .params import MAX_MAGNITUDE, RoverParams
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
 IMPACT_LAWS = {"contest": core.LAW_CONTEST, "dissipative": core.LAW_DISSIPATIVE}
@@ -44,14 +45,14 @@ _INIT_ERRORS = {
 def make_options(integrator: str = "event", impact_law: str = "contest",
                  rtol: float = DEFAULT_RTOL, euler_dt: float = 1e-3) -> np.ndarray:
     """The kernel's option vector, with the names checked."""
-    if integrator not in INTEGRATORS:
+    if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
-    if impact_law not in IMPACT_LAWS:
+    if not isinstance(impact_law, str) or impact_law not in IMPACT_LAWS:
         raise ValueError(f"impact_law must be one of {sorted(IMPACT_LAWS)}, got {impact_law!r}")
-    if not (math.isfinite(rtol) and 1e-15 <= rtol <= 1e-2):
+    rtol = finite_real("rtol", rtol)
+    if not 1e-15 <= rtol <= 1e-2:
         raise ValueError(f"rtol must lie in [1e-15, 1e-2], got {rtol!r}")
-    if not (math.isfinite(euler_dt) and euler_dt > 0.0):
-        raise ValueError(f"euler_dt must be a positive number, got {euler_dt!r}")
+    euler_dt = positive_real("euler_dt", euler_dt)
     o = np.zeros(core.N_OPTIONS)
     o[core.O_INTEGRATOR] = INTEGRATORS[integrator]
     o[core.O_LAW] = IMPACT_LAWS[impact_law]
@@ -63,14 +64,21 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
 def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
-    if not math.isfinite(target_x):
-        raise ValueError(f"target_x must be finite, got {target_x!r}")
+    target_x = finite_real("target_x", target_x)
     if initial_state is None:
         initial_state = (0.0, params.half_height, 0.0, 0.0, 0.0, 0.0)
-    st = np.asarray(initial_state, dtype=np.float64)
-    if st.shape != (6,) or not np.all(np.isfinite(st)):
-        raise ValueError("initial_state must be 6 finite numbers (x, y, theta, vx, vy, "
-                         f"omega), got {initial_state!r}")
+    try:
+        st = np.asarray(initial_state, dtype=np.float64)
+    except (TypeError, ValueError):
+        st = None
+    if st is None or st.shape != (6,) or not np.all(np.isfinite(st)) \
+            or np.asarray(initial_state).dtype.kind not in "iuf":
+        raise ValueError("initial_state must be 6 finite numbers (x, y, theta, vx, "
+                         f"vy, omega), got {initial_state!r}")
+    if np.max(np.abs(st)) > MAX_MAGNITUDE or abs(target_x) > MAX_MAGNITUDE:
+        raise ValueError(f"initial_state {tuple(map(float, st))} / target_x {target_x!r}: "
+                         f"components beyond {MAX_MAGNITUDE:g} (SI) overflow the kernel's "
+                         "arithmetic")
     s = np.zeros(core.N_STATE)
     code = core.init_state(s, params.as_array(), *st, float(target_x))
     if code != core.INIT_OK:
@@ -80,11 +88,15 @@ def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.n
 
 
 def check_torque(torque, what="torque") -> float:
-    """A finite float, or ValueError naming the bad value."""
-    try:
-        value = float(torque)
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be a real number, got {torque!r}") from None
+    """A finite float, or ValueError naming the bad value. Numpy scalars and one-element
+    real arrays (what a policy's predict returns) are welcome; strings ('1e-4'),
+    booleans and complex numbers are refused rather than converted."""
+    if isinstance(torque, np.ndarray) and torque.size == 1 and torque.dtype.kind in "iuf":
+        torque = torque.reshape(()).item()
+    if isinstance(torque, (bool, np.bool_)) or not isinstance(torque, numbers.Real):
+        raise ValueError(f"{what} must be a real number, got {type(torque).__name__} "
+                         f"{torque!r}")
+    value = float(torque)
     if not math.isfinite(value):
         raise ValueError(f"{what} must be finite, got {value!r}")
     return value
@@ -177,12 +189,15 @@ class RoverSim:
         """Hold `torque` from now to `t_stop` (or to the first `stop_on` event).
         Returns the events as (time, kind, state before, state after, value)."""
         torque = check_torque(torque)
+        t_stop = finite_real("t_stop", t_stop)
+        if t_stop < self.t:
+            raise ValueError(f"t_stop ({t_stop!r}) is before the current time {self.t!r}")
         if stop_on is not None and stop_on not in core.EVENT_NAMES:
             raise ValueError(f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; "
                              f"got {stop_on!r}")
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
-        n = core.advance(self.s, self.p, self.o, torque, float(t_stop), self._ev, self._w)
-        if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP):
+        n = core.advance(self.s, self.p, self.o, torque, t_stop, self._ev, self._w)
+        if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP, core.ERR_WORK):
             from .rollout import budget_error
             raise budget_error(self.t, float(self.s[core.S_ERROR]))
         ev = self._ev
@@ -221,19 +236,26 @@ class RoverSim:
         return core.contact_forces(self.s, self.p)
 
 
-def positive_real(name: str, v) -> float:
-    """A positive finite real number as float (numpy scalars welcome); strings, booleans
-    and complex numbers are refused with a message naming the argument."""
-    import numbers
+def finite_real(name: str, v) -> float:
+    """A finite real number as float (numpy scalars welcome); strings, booleans and
+    complex numbers are refused with a message naming the argument."""
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
         raise TypeError(f"{name} must be a real number, got {type(v).__name__} {v!r}")
     v = float(v)
-    if not (math.isfinite(v) and v > 0):
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v!r}")
+    return v
+
+
+def positive_real(name: str, v) -> float:
+    """A positive finite real number as float (see finite_real)."""
+    v = finite_real(name, v)
+    if not v > 0:
         raise ValueError(f"{name} must be a positive finite number, got {v!r}")
     return v
 
 
-MAX_SAMPLES = 10**8     # control intervals x samples per interval that one call may produce
+MAX_SAMPLES = 10**7     # samples one call may produce: ~1 GB of output arrays, minutes of CPU
 MAX_EULER_STEPS = 10**10    # fixed Euler steps one simulate() call may take (hours of CPU)
 
 
@@ -282,7 +304,15 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     if callable(controller):
         schedule = None
     else:
-        schedule = np.asarray(controller, dtype=np.float64)
+        try:
+            raw = np.asarray(controller)
+        except ValueError:          # ragged nesting: [0.0, [1.0]]
+            raw = np.asarray(None)
+        if raw.dtype.kind not in "iuf":
+            # strings ('1e-4'), booleans and complex numbers are not converted silently
+            raise ValueError("a torque schedule must be a 1-D sequence of real numbers (or a "
+                             f"controller), got {controller!r}")
+        schedule = raw.astype(np.float64)
         if schedule.ndim != 1:
             raise ValueError(f"a torque schedule must be 1-D, got shape {schedule.shape}")
         bad = np.flatnonzero(~np.isfinite(schedule))

@@ -42,7 +42,8 @@ class HopRoverVectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
                  max_episode_steps: int | None = None, threads: bool | None = None,
                  render_mode: str | None = None, **kwargs: Any):
-        if not (isinstance(num_envs, (int, np.integer)) and num_envs >= 1):
+        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
+                and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.config = self.config_class.from_kwargs(**kwargs)
         self.num_envs = int(num_envs)

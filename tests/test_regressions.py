@@ -178,3 +178,102 @@ def test_ttrtp_is_logged_in_time_order_and_stop_on_ttrtp_stops_there():
     sim = RoverSim(target_x=0.0)
     events = sim.advance(2e-5, 20.0, stop_on="ttrtp")
     assert sim.t == 5.0 and events[-1][1] == "ttrtp"
+
+
+def _lowest_corner_height(sim_or_state, params):
+    from hoprover_env import core
+    s = sim_or_state
+    return min(s[core.S_Y] + core.corner_offset(params, k, s[core.S_TH])[1] for k in range(4))
+
+
+def test_no_impact_is_logged_in_mid_air_over_a_long_control_interval():
+    # issue 9.2: the flight bound used the spin rate at the END of a 200 s interval, so
+    # steps shrank to 1e-7 s after lift-off, the iteration budget ran out 3.6e-5 m up
+    # and an impact that changed nothing was logged at t = 2.88 s
+    roll = simulate(np.array([5e-4]), t_end=200, control_dt=200)
+    kinds = [e[1] for e in roll.events]
+    assert kinds[:3] == ["tip", "slip", "liftoff"]
+    t_lift = roll.events[2][0]
+    assert not any(e[1] == "impact" and e[0] < t_lift + 10.0 for e in roll.events)
+
+
+def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
+    # issue 9.2: RoverSim stopped at t = 140.87 s with every corner 0.32 m up. Checked
+    # against the closed-form flight sampled every 1e-5 s.
+    from hoprover_env import RoverSim, core
+    sim = RoverSim(target_x=1e3)
+    sim.advance(3.7e-4, 200, stop_on="liftoff")
+    s0, p, t0 = sim.s.copy(), sim.p, sim.t
+    ev = sim.advance(3.7e-4, 200, stop_on="impact")
+    assert ev and ev[-1][1] in ("impact", "broken")
+    assert abs(_lowest_corner_height(sim.s, p)) < 1e-9
+    x, y, th, vx, vy, w = s0[:6]
+    tt = np.arange(0.0, sim.t - t0 + 1.0, 1e-5)
+    thh = th + w * tt + 0.5 * 3.7e-4 / p[core.P_I] * tt ** 2
+    yy = y + vy * tt - 0.5 * p[core.P_G] * tt ** 2
+    h = np.min([yy - bx * np.sin(thh) + by * np.cos(thh)
+                for bx, by in (core.corner_body(p, k) for k in range(4))], axis=0)
+    first = t0 + tt[np.argmax(h[10:] <= 0.0) + 10]
+    assert abs(sim.t - first) < 2e-5
+
+
+def _return_time_exact(s0, p, torque, k=0):
+    """First return of corner k to the ground in the closed-form flight from state s0,
+    in 40-digit arithmetic (independent of the kernel's stepping and round-off)."""
+    mp = pytest.importorskip("mpmath")
+    from hoprover_env import core
+    mp.mp.dps = 40
+    y, th, vy, w = (mp.mpf(float(s0[i])) for i in (core.S_Y, core.S_TH, core.S_VY, core.S_W))
+    g, beta = mp.mpf(float(p[core.P_G])), mp.mpf(torque) / mp.mpf(float(p[core.P_I]))
+    bx, by = (mp.mpf(float(v)) for v in core.corner_body(p, k))
+
+    def h(t):
+        a = th + w * t + beta * t * t / 2
+        return y + vy * t - g * t * t / 2 - bx * mp.sin(a) + by * mp.cos(a)
+    lo = mp.mpf(0)
+    for i in range(1, 100_000):
+        hi = mp.mpf(i) * mp.mpf("1e-8")
+        if h(hi) < 0:
+            break
+        lo = hi
+    for _ in range(100):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if h(mid) >= 0 else (lo, mid)
+    return float(hi)
+
+
+@pytest.mark.parametrize("delay,t1,t2", [(2e-4, 1e-4, 5e-4), (1e-4, 1e-4, 5e-4),
+                                         (2e-4, 3e-4, 4e-4)])
+def test_slow_return_after_lift_off_is_located_whatever_the_horizon(delay, t1, t2):
+    # issue 9.3: a corner lifts off, a torque change `delay` later drives it back within
+    # microseconds at ~1e-9 m/s. A Newton polish dividing by that speed reported the
+    # return up to 4e-5 s late, and later for longer `advance` horizons.
+    from hoprover_env import RoverSim
+    found = []
+    for horizon in (1e-3, 1.0, 5.0, 20.0, 100.0):
+        sim = RoverSim(target_x=1e3)
+        sim.advance(t1, 100.0, stop_on="liftoff")
+        sim.advance(t1, sim.t + delay)
+        t_c, s0, p = sim.t, sim.s.copy(), sim.p
+        ev = sim.advance(t2, t_c + horizon, stop_on="impact")
+        assert ev[0][1] == "impact", ev
+        found.append(ev[0][0] - t_c)
+    exact = _return_time_exact(s0, p, t2)
+    assert 1e-7 < exact < 1e-5
+    # the float state fixes the corner height only to ~1e-17 m: at ~1e-9 m/s that is
+    # ~1e-9 s (measured 1.3e-9 s at most)
+    assert max(abs(t - exact) for t in found) < 5e-9
+    assert max(found) - min(found) < 1e-12
+
+
+def test_a_flight_towards_a_huge_t_stop_still_lands():
+    # found by tests/test_fuzz.py: with t_stop = 1e300 the flight's curvature bound was
+    # infinite, every step NaN, and the rover flew through the ground to t = 1e300
+    from hoprover_env import RoverSim
+    ends = []
+    for t_stop in (100.0, 1e5, 1e300):
+        sim = RoverSim()
+        ev = sim.advance(3.147975132604256e-05, t_stop)
+        ends.append((ev[-1][:2], sim.t))
+        assert np.all(np.isfinite(sim.state))
+    assert ends[0][0][1] == "broken" and len(set(ends)) == 1
