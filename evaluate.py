@@ -4,6 +4,7 @@
     python evaluate.py --policy scripted --policy runs/ppo1 --episodes 50
     python evaluate.py --targets 0.5,-0.8 --plot figs --video hop.gif
     python evaluate.py --controller my_entry.py:Control  # a 2015 contest entry, unchanged
+    python evaluate.py --episodes 100000 --batch 1000 --ray   # episodes as Ray tasks
 
 Prints one table (success rate, median and 90th-percentile TTRTP, broken count, mean
 wall time per episode) with one row per policy, all on the same targets. --json/--csv
@@ -51,7 +52,14 @@ def parse_args(argv=None):
     ap.add_argument("--plot-episode", type=int, default=None,
                     help="which target to plot/film (default: the first one that needs a hop)")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ap.add_argument("--batch", type=int, default=256,
+                    help="episodes run side by side in one vector env (default 256)")
+    ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                    help="run the episodes as Ray tasks, one batch each: on a local Ray, "
+                         "or on the cluster at ADDRESS (or RAY_ADDRESS); same results")
     args = ap.parse_args(_join_dash_values(sys.argv[1:] if argv is None else list(argv)))
+    if args.batch < 1:
+        ap.error(f"--batch must be at least 1, got {args.batch}")
     if args.episodes < 1:
         ap.error(f"--episodes must be at least 1, got {args.episodes}")
     if not (math.isfinite(args.control_dt) and args.control_dt > 0):
@@ -134,14 +142,32 @@ def _main(argv=None) -> int:
             pol.name = spec.rstrip("/\\")
 
     rows, all_results = [], []
-    for pol in policies:
+    if args.ray is not None:
+        jobs = [("policy", s, p.name) for s, p in zip(specs, policies)]
+        jobs += [("controller", c, p.name) for c, p in zip(args.controller,
+                                                             policies[len(specs):])]
+        try:
+            from agents.ray_eval import evaluate_on_ray
+        except ImportError as exc:
+            print(f"error: --ray needs Ray: pip install 'hoprover[ray]' ({exc})",
+                  file=sys.stderr)
+            return 2
+        t0 = time.perf_counter()
+        by_name = evaluate_on_ray(jobs, targets, args.control_dt, args.seed, args.batch,
+                                  address=args.ray or None)
+        for _, _, name in jobs:
+            rows.append((name, summarize(by_name[name])))
+            all_results.extend(by_name[name])
+        print(f"  {len(jobs)} policies x {len(targets)} episodes on Ray in "
+              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    for pol in policies if args.ray is None else []:
         bar = None
         if not args.no_progress and len(targets) > 20:
             from tqdm import tqdm
             bar = tqdm(total=len(targets), desc=pol.name, unit="ep", leave=False)
         progress = (lambda k, b=bar: b.update(k - b.n)) if bar else None
         t0 = time.perf_counter()
-        results = run_episodes(pol, targets, progress=progress)
+        results = run_episodes(pol, targets, batch=args.batch, progress=progress)
         if bar:
             bar.close()
         rows.append((pol.name, summarize(results)))

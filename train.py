@@ -21,6 +21,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -119,6 +120,7 @@ class Trainer:
         self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
                                            *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))
         self.evals: list[dict] = []
+        self.on_eval = None         # called with each evaluation row (sweep.py reports it)
         self.pretrain: dict = {}
         self.best = (-1.0, -math.inf)
         self.wall0 = 0.0
@@ -265,6 +267,8 @@ class Trainer:
         print(f"  eval @ {row['timesteps']:>9d}: success {row['success_rate']:.1%}, median TTRTP "
               f"{row['median_ttrtp']:.1f} s, broken {row['broken']}"
               f"{'  (best)' if improved else ''}", file=sys.stderr)
+        if self.on_eval is not None:
+            self.on_eval(row)
 
     def wall(self):
         return self.wall0 + (time.perf_counter() - self.t_start)
@@ -337,8 +341,12 @@ class Trainer:
             self.checkpoint()                    # cloning is never redone on --resume
         remaining = total - self.model.num_timesteps
         interrupted = False
-        previous = signal.getsignal(signal.SIGTERM)
-        signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+        # SIGTERM saves a checkpoint like Ctrl-C; signals can only be handled in the main
+        # thread (a Ray Tune trial runs this in a worker thread: Tune stops it itself)
+        main_thread = threading.current_thread() is threading.main_thread()
+        if main_thread:
+            previous = signal.getsignal(signal.SIGTERM)
+            signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
         try:
             if remaining > 0:
                 self.model.learn(remaining, callback=Hooks(), reset_num_timesteps=False,
@@ -346,7 +354,8 @@ class Trainer:
         except KeyboardInterrupt:
             interrupted = True
         finally:
-            signal.signal(signal.SIGTERM, previous)
+            if main_thread:
+                signal.signal(signal.SIGTERM, previous)
         if interrupted:
             saved = self.checkpoint()
             print(f"\ninterrupted; checkpoint saved at {saved} trained steps. "

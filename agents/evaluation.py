@@ -13,6 +13,7 @@ import time
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
+from agents.policies import RandomPolicy
 from hoprover_env import vector_env_class
 
 
@@ -39,17 +40,20 @@ def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.
 
 
 def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
-                 progress=None) -> list[EpisodeResult]:
-    """One episode per target. `env_kwargs` configure the env (the policy's own
-    `env_kwargs`, e.g. its control period, take precedence). `progress` is called with
-    the number of finished episodes."""
+                 progress=None, first_episode: int = 0) -> list[EpisodeResult]:
+    """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
+    env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
+    `progress` is called with the number of finished episodes. `first_episode` numbers
+    the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
+    start at multiples of `batch`, so each batch is the one a local run has)."""
     kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
     kwargs.pop("target_x", None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
     for start in range(0, len(targets), batch):
         chunk = targets[start:start + batch]
-        results.extend(_run_batch(policy, chunk, start, kwargs, progress, len(results)))
+        results.extend(_run_batch(policy, chunk, first_episode + start, kwargs, progress,
+                                  len(results)))
     return results
 
 
@@ -59,7 +63,10 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before):
     venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
         n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     obs, _ = venv.reset(seed=0, options={"target_x": targets})
-    policy.reset(n)
+    if isinstance(policy, RandomPolicy):
+        policy.reset(n, offset)
+    else:
+        policy.reset(n)
     active = np.ones(n, dtype=bool)
     steps = np.zeros(n, dtype=np.int64)
     out: list = [None] * n

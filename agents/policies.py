@@ -95,10 +95,13 @@ class RandomPolicy:
     def __init__(self, seed: int = 0):
         self.name = "random"
         self.env_kwargs = {}
+        self.seed = seed
         self.rng = np.random.default_rng(seed)
 
-    def reset(self, n: int) -> None:
-        pass
+    def reset(self, n: int, first_episode: int = 0) -> None:
+        # a stream per batch of episodes, keyed by its first episode: the same draws
+        # whichever process evaluates that batch (evaluate.py --ray)
+        self.rng = np.random.default_rng([self.seed, first_episode])
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         return self.rng.uniform(-1.0, 1.0, (len(obs), 1))

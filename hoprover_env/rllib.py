@@ -1,0 +1,38 @@
+"""RLlib glue (pip install "hoprover[ray]"): an env creator for
+`ray.tune.registry.register_env` that builds the native vector env when RLlib asks for
+`num_envs` (`gym_env_vectorize_mode="vector_entry_point"`), and a callback that logs the
+contest judge's verdict of each episode as RLlib metrics. It lives in the installed
+package so that EnvRunner processes, on any machine with hoprover installed, can
+unpickle both. See examples/rllib_ppo.py.
+"""
+from __future__ import annotations
+
+from ray.rllib.callbacks.callbacks import RLlibCallback
+
+from .env import HopRoverEnv
+from .vector_env import HopRoverVectorEnv
+
+
+def make_env(env_config):
+    """RLlib's env creator. `env_config` (an EnvContext: a dict of HopRoverEnv keyword
+    arguments, with worker_index etc. as attributes) becomes the env's kwargs; with
+    `num_envs` in it (RLlib's vector_entry_point mode) one HopRoverVectorEnv steps all
+    of a runner's sub-envs in one numba call."""
+    kwargs = dict(env_config)
+    num_envs = kwargs.pop("num_envs", None)
+    if num_envs is None:
+        return HopRoverEnv(**kwargs)
+    return HopRoverVectorEnv(num_envs=num_envs, **kwargs)
+
+
+class HopRoverMetrics(RLlibCallback):
+    """Per finished episode: hoprover_success, hoprover_broken and (on success)
+    hoprover_ttrtp, averaged by RLlib into `result["env_runners"]`."""
+
+    def on_episode_end(self, *, episode, metrics_logger=None, **kwargs):
+        info = episode.get_infos(-1)
+        success = bool(info.get("is_success", False))
+        metrics_logger.log_value("hoprover_success", float(success))
+        metrics_logger.log_value("hoprover_broken", float(info.get("broken", False)))
+        if success and info.get("ttrtp") is not None:
+            metrics_logger.log_value("hoprover_ttrtp", float(info["ttrtp"]))

@@ -1,0 +1,292 @@
+"""Hyperparameter and seed sweeps of train.py's trainer on Ray Tune.
+
+    python sweep.py --config configs/ppo_scratch.yaml --seeds 0-7 \\
+        --search "learning_rate=loguniform(1e-5,1e-3)" --samples 16 --name lr
+    python sweep.py ... --address ray://HOST:10001      # the same sweep on a cluster
+
+Each trial is train.py's Trainer (the same config, checks, evaluations and files) with
+the sampled values applied, in runs/sweeps/NAME/trials/TRIAL_ID. Optuna proposes the
+values (Tune's OptunaSearch); ASHA stops trials whose judged success rate lags at an
+evaluation (each `evaluation.freq` steps is one ASHA time unit). Trial k trains with
+seed SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never searched over
+(picking a lucky seed is not tuning). One CPU per trial by default.
+
+Search terms, repeatable: NAME=uniform(a,b) | loguniform(a,b) | randint(a,b) |
+choice(a|b|...). NAME is a config key: a bare `learning_rate` is looked up in
+`hyperparams`, then `env`, then `policy`; `env.time_cost` names the section.
+
+At the end it prints a table of the trials and writes runs/sweeps/NAME/best_config.yaml,
+which `python train.py --config runs/sweeps/NAME/best_config.yaml --out ...` accepts
+unchanged. Running the same command again resumes an interrupted sweep: finished trials
+are kept, unfinished ones continue from their last train.py checkpoint. Without
+--address (or RAY_ADDRESS) it starts a local Ray on this machine's cores.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import hashlib
+import math
+import re
+import sys
+from pathlib import Path
+
+import yaml
+
+from agents.sb3_agents import ConfigError, load_config
+
+ROOT = Path(__file__).resolve().parent
+DISTRIBUTIONS = ("uniform", "loguniform", "randint", "choice")
+METRIC = "score"     # success rate, ties broken by a faster median TTRTP
+
+
+def parse_seeds(text: str) -> list[int]:
+    """'0-7' or '0,3,5' or '4' -> a list of ints."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        m = re.fullmatch(r"\s*(-?\d+)\s*(?:-\s*(-?\d+)\s*)?", part)
+        if not m:
+            raise ValueError(f"--seeds wants e.g. 0-7 or 0,3,5; got {text!r}")
+        lo = int(m.group(1))
+        hi = int(m.group(2)) if m.group(2) is not None else lo
+        if hi < lo:
+            raise ValueError(f"--seeds range {part!r} is empty")
+        seeds.extend(range(lo, hi + 1))
+    return seeds
+
+
+def parse_search(term: str, cfg: dict) -> tuple[tuple[str, str], str, list]:
+    """'learning_rate=loguniform(1e-5,1e-3)' -> (('hyperparams', 'learning_rate'),
+    'loguniform', [1e-5, 1e-3]), with the key resolved against the config."""
+    m = re.fullmatch(r"\s*([\w.]+)\s*=\s*(\w+)\((.*)\)\s*", term)
+    if not m:
+        raise ValueError(f"--search wants NAME=DIST(ARGS), e.g. learning_rate=loguniform(1e-5,"
+                         f"1e-3); got {term!r}")
+    name, dist, args = m.groups()
+    if dist not in DISTRIBUTIONS:
+        raise ValueError(f"--search {name}: distribution must be one of {DISTRIBUTIONS}, "
+                         f"got {dist!r}")
+    if dist == "choice":
+        values = [yaml.safe_load(v) for v in args.split("|")]
+    else:
+        try:
+            values = [float(v) for v in args.split(",")]
+        except ValueError:
+            raise ValueError(f"--search {name}: {dist} wants two numbers, got ({args})") from None
+        if len(values) != 2 or not values[0] < values[1]:
+            raise ValueError(f"--search {name}: {dist} wants (low, high) with low < high, "
+                             f"got ({args})")
+        if dist == "loguniform" and values[0] <= 0:
+            raise ValueError(f"--search {name}: loguniform needs low > 0, got {values[0]}")
+        if dist == "randint":
+            values = [int(v) for v in values]
+    if "." in name:
+        section, key = name.split(".", 1)
+        if section not in SECTIONS or key not in section_keys(cfg, section):
+            raise ValueError(f"--search {name}: not a key of {section!r}")
+        return (section, key), dist, values
+    for section in SECTIONS:
+        if name in section_keys(cfg, section):
+            return (section, name), dist, values
+    raise ValueError(f"--search {name}: not a key of hyperparams, env or policy")
+
+
+SECTIONS = ("hyperparams", "env", "policy")
+
+
+def section_keys(cfg: dict, section: str) -> set:
+    """The keys a config section accepts (those agents.sb3_agents.validate checks)."""
+    import dataclasses
+    import inspect
+    from agents.sb3_agents import POLICY_KEYS, algo_class
+    from hoprover_env.env_config import EnvConfig, HopEnvConfig
+    if section == "hyperparams":
+        return set(inspect.signature(algo_class(cfg["algo"]).__init__).parameters) - {
+            "self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
+            "_init_setup_model"}
+    if section == "env":
+        cls = HopEnvConfig if cfg["env_id"] == "HopRoverHop-v0" else EnvConfig
+        return {f.name for f in dataclasses.fields(cls)}
+    return set(POLICY_KEYS)
+
+
+def _validate(cfg: dict) -> None:
+    from agents.sb3_agents import validate
+    validate(cfg)
+
+
+def apply_params(cfg: dict, params: dict, paths: dict) -> dict:
+    """The base config with sampled values put in place (then validated)."""
+    out = copy.deepcopy(cfg)
+    for name, value in params.items():
+        section, key = paths[name]
+        out[section] = {**out[section], key: value}
+    _validate(out)
+    return out
+
+
+def score(row: dict) -> float:
+    """Success rate, with a faster median TTRTP breaking ties (at most 0.006 of it)."""
+    med = row["median_ttrtp"]
+    return row["success_rate"] - 1e-5 * (600.0 if med is None or math.isnan(med) else med)
+
+
+def parse_args(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog=__doc__.split("\n", 2)[2])
+    ap.add_argument("--config", required=True, help="base YAML config (configs/*.yaml)")
+    ap.add_argument("--search", action="append", default=[], help="NAME=DIST(ARGS), repeatable")
+    ap.add_argument("--seeds", default="0", help="seeds spread over the trials: 0-7 or 0,3,5")
+    ap.add_argument("--samples", type=int, default=8, help="number of trials")
+    ap.add_argument("--name", default=None, help="sweep name (default: the config's stem)")
+    ap.add_argument("--out", default=str(ROOT / "runs" / "sweeps"),
+                    help="directory of sweeps (default runs/sweeps)")
+    ap.add_argument("--timesteps", type=int, default=None, help="override the config's budget")
+    ap.add_argument("--cpus-per-trial", type=float, default=1.0)
+    ap.add_argument("--grace", type=int, default=2,
+                    help="evaluations every trial gets before ASHA may stop it")
+    ap.add_argument("--address", default=None,
+                    help="Ray cluster address (ray://HOST:10001); default RAY_ADDRESS or local")
+    ap.add_argument("--num-cpus", type=int, default=None, help="CPUs of a local Ray")
+    args = ap.parse_args(argv)
+    if args.samples < 1:
+        ap.error(f"--samples must be at least 1, got {args.samples}")
+    if not args.cpus_per_trial > 0:
+        ap.error(f"--cpus-per-trial must be > 0, got {args.cpus_per_trial}")
+    try:
+        args.seeds = parse_seeds(args.seeds)
+    except ValueError as exc:
+        ap.error(str(exc))
+    return args
+
+
+def trial_index(dir_name: str, trial_id: str) -> int:
+    """Tune's running number of a trial (1, 2, ...), from its directory name
+    'trainable_43dc18a6_4_learning_rate=...'; a hash of its id if the name has none."""
+    m = re.match(r"[A-Za-z]+_[0-9a-f]+_(\d+)", dir_name)
+    return int(m.group(1)) - 1 if m else int(hashlib.sha1(trial_id.encode()).hexdigest(), 16)
+
+
+def make_trainable(base: dict, paths: dict, seeds: list[int], trials_dir: Path):
+    def trainable(config: dict):
+        import torch
+        from ray import tune
+        from train import Trainer
+        torch.set_num_threads(1)
+        ctx = tune.get_context()
+        trial_id = ctx.get_trial_id()
+        index = trial_index(Path(ctx.get_trial_dir()).name, trial_id)
+        cfg = apply_params(base, config, paths)
+        cfg["seed"] = seeds[index % len(seeds)]
+        out = trials_dir / trial_id
+        resume = (out / "checkpoints" / "last.json").exists()
+        trainer = Trainer(cfg, out, resume, "cpu", progress=False)
+        report = lambda row: tune.report({**row, METRIC: score(row), "seed": cfg["seed"],
+                                          "trial_id": trial_id})
+        for row in trainer.evals:            # a resumed trial re-reports what it had
+            report(row)
+        if (out / "final_model.json").exists() and \
+                trainer.model.num_timesteps >= cfg["timesteps"]:
+            return          # it had finished (the sweep was killed before Tune noted it)
+        trainer.on_eval = report
+        trainer.run()
+    return trainable
+
+
+def best_config_path(sweep_dir: Path) -> Path:
+    return sweep_dir / "best_config.yaml"
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        base = load_config(args.config, {"timesteps": args.timesteps})
+        searched = [parse_search(t, base) for t in args.search]
+    except (ConfigError, FileNotFoundError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    try:
+        from ray import tune
+        from ray.tune.schedulers import ASHAScheduler
+        from ray.tune.search.optuna import OptunaSearch
+    except ImportError as exc:
+        print(f"error: sweeps need Ray Tune and Optuna: pip install 'hoprover[ray]' ({exc})",
+              file=sys.stderr)
+        return 2
+    name = args.name or Path(args.config).stem
+    storage = Path(args.out).resolve()
+    sweep_dir = storage / name
+    trials_dir = sweep_dir / "trials"
+    space, paths = {}, {}
+    for (section, key), dist, values in searched:
+        label = key
+        paths[label] = (section, key)
+        space[label] = {"uniform": lambda v: tune.uniform(*v),
+                        "loguniform": lambda v: tune.loguniform(*v),
+                        "randint": lambda v: tune.randint(v[0], v[1] + 1),
+                        "choice": lambda v: tune.choice(v)}[dist](values)
+    n_evals = base["timesteps"] // base["evaluation"]["freq"] + 2
+    from agents.ray_utils import init_ray
+    init_ray(args.address, args.num_cpus)
+    trainable = tune.with_resources(make_trainable(base, paths, args.seeds, trials_dir),
+                                    {"cpu": args.cpus_per_trial})
+    if tune.Tuner.can_restore(str(sweep_dir)):
+        print(f"resuming the sweep in {sweep_dir}", file=sys.stderr)
+        tuner = tune.Tuner.restore(str(sweep_dir), trainable, resume_unfinished=True,
+                                   resume_errored=True)
+    else:
+        from ray.tune import RunConfig
+        tuner = tune.Tuner(
+            trainable, param_space=space,
+            tune_config=tune.TuneConfig(
+                num_samples=args.samples,
+                search_alg=OptunaSearch(metric=METRIC, mode="max", seed=args.seeds[0])
+                if space else None,
+                scheduler=ASHAScheduler(metric=METRIC, mode="max", max_t=n_evals,
+                                        grace_period=min(args.grace, n_evals))),
+            run_config=RunConfig(name=name, storage_path=str(storage), verbose=0))
+    results = tuner.fit()
+    rows = []
+    for r in results:
+        m = r.metrics or {}
+        rows.append({"trial": m.get("trial_id") or (Path(r.path).name if r.path else "?"),
+                     "seed": m.get("seed"), **{k: (r.config or {}).get(k) for k in space},
+                     "evals": m.get("training_iteration"), "timesteps": m.get("timesteps"),
+                     "success": m.get("success_rate"), "median_ttrtp": m.get("median_ttrtp"),
+                     METRIC: m.get(METRIC), "error": r.error is not None})
+    print(format_trials(rows, list(space)))
+    done = [(row, r) for row, r in zip(rows, results) if row[METRIC] is not None]
+    if not done:
+        print("error: no trial reported an evaluation", file=sys.stderr)
+        return 1
+    best_row, best = max(done, key=lambda x: x[0][METRIC])
+    cfg = apply_params(base, {k: best.config[k] for k in space}, paths)
+    cfg["seed"] = best_row["seed"]
+    from agents.files import atomic_write
+    atomic_write(best_config_path(sweep_dir),
+                 f"# best trial of sweep {name}: success {best_row['success']}, median TTRTP "
+                 f"{best_row['median_ttrtp']}\n" + yaml.safe_dump(cfg, sort_keys=False))
+    print(f"\nbest config: {best_config_path(sweep_dir)}")
+    return 0
+
+
+def format_trials(rows: list[dict], keys: list[str]) -> str:
+    def fmt(v):
+        if v is None:
+            return "-"
+        if isinstance(v, float):
+            return "-" if math.isnan(v) else f"{v:.4g}"
+        return str(v)
+    cols = ["trial", "seed", *keys, "evals", "timesteps", "success", "median_ttrtp", METRIC]
+    table = [[fmt(row.get(c)) + ("  (error)" if c == METRIC and row["error"] else "")
+              for c in cols] for row in rows]
+    widths = [max(len(c), *(len(r[i]) for r in table)) for i, c in enumerate(cols)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(cols, widths)),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(v.ljust(w) for v, w in zip(r, widths)) for r in table]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
