@@ -50,7 +50,27 @@ def parse_args(argv=None):
     ap.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     ap.add_argument("--device", type=str, default="cpu")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ap.add_argument("--quick", action="store_true",
+                    help="a smoke run of the config in a few minutes: 20k steps (unless "
+                         "--timesteps), 10 evaluation episodes, cloning cut to 16 episodes, "
+                         "2 epochs and one DAgger round")
     return ap.parse_args(argv)
+
+
+def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
+    """The same config at a budget that checks the whole pipeline in about a minute."""
+    cfg = {**cfg, "evaluation": {**cfg["evaluation"], "episodes": 10,
+                                 "freq": min(cfg["evaluation"]["freq"], 10_000)},
+           "checkpoint": {**cfg["checkpoint"], "freq": min(cfg["checkpoint"]["freq"], 10_000)}}
+    if not timesteps_given:
+        cfg["timesteps"] = 20_000
+    if cfg.get("pretrain"):
+        pt = dict(cfg["pretrain"])
+        pt.update(episodes=16, epochs=2, value_epochs=min(pt.get("value_epochs", 10), 1))
+        if pt.get("dagger_rounds", 0):
+            pt.update(dagger_rounds=1, dagger_episodes=8)
+        cfg["pretrain"] = pt
+    return cfg
 
 
 # ---- files --------------------------------------------------------------------------
@@ -186,8 +206,10 @@ class Trainer:
             timer[key] += time.perf_counter() - t0
             return out
 
+        log(f"behaviour cloning: running the expert ({pt.get('episodes', 400)} episodes, "
+            f"then {pt.get('dagger_rounds', 0)} DAgger rounds)")
         data = timed("collect", collect, expert, ekw, pt.get("episodes", 400), seed, gamma,
-                     noise=pt.get("noise", 0.0))
+                     noise=pt.get("noise", 0.0), log=log)
         log(f"behaviour cloning: {len(data[0])} expert steps in {timer['collect']:.1f} s")
         timed("fit", clone, self.model, self.venv, *data, **fit)
         best = self._score_clone("cloned", None)
@@ -196,9 +218,9 @@ class Trainer:
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                                 epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
             new = timed("collect", collect, expert, ekw, pt.get("dagger_episodes", 200),
-                        seed + 1 + k, gamma, executor=learner)
+                        seed + 1 + k, gamma, executor=learner, log=log)
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
-            log(f"DAgger round {k + 1}: +{len(new[0])} learner steps labelled by the expert")
+            log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps labelled by the expert")
             timed("fit", clone, self.model, self.venv, *data, **fit)
             best = self._score_clone(f"after DAgger round {k + 1}", best)
         # the rounds' scores scatter: keep the best clone (weights and the statistics its
@@ -387,6 +409,8 @@ def main(argv=None) -> int:
     except (ConfigError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    if args.quick:
+        cfg = smoke_config(cfg, args.timesteps is not None)
     import torch
     torch.set_num_threads(1)       # the env uses the other core
     try:

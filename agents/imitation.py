@@ -22,10 +22,10 @@ from hoprover_env.vector_env import HopRoverVectorEnv
 
 
 def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
-            batch: int = 256, executor=None, noise: float = 0.0):
+            batch: int = 256, executor=None, noise: float = 0.0, log=None):
     """(obs, expert actions, discounted returns) of `episodes` episodes. The actions
     executed are the expert's plus N(0, noise^2), or the `executor`'s (DAgger); the
-    labels are always the expert's."""
+    labels are always the expert's. `log(message)` after each batch of episodes."""
     kwargs = {**env_kwargs, **getattr(expert, "env_kwargs", {})}
     kwargs.pop("target_x", None)
     cfg_lo, cfg_hi = kwargs.get("target_range", (-1.0, 1.0))
@@ -68,6 +68,9 @@ def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
             all_obs.extend(traj_obs[i])
             all_act.extend(traj_act[i])
             all_ret.extend(ret)
+        if log is not None:
+            log(f"  {'DAgger' if executor is not None else 'demonstrations'}: "
+                f"{start + n}/{episodes} episodes")
     return (np.array(all_obs, dtype=np.float32), np.array(all_act, dtype=np.float32),
             np.array(all_ret, dtype=np.float64))
 
@@ -110,22 +113,29 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     if getattr(policy, "share_features_extractor", True) is False:
         actor += list(policy.pi_features_extractor.parameters())
         critic += list(policy.vf_features_extractor.parameters())
-    mse = _fit(actor, actor_mean, x, y, epochs, batch_size, learning_rate, rng)
+    mse = _fit(actor, actor_mean, x, y, epochs, batch_size, learning_rate, rng,
+               lambda k, m: log(f"  cloning epoch {k}/{epochs}: action MSE {m:.2e}"))
     log(f"  behaviour cloning: {epochs} epochs, action MSE {mse:.2e}")
     if value_epochs:
-        mse = _fit(critic, critic_value, x, z, value_epochs, batch_size, learning_rate, rng)
+        mse = _fit(critic, critic_value, x, z, value_epochs, batch_size, learning_rate, rng,
+                   lambda k, m: log(f"  critic epoch {k}/{value_epochs}: value MSE {m:.3e}"))
         log(f"  critic pre-training: value MSE {mse:.3e} (returns scaled by {scale:.3g})")
     with torch.no_grad():
         policy.log_std.fill_(log_std)
     policy.set_training_mode(False)
 
 
-def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng) -> float:
-    """Least squares of forward(x) on y by Adam over mini-batches; the last epoch's MSE."""
+def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng, progress=None,
+         every: float = 10.0) -> float:
+    """Least squares of forward(x) on y by Adam over mini-batches; the last epoch's MSE.
+    `progress(epoch, mse)` after the first epoch and then at most every `every` seconds
+    (an epoch over a large DAgger set takes tens of seconds on one core)."""
+    import time
     opt = torch.optim.Adam(params, lr=learning_rate)
     n = len(x)
     total = 0.0
-    for _ in range(epochs):
+    last = None
+    for epoch in range(1, epochs + 1):
         perm = rng.permutation(n)
         total = 0.0
         for k in range(0, n, batch_size):
@@ -135,4 +145,8 @@ def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng) -> float
             loss.backward()
             opt.step()
             total += loss.item() * len(idx)
+        now = time.perf_counter()
+        if progress is not None and epoch < epochs and (last is None or now - last >= every):
+            progress(epoch, total / max(n, 1))
+            last = now
     return total / max(n, 1)

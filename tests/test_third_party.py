@@ -1,0 +1,94 @@
+"""Third-party front-ends: RL Baselines3 Zoo's hyperparameter file (configs/zoo_ppo.yml)
+builds and trains SB3's PPO the way the zoo builds it, the zoo itself trains and enjoys
+HopRover-v0 where rl_zoo3 is installed, and CleanRL's wrapper stack (gymnasium 1.x
+signatures) runs on HopRover-v0 and reports episode statistics."""
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import hoprover_env  # noqa: F401  (registers the envs)
+
+ROOT = Path(__file__).resolve().parent.parent
+ZOO_FILE = ROOT / "configs" / "zoo_ppo.yml"
+# keys the zoo consumes itself; everything else goes to the algorithm's constructor
+ZOO_ONLY = {"n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "env_wrapper",
+            "policy_kwargs"}
+
+
+def zoo_hyperparams() -> dict:
+    return yaml.safe_load(ZOO_FILE.read_text())["HopRover-v0"]
+
+
+def test_zoo_file_trains_sb3_ppo_as_the_zoo_would(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+    from torch import nn
+    hp = zoo_hyperparams()
+    assert hp["policy"] == "MlpPolicy" and "env_wrapper" not in hp
+    # the zoo evaluates these two strings (policy_kwargs with torch.nn in scope)
+    norm = ast.literal_eval(hp["normalize"])
+    policy_kwargs = eval(hp["policy_kwargs"], {"nn": nn, "dict": dict})  # noqa: S307
+    algo_kwargs = {k: v for k, v in hp.items() if k not in ZOO_ONLY}
+    algo_kwargs.update(n_steps=64, batch_size=128)            # a tiny budget, same code path
+    venv = VecNormalize(make_vec_env("HopRover-v0", n_envs=2, env_kwargs=hp["env_kwargs"]),
+                        **norm)
+    assert venv.venv.envs[0].unwrapped.config.control_dt == hp["env_kwargs"]["control_dt"]
+    model = PPO(hp["policy"], venv, policy_kwargs=policy_kwargs, seed=0, **algo_kwargs)
+    model.learn(256)
+    assert model.num_timesteps >= 256
+    assert np.isclose(float(model.policy.log_std.detach().mean()), -2.0, atol=0.1)
+    act, _ = model.predict(venv.reset(), deterministic=True)
+    assert act.shape == (2, 1) and np.all(np.isfinite(act))
+
+
+def test_zoo_trains_and_enjoys(tmp_path):
+    pytest.importorskip("rl_zoo3", reason="RL Baselines3 Zoo is not installed: pip install rl_zoo3")
+    env_kwargs = [f"{k}:{v!r}" for k, v in zoo_hyperparams()["env_kwargs"].items()]
+    common = ["--algo", "ppo", "--env", "HopRover-v0", "--gym-packages", "hoprover_env",
+              "-f", str(tmp_path / "logs")]
+    subprocess.run([sys.executable, "-m", "rl_zoo3.train", *common, "--conf-file", str(ZOO_FILE),
+                    "-n", "4096", "--eval-freq", "2048", "--eval-episodes", "2", "--seed", "0",
+                    "--eval-env-kwargs", *env_kwargs], check=True, cwd=tmp_path, timeout=600)
+    assert (tmp_path / "logs" / "ppo" / "HopRover-v0_1" / "evaluations.npz").exists()
+    out = subprocess.run([sys.executable, "-m", "rl_zoo3.enjoy", *common, "--exp-id", "1",
+                          "-n", "400", "--no-render", "--env-kwargs", *env_kwargs],
+                         check=True, cwd=tmp_path, timeout=600, capture_output=True, text=True)
+    assert "Episode Length" in out.stdout
+
+
+def test_cleanrl_wrapper_stack_runs_on_gymnasium_1():
+    """CleanRL's ppo_continuous_action wraps each env like this; on gymnasium 1.x the
+    observation clip needs the observation space as a third argument, and episode
+    statistics arrive as arrays with a mask (infos['final_info'] under SAME_STEP)."""
+    def make():
+        env = gym.make("HopRover-v0", control_dt=10.0)
+        env = gym.wrappers.FlattenObservation(env)
+        env = gym.wrappers.RecordEpisodeStatistics(env)
+        env = gym.wrappers.ClipAction(env)
+        env = gym.wrappers.NormalizeObservation(env)
+        env = gym.wrappers.TransformObservation(env, lambda obs: np.clip(obs, -10, 10),
+                                                env.observation_space)
+        env = gym.wrappers.NormalizeReward(env, gamma=0.99)
+        return gym.wrappers.TransformReward(env, lambda r: np.clip(r, -10, 10))
+    envs = gym.vector.SyncVectorEnv([make, make], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
+    envs.reset(seed=1)
+    rng = np.random.default_rng(0)
+    returns = []
+    for _ in range(200):
+        obs, rew, term, trunc, infos = envs.step(rng.uniform(-0.02, 0.02, (2, 1)))
+        assert np.all(np.abs(obs) <= 10) and np.all(np.isfinite(rew))
+        if "final_info" in infos:
+            done = np.nonzero(infos["final_info"]["_episode"])[0]
+            returns.extend(infos["final_info"]["episode"]["r"][done])
+        if len(returns) >= 2:
+            break
+    assert len(returns) >= 2 and np.all(np.isfinite(returns))
