@@ -142,16 +142,25 @@ class Rollout:
                 self.vx + self.omega * dy, self.vy - self.omega * dx)
 
     def contact_forces(self):
-        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied."""
+        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied.
+
+        A sample at a control instant holds the state before the new torque acts; when
+        that torque ends the state at once (a corner of state F unloaded by a tipping
+        torque), the forces are those of the state the kernel switches to, not the
+        negative normal force the old state would need."""
         p = self.params.as_array()
         out = np.zeros((len(self.t), 4))
         s = np.zeros(core.N_STATE)
+        no_log = np.zeros((0, core.EV_COLS))
         for i in range(len(self.t)):
+            s[:] = 0.0
             s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
                      self.omega[i])
+            s[core.S_T] = self.t[i]
             s[core.S_MODE] = "ABCDEFG".index(self.state[i])
             s[core.S_TORQUE] = self.torque[i]
             s[core.S_SIGMA] = self.sigma[i]
+            core.settle(s, p, no_log, 0)
             out[i] = core.contact_forces(s, p)
         return out
 

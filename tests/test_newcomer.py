@@ -287,3 +287,28 @@ def test_readme_example_prints_a_ttrtp(tmp_path):
     assert 0 < ttrtp < 600 and "broken: False" in lines[0]
     assert f"TTRTP {ttrtp}" in proc.stdout              # the schedule replays the same run
     assert "last contact state (letters A-G): F" in proc.stdout
+
+
+def test_contact_forces_at_a_control_instant_are_those_of_the_state_that_holds():
+    """A tipping torque applied at rest (state F) switches the state at once: the forces
+    sampled at t = 0 are the new state's, not F's with a pulling normal force."""
+    from hoprover_env import simulate
+    roll = simulate(np.full(20, 5e-4), t_end=10, control_dt=0.5, target_x=0.5)
+    assert roll.state[0] == "F" and roll.state[1] != "F"
+    forces = roll.contact_forces()
+    assert forces[:, [1, 3]].min() >= 0.0
+    assert forces[0, 3] == 0.0 and forces[0, 1] > 0.0        # all the load on corner A
+    assert np.isclose(forces[0, 1], forces[1, 1], rtol=0.1)   # continuous with the next sample
+
+
+def test_quick_train_shrinks_cloning_and_budget():
+    import train
+    cfg = {"timesteps": 5_000_000, "evaluation": {"freq": 50_000, "episodes": 100, "seed": 7},
+           "checkpoint": {"freq": 50_000},
+           "pretrain": {"episodes": 300, "epochs": 25, "value_epochs": 5, "dagger_rounds": 4,
+                        "dagger_episodes": 200}}
+    q = train.smoke_config(cfg, timesteps_given=False)
+    assert q["timesteps"] == 20_000 and q["evaluation"]["episodes"] == 10
+    assert q["pretrain"]["episodes"] == 16 and q["pretrain"]["dagger_rounds"] == 1
+    assert cfg["pretrain"]["episodes"] == 300                 # the caller's config untouched
+    assert train.smoke_config(cfg, timesteps_given=True)["timesteps"] == 5_000_000
