@@ -38,6 +38,19 @@ from ._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
 from .params import (P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN,
                      P_VYMIN, P_TMIN, P_TMAX, P_BAND, P_DWELL)
 
+# How every kernel function is compiled: cached on disk, numpy's error model (a division
+# by zero gives inf/nan, which the callers check, instead of raising) and no reference
+# counting (no function allocates). Functions only ever called from other jitted code get
+# no Python and C entry wrappers (INNER): numba would otherwise build each one, optimise it
+# and link it again into every caller, about 2 s of the cold start. The integrator's entry
+# (advance, _advance_event) is inlined into its callers, so that the env's step does not
+# pay for linking the whole kernel twice more (numba re-optimises every callee's code in
+# each jitted caller). Calling an INNER function from Python raises a TypeError.
+JIT = dict(cache=True, error_model="numpy", _nrt=False)
+INNER = dict(JIT, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+JIT_INLINE = dict(JIT, inline="always")
+INNER_INLINE = dict(INNER, inline="always")
+
 # Explicit signatures for the helpers that take small integers: without them numba
 # compiles a separate copy for every literal corner or event number it is called with.
 _V = nt.float64[::1]
@@ -139,7 +152,7 @@ TWO_PI = 2.0 * math.pi
 # ----------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------
-@njit(_F2(_V, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(_F2(_V, _I), **JIT)
 def corner_body(P, k):
     """Body coordinates (bx, by) of corner k: 0 A, 1 B (bottom), 2 TR, 3 TL (top)."""
     bx = P[P_R] if (k == 0 or k == 2) else -P[P_R]
@@ -147,32 +160,32 @@ def corner_body(P, k):
     return bx, by
 
 
-@njit(_F2(_V, _I, _F, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_F2(_V, _I, _F, _F), **INNER)
 def corner_offset_cs(P, k, c, s):
     """corner_offset with cos(th), sin(th) given: hot paths compute them once."""
     bx, by = corner_body(P, k)
     return bx * c + by * s, -bx * s + by * c
 
 
-@njit(_F2(_V, _I, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_F2(_V, _I, _F), **JIT)
 def corner_offset(P, k, th):
     """World offset (dx, dy) of corner k from the c.m. at attitude th."""
     return corner_offset_cs(P, k, math.cos(th), math.sin(th))
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def wrap_angle(th):
     """Attitude in (-pi, pi]."""
     w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)   # exact for th in range
     return math.pi if w == -math.pi else w
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def kinetic_energy(S, P):
     return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2
 
 
-@njit(_I(_I), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_I), **INNER)
 def contact_corner(mode):
     """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
     return 0 if (mode == MODE_B or mode == MODE_C) else 1
@@ -181,7 +194,7 @@ def contact_corner(mode):
 # ----------------------------------------------------------------------------------
 # Forces (docs/MODEL.md section 4), written once for a generic contact corner.
 # ----------------------------------------------------------------------------------
-@njit(_F5(_V, _I, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_F5(_V, _I, _F, _F, _F), **INNER)
 def pivot_dynamics(P, k, T, th, w):
     """Pivot on corner k (state B for A, D for B).
 
@@ -198,7 +211,7 @@ def pivot_dynamics(P, k, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit(_F5(_V, _I, _F, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_F5(_V, _I, _F, _F, _F, _F), **INNER)
 def slide_dynamics(P, k, sigma, T, th, w):
     """Slide on corner k in direction sigma (state C for A, E for B).
 
@@ -217,7 +230,7 @@ def slide_dynamics(P, k, sigma, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def double_contact_forces(P, sigma, T):
     """States F (sigma = 0) and G: both corners on the ground, theta = 0, omega = 0.
 
@@ -232,7 +245,7 @@ def double_contact_forces(P, sigma, T):
     return -sigma * P[P_MUD] * fay, fay, -sigma * P[P_MUD] * fby, fby
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def contact_forces(S, P):
     """Contact forces (fAx, fAy, fBx, fBy) of the current state and torque."""
     mode = int(S[S_MODE])
@@ -253,7 +266,7 @@ def contact_forces(S, P):
     return 0.0, 0.0, fx, fy
 
 
-@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(nt.void(_V, _V, _I), **INNER)
 def _set_single_contact(S, P, k):
     """Make the c.m. state satisfy corner k's constraint exactly: y_k = 0, vy_k = 0.
 
@@ -271,7 +284,7 @@ def _set_single_contact(S, P, k):
         S[S_W] += -dx * lam * inv_i
 
 
-@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(nt.void(_V, _V, _I), **INNER)
 def _pin_corner(S, P, k):
     """Bring corner k's whole velocity to zero by one impulse there (a projection)."""
     m = P[P_M]
@@ -292,7 +305,7 @@ def _pin_corner(S, P, k):
     S[S_Y] = -dy
 
 
-@njit(nt.void(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(nt.void(_V, _V, _I), **INNER)
 def _turn_flat_about(S, P, k):
     """Turn the body about contact corner k to theta = 0, where the other bottom corner
     touches too: the projection used when that corner ended (round-off or a finite step)
@@ -306,7 +319,7 @@ def _turn_flat_about(S, P, k):
     S[S_VY] = S[S_W] * dx
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _set_double_contact(S, P):
     """Both corners on the ground: theta = 0, omega = 0, vy = 0, y = h; F or G.
 
@@ -331,7 +344,7 @@ def _set_double_contact(S, P):
 # ----------------------------------------------------------------------------------
 # Flight (state A) in closed form
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def flight_at(S, P, tau):
     """State after a flight of duration tau under the held torque."""
     g = P[P_G]
@@ -342,7 +355,7 @@ def flight_at(S, P, tau):
     return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def flight_rise(S, P, k, tau):
     """Height gained by corner k after a flight of duration tau, h_k(tau) - h_k(0),
     computed as a difference (sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2)): a corner
@@ -357,7 +370,7 @@ def flight_rise(S, P, k, tau):
     return S[S_VY] * tau - 0.5 * P[P_G] * tau * tau - bx * d_sin + by * d_cos
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _bisect_touchdown(S, P, k, lo, hi, drop):
     """The time in [lo, hi] at which corner k has risen by `drop` (< 0: it is back at
     the level where it should touch), given rise(lo) >= drop > rise(hi). Bisection on
@@ -373,7 +386,7 @@ def _bisect_touchdown(S, P, k, lo, hi, drop):
     return hi
 
 
-@njit(nt.boolean(_V, _V, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(nt.boolean(_V, _V, _I), **INNER)
 def _resting_corner_driven_down(S, P, k):
     """A corner on the ground at rest vertically, in flight: is it pressed down?
 
@@ -396,7 +409,7 @@ def _resting_corner_driven_down(S, P, k):
 # ----------------------------------------------------------------------------------
 # Event log and judge (docs/MODEL.md section 8)
 # ----------------------------------------------------------------------------------
-@njit(_I(_V, _M, _I, _F, _F, _F, _F, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _M, _I, _F, _F, _F, _F, _F), **JIT)
 def _log(S, ev, n, t, kind, before, after, value):
     S[S_NEVENTS] += 1.0
     if kind == S[S_STOP_ON]:
@@ -410,7 +423,7 @@ def _log(S, ev, n, t, kind, before, after, value):
     return n + 1
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def in_band(S, P):
     """Is a contact point within the band? (A, B in F/G; none in flight)."""
     mode = int(S[S_MODE])
@@ -428,7 +441,7 @@ def in_band(S, P):
     return abs(S[S_X] + dx - xt) <= w + tol
 
 
-@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _M, _I), **INNER)
 def _judge_check(S, P, ev, n):
     """Record TTRTP once the current stay in the band has lasted the dwell time."""
     if S[S_INBAND] == 1.0 and math.isnan(S[S_TTRTP]):
@@ -440,7 +453,7 @@ def _judge_check(S, P, ev, n):
     return n
 
 
-@njit(_I(_V, _V, _M, _I, nt.boolean), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _M, _I, nt.boolean), **INNER)
 def _judge_set(S, P, ev, n, status):
     """The band status becomes `status` at the current time."""
     if status and S[S_INBAND] == 0.0:
@@ -454,7 +467,7 @@ def _judge_set(S, P, ev, n, status):
     return n
 
 
-@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _M, _I), **INNER)
 def _judge_update(S, P, ev, n):
     n = _judge_set(S, P, ev, n, in_band(S, P))
     return _judge_check(S, P, ev, n)
@@ -463,7 +476,7 @@ def _judge_update(S, P, ev, n):
 # ----------------------------------------------------------------------------------
 # Instantaneous transitions (docs/MODEL.md section 5)
 # ----------------------------------------------------------------------------------
-@njit(_F(_V, _V, _I, _F), cache=True, error_model="numpy", _nrt=False)
+@njit(_F(_V, _V, _I, _F), **INNER)
 def _consistent_slide_direction(S, P, k, T):
     """A slide direction sigma of corner k, at rest horizontally, that is consistent:
     compressive normal force and the point accelerating along sigma (0 if none)."""
@@ -478,7 +491,7 @@ def _consistent_slide_direction(S, P, k, T):
     return 0.0
 
 
-@njit(_I(_V, _V, _M, _I), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _M, _I), **JIT)
 def settle(S, P, ev, n):
     """Resolve every transition due at the current instant, in a bounded loop.
 
@@ -615,7 +628,7 @@ def settle(S, P, ev, n):
 # ----------------------------------------------------------------------------------
 # Impacts (docs/MODEL.md section 6)
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     """Solve a symmetric 3x3 system by Cramer's rule (well conditioned here)."""
     c00 = a11 * a22 - a12 * a12
@@ -630,7 +643,7 @@ def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
             (c02 * b0 + c12 * b1 + c22 * b2) / det)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def contest_impulses(P, dxs, dys, part, dv, lx, ly):
     """The contest law's impulses: K Lambda = dv over the taking-part corners.
 
@@ -676,7 +689,7 @@ def contest_impulses(P, dxs, dys, part, dv, lx, ly):
             ly[k] = (dv[2 * k + 1] * k11 - dv[2 * k] * k12) / det
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def frictionless_impulses(P, dxs, on, vpy, target, ly):
     """Vertical impulses only, as a complementarity problem over the grounded corners.
 
@@ -719,7 +732,7 @@ def frictionless_impulses(P, dxs, on, vpy, target, ly):
             ly[k] = max(0.0, (target[k] - vpy[k]) / kk)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _apply_impulses(S, P, dxs, dys, lx, ly):
     m = P[P_M]
     inv_i = 1.0 / P[P_I]
@@ -728,7 +741,7 @@ def _apply_impulses(S, P, dxs, dys, lx, ly):
     S[S_W] += (dys[0] * lx[0] - dxs[0] * ly[0] + dys[1] * lx[1] - dxs[1] * ly[1]) * inv_i
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
 
@@ -843,7 +856,7 @@ def resolve_impact(S, P, law, W):
     return ratio
 
 
-@njit(_I(_V, _V, _V, _M, _I, _V), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _V, _M, _I, _V), **INNER)
 def _impact_event(S, P, O, ev, n, W):
     # a touchdown is only ever reported with a bottom corner on the ground
     if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) \
@@ -860,7 +873,7 @@ def _impact_event(S, P, O, ev, n, W):
 PH_NONE, PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN, PH_BAND, PH_STOP = range(8)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _commit_flight(S, P, tau):
     x, y, th, vx, vy, w = flight_at(S, P, tau)
     S[S_X] = x
@@ -872,7 +885,7 @@ def _commit_flight(S, P, tau):
     S[S_T] += tau
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
     """Place a detected touchdown of corner k (at tau, height f above its trigger level,
     descending at v) on the closed form's root, safeguarded against small v."""
@@ -902,7 +915,7 @@ def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
     return tau      # it curves away within CA_TOL of the ground: touching at tau
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def flight_phase(S, P, t_stop, W):
     """Advance a flight under constant torque to t_stop or the first touchdown.
 
@@ -1023,7 +1036,7 @@ def flight_phase(S, P, t_stop, W):
 # ----------------------------------------------------------------------------------
 # Event integrator: state G in closed form
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _next_band_boundary(xp, sigma, xt, w, offset):
     """Nearest boundary of the band (for a point at c.m. offset `offset`) strictly ahead
     of xp in direction sigma, as a c.m. position; NaN when none is ahead."""
@@ -1035,7 +1048,7 @@ def _next_band_boundary(xp, sigma, xt, w, offset):
     return best
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def g_phase(S, P, t_stop):
     """Slide on both corners: x(t) quadratic, decelerating at mu_d g to a stop.
 
@@ -1078,7 +1091,7 @@ def g_phase(S, P, t_stop):
 N_GUARDS = 6
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _rhs(P, k, sliding, sigma, T, u, out):
     if sliding:
         thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, u[0], u[1])
@@ -1090,13 +1103,13 @@ def _rhs(P, k, sliding, sigma, T, u, out):
     out[3] = fx / P[P_M]
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _finite4(u):
     return (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2])
             and math.isfinite(u[3]))
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol):
     """One DOP853 step of length h from u (f0 = f(u)); returns the scaled error norm."""
     for j in range(4):
@@ -1130,7 +1143,7 @@ def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
     return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     """Guard functions of a single-contact phase (positive = no event yet).
 
@@ -1166,7 +1179,7 @@ def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     gv[4] = y + dy3
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _force_guards(P, k, sliding, sigma, T, th, w):
     """The two force guards (lift-off, slip) as functions of (theta, omega)."""
     mg = P[P_M] * P[P_G]
@@ -1177,7 +1190,7 @@ def _force_guards(P, k, sliding, sigma, T, th, w):
     return fy / mg, (P[P_MUS] * fy - abs(fx)) / mg
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
     """Time derivatives of the guards at u (du = f(u)): analytic for the heights, the
     stick and the band guards, central differences in (theta, omega) for the forces."""
@@ -1203,7 +1216,7 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
         gr[2 + c] = w * (dxk - dxc)       # vertical speed of that corner (vy = w dx_k)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _hermite_dip(g0, g1, d0, d1):
     """Where the cubic Hermite interpolant of a guard over a step (values g0, g1 and
     slopes d0, d1 per unit step) is lowest inside (0, 1): returns (tau, value)."""
@@ -1237,7 +1250,7 @@ def _hermite_dip(g0, g1, d0, d1):
     return best_t, best_v
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def contact_phase(S, P, O, t_stop, W):
     """Advance a single-contact phase (B, C, D, E) to t_stop or its first event.
 
@@ -1423,7 +1436,7 @@ def contact_phase(S, P, O, t_stop, W):
     return kind
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, rtol, atol,
             gi, lev, fa, fb):
     """Smallest s in (0, h] where guard gi - lev changes sign: Illinois regula falsi on
@@ -1462,7 +1475,7 @@ def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, 
 # ----------------------------------------------------------------------------------
 # Event integrator: the loop over phases
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _track_min_height(S, P):
     c = math.cos(S[S_TH])
     sn = math.sin(S[S_TH])
@@ -1473,7 +1486,7 @@ def _track_min_height(S, P):
         S[S_MIN_HEIGHT] = low
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _band_status_ahead(S, P, sigma):
     """Band membership just past the current position in direction sigma: decides a
     crossing unambiguously even where two corners' intervals meet (r = w)."""
@@ -1489,7 +1502,7 @@ def _band_status_ahead(S, P, sigma):
     return abs(S[S_X] + dx + probe - xt) <= w
 
 
-@njit(_I(_V, _V, _V, _M, _I, _I, _V), cache=True, error_model="numpy", _nrt=False)
+@njit(_I(_V, _V, _V, _M, _I, _I, _V), **INNER)
 def _after_phase(S, P, O, ev, n, kind, W):
     """Carry out the transition that ended a phase, then settle and update the judge."""
     mode = int(S[S_MODE])
@@ -1529,7 +1542,7 @@ def _after_phase(S, P, O, ev, n, kind, W):
     return _judge_update(S, P, ev, n)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER_INLINE)
 def _advance_event(S, P, O, t_stop, ev, n, W):
     n_start = n
     phases = 0
@@ -1572,7 +1585,7 @@ def _advance_event(S, P, O, t_stop, ev, n, W):
 # ----------------------------------------------------------------------------------
 # Euler integrator: the contest-style fixed-step baseline (docs/MODEL.md section 10)
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _euler_contact_step(S, P, dt):
     """Explicit Euler on (theta, omega, x, vx) of a single-contact state; y, vy (and
     x, vx for a pivot) from the constraint."""
@@ -1602,7 +1615,7 @@ def _euler_contact_step(S, P, dt):
     S[S_VY] = w * dx
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _euler_ground_check(S, P):
     """End-of-step geometry check of the Euler baseline (it locates no events).
 
@@ -1638,7 +1651,7 @@ def _euler_ground_check(S, P):
     return PH_NONE
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def event_budget(O, duration):
     """Events one `advance` over `duration` may have: MAX_EVENTS for `event`. A corner
     pressed down bounces every other Euler step (it gains a dt of speed per step, an
@@ -1648,7 +1661,7 @@ def event_budget(O, duration):
     return MAX_EVENTS
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
@@ -1699,7 +1712,7 @@ def _advance_euler(S, P, O, t_stop, ev, n, W):
 # ----------------------------------------------------------------------------------
 # Entry points
 # ----------------------------------------------------------------------------------
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT_INLINE)
 def advance(S, P, O, torque_cmd, t_stop, ev, W):
     """Hold `torque_cmd` (clipped to [T_min, T_max]) from S[S_T] to t_stop.
 
@@ -1736,7 +1749,7 @@ INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT = rang
 INIT_GROUND_TOL = 1e-9   # m: how far a given initial corner may be from the ground
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def init_state(S, P, x, y, th, vx, vy, w, xt):
     """Fill S from a c.m. state and classify its contact state from the kinematics.
 

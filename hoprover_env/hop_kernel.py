@@ -22,6 +22,7 @@ from ._jitcache import drop_stale_cache
 drop_stale_cache(__file__)      # this module's cached code embeds the core's
 
 from . import core, rl_kernel  # noqa: E402
+from .core import JIT, INNER  # noqa: E402
 from .core import S_TH, S_W, S_T, S_MODE, S_TTRTP, S_BROKEN, S_ERROR, S_NEVENTS, S_INBAND, \
     MODE_A, MODE_F  # noqa: E402
 from .params import P_M, P_I, P_R, P_G, P_TMIN, P_TMAX  # noqa: E402
@@ -33,7 +34,7 @@ from .rl_kernel import E_CONTROL_DT, E_T_TOTAL, E_HOLD_KP, E_HOLD_KD, E_LAUNCH_M
 MAX_SUBSTEPS = 1_000_000
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def hop_torque(a, P, E):
     """Signed launch torque of a hop action.
 
@@ -51,7 +52,7 @@ def hop_torque(a, P, E):
     return -mag if a < 0.0 else mag
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def attitude_hold(S, P, E):
     """PD hold of theta -> 0 (wrapped to (-pi, pi]) and omega -> 0, clipped."""
     th = (S[S_TH] + math.pi) % (2.0 * math.pi) - math.pi
@@ -59,13 +60,13 @@ def attitude_hold(S, P, E):
     return rl_kernel._clip(t, P[P_TMIN], P[P_TMAX])
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _ended(S, had_ttrtp):
     return ((not had_ttrtp) and not math.isnan(S[S_TTRTP])) or S[S_BROKEN] != 0.0 \
         or S[S_ERROR] != 0.0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def hop_step(S, P, O, E, action, obs, ev, W):
     """One hop (or, at rest in the band, the wait for the judge). Returns (reward,
     terminated, truncated, success, n_events)."""
@@ -112,7 +113,7 @@ def hop_step(S, P, O, E, action, obs, ev, W):
     return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def batch_hop_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
     """hop_step over the rows where `active` is set. Returns the index of a non-finite
     action (nothing stepped) or -1."""
@@ -127,7 +128,7 @@ def batch_hop_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev
     return -1
 
 
-@njit(cache=True, parallel=True, error_model="numpy", _nrt=False)
+@njit(parallel=True, **JIT)
 def batch_hop_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev,
                             ev, W):
     """hop_step over the active rows, spread over numba's threads."""

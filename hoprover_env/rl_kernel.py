@@ -18,6 +18,7 @@ from ._jitcache import drop_stale_cache
 drop_stale_cache(__file__)      # this module's cached code embeds the core's
 
 from . import core  # noqa: E402
+from .core import JIT, INNER  # noqa: E402
 from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT, S_BROKEN,
                    S_INBAND, S_TIN, S_TTRTP, S_NEVENTS, S_ERROR, MODE_A, MODE_F, MODE_G,
                    MODE_B, MODE_C)
@@ -49,12 +50,12 @@ OBS_LOW = np.array([-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -
 OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtype=np.float32)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def _clip(v, lo, hi):
     return lo if v < lo else (hi if v > hi else v)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def reference_point(S, P):
     """x of the contact point (the one nearer the target in F/G), or of the bottom corner
     nearest the target in flight: what the distance reward measures."""
@@ -77,7 +78,7 @@ def reference_point(S, P):
     return xa if abs(xa - xt) <= abs(xb - xt) else xb
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def landing_x(S, P):
     """Where the c.m. will come down to rest height in a ballistic flight (the current x
     when not flying): a closed form any contest controller could compute."""
@@ -90,7 +91,7 @@ def landing_x(S, P):
     return S[S_X] + S[S_VX] * t_fall
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def potential(S, P, E):
     """Phi(s) = -w_dist min(|x_ref - x_T|, cap) / 1 m - w_att a(s) - w_band (1 - d(s)).
 
@@ -119,13 +120,13 @@ def potential(S, P, E):
     return phi
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def phi_min(E):
     """The lowest value the potential can take (every term is bounded)."""
     return -(E[E_W_DIST] * E[E_DIST_CAP] / POS_SCALE + E[E_W_ATT] * ATT_MAX + E[E_W_BAND])
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def dwell_fraction(S, P):
     """The judge's clock: time in the band / dwell time, 0 out of the band."""
     if S[S_INBAND] == 1.0:
@@ -133,7 +134,7 @@ def dwell_fraction(S, P):
     return 0.0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def observe(S, P, E, obs):
     """Write the float32 observation (see the table in env.py)."""
     xt = S[S_XT]
@@ -154,7 +155,7 @@ def observe(S, P, E, obs):
     obs[18] = S[S_TORQUE] / max(abs(P[P_TMIN]), abs(P[P_TMAX]), 1e-300)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def action_to_torque(a, P, E):
     """Box(-1, 1) onto the torque range; out-of-range actions are clipped.
 
@@ -172,7 +173,7 @@ def action_to_torque(a, P, E):
     return E[E_ACTION_SCALE] * t
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
     """Reward, termination and observation after the rover moved for `elapsed` seconds
     from a state of potential phi0. Returns (reward, terminated, truncated, success).
@@ -204,7 +205,7 @@ def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
     return reward, terminated, truncated, success
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def start_potential(S, P, E):
     phi0 = S[core.S_PHI]
     if math.isnan(phi0):                  # first step of an episode
@@ -212,7 +213,7 @@ def start_potential(S, P, E):
     return phi0
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def env_step(S, P, O, E, action, obs, ev, W):
     """One control period. Returns (reward, terminated, truncated, success, n_events)."""
     phi0 = start_potential(S, P, E)
@@ -226,7 +227,7 @@ def env_step(S, P, O, E, action, obs, ev, W):
     return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def first_bad_action(actions, active):
     """Index of the first active non-finite action, or -1: checked before any rover moves."""
     for i in range(actions.shape[0]):
@@ -235,7 +236,7 @@ def first_bad_action(actions, active):
     return -1
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**JIT)
 def batch_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
     """env_step over the rows where `active` is set, one after the other. Returns the
     index of a non-finite action (nothing stepped) or -1."""
@@ -250,7 +251,7 @@ def batch_step(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev
     return -1
 
 
-@njit(cache=True, parallel=True, error_model="numpy", _nrt=False)
+@njit(parallel=True, **JIT)
 def batch_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ, nev, ev, W):
     """env_step over the rows where `active` is set, spread over numba's threads; each
     thread uses its own workspace row W[thread id]. Returns as batch_step."""
@@ -264,7 +265,7 @@ def batch_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ
     return -1
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@njit(**INNER)
 def batch_observe(S, P, E, obs):
     for i in range(S.shape[0]):
         observe(S[i], P[i], E, obs[i])
