@@ -355,7 +355,7 @@ def flight_at(S, P, tau):
     return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
 
 
-@njit(**INNER)
+@njit(_F(_V, _V, _I, _F), **INNER)
 def flight_rise(S, P, k, tau):
     """Height gained by corner k after a flight of duration tau, h_k(tau) - h_k(0),
     computed as a difference (sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2)): a corner
@@ -370,7 +370,7 @@ def flight_rise(S, P, k, tau):
     return S[S_VY] * tau - 0.5 * P[P_G] * tau * tau - bx * d_sin + by * d_cos
 
 
-@njit(**INNER)
+@njit(_F(_V, _V, _I, _F, _F, _F), **INNER)
 def _bisect_touchdown(S, P, k, lo, hi, drop):
     """The time in [lo, hi] at which corner k has risen by `drop` (< 0: it is back at
     the level where it should touch), given rise(lo) >= drop > rise(hi). Bisection on
@@ -885,7 +885,7 @@ def _commit_flight(S, P, tau):
     S[S_T] += tau
 
 
-@njit(**INNER)
+@njit(_F(_V, _V, _I, _F, _F, _F, _F, _F, _F), **INNER)
 def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
     """Place a detected touchdown of corner k (at tau, height f above its trigger level,
     descending at v) on the closed form's root, safeguarded against small v."""
@@ -1712,6 +1712,30 @@ def _advance_euler(S, P, O, t_stop, ev, n, W):
 # ----------------------------------------------------------------------------------
 # Entry points
 # ----------------------------------------------------------------------------------
+@njit(**INNER)
+def _advance_begin(S, P, torque_cmd, t_stop, ev, W):
+    """What both integrators do first: refuse a non-finite torque, apply the clipped
+    torque and resolve the transitions it causes at once. Returns (integrate?, events)."""
+    if not math.isfinite(torque_cmd):
+        S[S_ERROR] = 2.0
+        return False, 0
+    if S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0 or S[S_T] >= t_stop:
+        return False, 0
+    S[S_TORQUE] = min(max(torque_cmd, P[P_TMIN]), P[P_TMAX])
+    S[S_STOPPED] = 0.0
+    W[W_WORK] = 0.0
+    n = settle(S, P, ev, 0)
+    n = _judge_update(S, P, ev, n)
+    return S[S_STOPPED] == 0.0, n
+
+
+@njit(**INNER)
+def _advance_end(S, P, ev, n):
+    if n > 0:
+        _track_min_height(S, P)         # between events no corner can sink
+    return _judge_check(S, P, ev, n)
+
+
 @njit(**JIT_INLINE)
 def advance(S, P, O, torque_cmd, t_stop, ev, W):
     """Hold `torque_cmd` (clipped to [T_min, T_max]) from S[S_T] to t_stop.
@@ -1724,25 +1748,29 @@ def advance(S, P, O, torque_cmd, t_stop, ev, W):
     event, with S[S_STOPPED] = 1 and the time S[S_T] of the event.
     A non-finite torque sets S[S_ERROR] = 2 and leaves the state untouched.
     """
-    if not math.isfinite(torque_cmd):
-        S[S_ERROR] = 2.0
-        return 0
-    if S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0 or S[S_T] >= t_stop:
-        return 0
-    S[S_TORQUE] = min(max(torque_cmd, P[P_TMIN]), P[P_TMAX])
-    S[S_STOPPED] = 0.0
-    W[W_WORK] = 0.0
-    n = settle(S, P, ev, 0)
-    n = _judge_update(S, P, ev, n)
-    if S[S_STOPPED] != 0.0:
+    go, n = _advance_begin(S, P, torque_cmd, t_stop, ev, W)
+    if not go:
         return n
     if int(O[O_INTEGRATOR]) == INTEGRATOR_EULER:
         n = _advance_euler(S, P, O, t_stop, ev, n, W)
     else:
         n = _advance_event(S, P, O, t_stop, ev, n, W)
-    if n > 0:
-        _track_min_height(S, P)         # between events no corner can sink
-    return _judge_check(S, P, ev, n)
+    return _advance_end(S, P, ev, n)
+
+
+@njit(**JIT_INLINE)
+def advance_event(S, P, O, torque_cmd, t_stop, ev, W):
+    """`advance` with the event integrator, whatever O[O_INTEGRATOR] says.
+
+    The environments' step kernels call this one, so that numba compiles no Euler code
+    for them (about 1 s of a cold start): a compiled function includes every function
+    it can reach, whichever branch runs. Environments made with integrator="euler" use
+    kernels that call `advance`.
+    """
+    go, n = _advance_begin(S, P, torque_cmd, t_stop, ev, W)
+    if not go:
+        return n
+    return _advance_end(S, P, ev, _advance_event(S, P, O, t_stop, ev, n, W))
 
 
 INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT = range(5)

@@ -160,7 +160,10 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 class HopRoverEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     config_class = EnvConfig
-    step_kernel = staticmethod(rl_kernel.env_step)    # one control period
+    # one control period: event integrator only / any integrator (euler included); two
+    # kernels so that a default env never compiles the Euler integrator
+    step_kernel = staticmethod(rl_kernel.env_step)
+    step_kernel_any_integrator = staticmethod(rl_kernel.env_step_any_integrator)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
         self.config = self.config_class.from_kwargs(**kwargs)
@@ -172,6 +175,7 @@ class HopRoverEnv(gym.Env):
         self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
                                             dtype=np.float32)
         self._o = self.config.options_vector()
+        self._event_only = self.config.integrator == "event"
         self._e = self.config.reward_vector()
         self._obs = np.zeros(rl_kernel.OBS_DIM, dtype=np.float32)
         self._w = np.zeros(core.N_WORK)
@@ -209,7 +213,8 @@ class HopRoverEnv(gym.Env):
                 raise ValueError(f"action must be finite, got {a!r}")
         else:
             a = float(check_actions(action, (1,))[0])
-        reward, terminated, truncated, _, n_ev = self.step_kernel(
+        kernel = self.step_kernel if self._event_only else self.step_kernel_any_integrator
+        reward, terminated, truncated, _, n_ev = kernel(
             self._s, self._p, self._o, self._e, a, self._obs, _NO_LOG, self._w)
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))

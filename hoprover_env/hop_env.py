@@ -77,9 +77,11 @@ from .vector_env import HopRoverVectorEnv
 
 class HopRoverHopEnv(HopRoverEnv):
     config_class = HopEnvConfig
-    step_kernel = staticmethod(hop_kernel.hop_step)
+    step_kernel = staticmethod(hop_kernel.hop_step)             # either integrator
+    step_kernel_any_integrator = step_kernel
 
 
 class HopRoverHopVectorEnv(HopRoverVectorEnv):
     config_class = HopEnvConfig
     kernels = (hop_kernel.batch_hop_step, hop_kernel.batch_hop_step_threaded)
+    kernels_any_integrator = kernels

@@ -4,7 +4,10 @@
 then writes the reward and the observation. `batch_step` (serial) and
 `batch_step_threaded` (numba prange over the cores) loop it over the rows of 2-D state
 and parameter arrays: the single env, the Gymnasium vector env and the SB3 adapter all
-run this same code, so their numbers agree bit for bit.
+run this same code, so their numbers agree bit for bit. They integrate with the event
+integrator only (`core.advance_event`), so that the default env compiles no Euler code;
+the `*_any_integrator` twins call `core.advance` and serve envs made with
+integrator="euler".
 
 Config vector ``E`` (layout ``E_*``): control period, episode length, reward weights.
 """
@@ -215,13 +218,29 @@ def start_potential(S, P, E):
 
 @njit(**JIT)
 def env_step(S, P, O, E, action, obs, ev, W):
-    """One control period. Returns (reward, terminated, truncated, success, n_events)."""
+    """One control period with the event integrator. Returns (reward, terminated,
+    truncated, success, n_events)."""
     phi0 = start_potential(S, P, E)
     had_ttrtp = not math.isnan(S[S_TTRTP])
     t0 = S[S_T]
-    t_stop = min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL])
     nev0 = S[S_NEVENTS]
-    core.advance(S, P, O, action_to_torque(action, P, E), t_stop, ev, W)
+    core.advance_event(S, P, O, action_to_torque(action, P, E),
+                       min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]), ev, W)
+    reward, terminated, truncated, success = finish_step(S, P, E, phi0, had_ttrtp,
+                                                         S[S_T] - t0, obs)
+    return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
+
+
+@njit(**JIT)
+def env_step_any_integrator(S, P, O, E, action, obs, ev, W):
+    """env_step with the integrator O names (Euler included). A separate function so
+    that the event-only kernels, which every default env uses, compile no Euler code."""
+    phi0 = start_potential(S, P, E)
+    had_ttrtp = not math.isnan(S[S_TTRTP])
+    t0 = S[S_T]
+    nev0 = S[S_NEVENTS]
+    core.advance(S, P, O, action_to_torque(action, P, E),
+                 min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]), ev, W)
     reward, terminated, truncated, success = finish_step(S, P, E, phi0, had_ttrtp,
                                                          S[S_T] - t0, obs)
     return reward, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
@@ -265,7 +284,29 @@ def batch_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, succ
     return -1
 
 
-@njit(**INNER)
-def batch_observe(S, P, E, obs):
+# The same two loops over env_step_any_integrator, for envs made with integrator="euler".
+@njit(**JIT)
+def batch_step_any_integrator(S, P, O, E, actions, active, obs, rew, term, trunc, succ,
+                              nev, ev, W):
+    bad = first_bad_action(actions, active)
+    if bad >= 0:
+        return bad
+    w = W[0]
     for i in range(S.shape[0]):
-        observe(S[i], P[i], E, obs[i])
+        if active[i]:
+            rew[i], term[i], trunc[i], succ[i], nev[i] = env_step_any_integrator(
+                S[i], P[i], O, E, actions[i], obs[i], ev, w)
+    return -1
+
+
+@njit(parallel=True, **JIT)
+def batch_step_threaded_any_integrator(S, P, O, E, actions, active, obs, rew, term, trunc,
+                                       succ, nev, ev, W):
+    bad = first_bad_action(actions, active)
+    if bad >= 0:
+        return bad
+    for i in prange(S.shape[0]):
+        if active[i]:
+            rew[i], term[i], trunc[i], succ[i], nev[i] = env_step_any_integrator(
+                S[i], P[i], O, E, actions[i], obs[i], ev, W[get_thread_id()])
+    return -1

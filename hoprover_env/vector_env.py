@@ -37,7 +37,10 @@ class HopRoverVectorEnv(VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
     config_class = EnvConfig
-    kernels = (rl_kernel.batch_step, rl_kernel.batch_step_threaded)    # serial, threaded
+    # (serial, threaded): event integrator only / any integrator (see HopRoverEnv)
+    kernels = (rl_kernel.batch_step, rl_kernel.batch_step_threaded)
+    kernels_any_integrator = (rl_kernel.batch_step_any_integrator,
+                              rl_kernel.batch_step_threaded_any_integrator)
 
     def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
                  max_episode_steps: int | None = None, threads: bool | None = None,
@@ -65,7 +68,9 @@ class HopRoverVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        self._kernel = self.kernels[1] if self.threads else self.kernels[0]
+        kernels = self.kernels if self.config.integrator == "event" \
+            else self.kernels_any_integrator
+        self._kernel = kernels[1] if self.threads else kernels[0]
 
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
         self.single_observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,

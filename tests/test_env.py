@@ -62,11 +62,13 @@ def run_single(seed, actions, **kw):
 ENV_KW = dict(episode_time=60.0, control_dt=1.0, target_range=(-0.3, 0.3))
 
 
-@pytest.mark.parametrize("threads", [False, True])
-def test_vector_sub_env_equals_single_env_next_step(threads):
+@pytest.mark.parametrize("threads, integrator", [(False, "event"), (True, "event"),
+                                                 (False, "euler"), (True, "euler")])
+def test_vector_sub_env_equals_single_env_next_step(threads, integrator):
     n, steps = 4, 150
+    kw = dict(ENV_KW, integrator=integrator)
     acts = np.stack([rollout_actions(steps, 10 + i) for i in range(n)], axis=1)
-    envs = HopRoverVectorEnv(n, threads=threads, **ENV_KW)
+    envs = HopRoverVectorEnv(n, threads=threads, **kw)
     obs, _ = envs.reset(seed=100)
     traj = [[(obs[i], 0.0, False, False)] for i in range(n)]
     for k in range(steps):
@@ -75,13 +77,37 @@ def test_vector_sub_env_equals_single_env_next_step(threads):
             traj[i].append((obs[i], r[i], te[i], tr[i]))
     n_ends = 0
     for i in range(n):
-        single = run_single(100 + i, acts[:, i], **ENV_KW)
+        single = run_single(100 + i, acts[:, i], **kw)
         assert len(single) == len(traj[i])
         for (o1, r1, te1, tr1), (o2, r2, te2, tr2) in zip(traj[i], single):
             assert np.array_equal(o1, o2)
             assert r1 == r2 and te1 == te2 and tr1 == tr2
             n_ends += te2 or tr2
     assert n_ends > 0
+
+
+@pytest.mark.parametrize("integrator", ["event", "euler"])
+def test_env_steps_with_the_integrator_it_was_made_with(integrator):
+    """The env's kernels (an event-only one and one for any integrator) integrate what
+    simulate() integrates for the same torques, start and target."""
+    from hoprover_env import simulate
+    from hoprover_env.params import RoverParams
+    env = HopRoverEnv(integrator=integrator, control_dt=0.5, episode_time=60.0,
+                      target_x=0.3)
+    env.reset(seed=0)
+    p = RoverParams()
+    acts = rollout_actions(80, 5)
+    torques = [p.torque_min + 0.5 * (float(a) + 1.0) * (p.torque_max - p.torque_min)
+               for a in acts]
+    for a in acts:
+        *_, te, tr, info = env.step(np.array([a], dtype=np.float32))
+        assert not (te or tr)
+    roll = simulate(np.array(torques), t_end=40.0, control_dt=0.5, target_x=0.3,
+                    integrator=integrator)
+    s = env.unwrapped._s
+    final = [roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1], roll.omega[-1]]
+    assert np.array_equal(s[:6], final)
+    assert roll.n_events == s[hoprover_env.core.S_NEVENTS] > 2
 
 
 def test_vector_same_step_autoreset_matches_single():
