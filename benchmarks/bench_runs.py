@@ -150,7 +150,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
               {"ms per episode": ".3f", "x compiled": ".1f"}),
         f"`simulate_batch`: {n_batch} episodes ({t_end:g} s, control_dt 0.1 s, event, "
         f"summaries only) against a Python loop over `simulate` (numba threads available: "
-        f"{numba.config.NUMBA_NUM_THREADS}; other processes share the cores):",
+        f"{numba.config.NUMBA_NUM_THREADS}):",
         table(["", "episodes / s", "x loop"],
               [[k, v, v / batch["Python loop over simulate"]] for k, v in batch.items()],
               {"episodes / s": ",.0f", "x loop": ".2f"}),

@@ -10,8 +10,8 @@ import sys
 
 from numba.core import event
 
-MESSAGE = ("hoprover_env: compiling the simulator with numba (first use after installing "
-           "or editing it; seconds, cached afterwards) ...")
+MESSAGE = ("hoprover_env: compiling the simulator with numba, once after installing or "
+           "editing it (usually 10-20 s; cached afterwards) ...")
 
 
 class _CompileNotice(event.Listener):
