@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 from numba import njit, types as nt
+from numba.core.registry import CPUDispatcher
 
 from ._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
 from .params import (P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN,
@@ -45,11 +46,31 @@ from .params import (P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN,
 # and link it again into every caller, about 2 s of the cold start. The integrator's entry
 # (advance, _advance_event) is inlined into its callers, so that the env's step does not
 # pay for linking the whole kernel twice more (numba re-optimises every callee's code in
-# each jitted caller). Calling an INNER function from Python raises a TypeError.
+# each jitted caller). Calling an INNER function from Python raises a TypeError
+# (guard_jit_only, at the end of each kernel module).
 JIT = dict(cache=True, error_model="numpy", _nrt=False)
 INNER = dict(JIT, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 JIT_INLINE = dict(JIT, inline="always")
 INNER_INLINE = dict(INNER, inline="always")
+
+
+class _JitOnlyDispatcher(CPUDispatcher):
+    """An INNER function seen from Python. It has no Python entry: numba would jump to a
+    null one and crash the interpreter (a segmentation fault), so the call raises."""
+
+    def __call__(self, *args, **kwargs):
+        f = self.py_func
+        raise TypeError(f"{f.__module__}.{f.__qualname__} is compiled for calls from jitted "
+                        "code only (core.INNER): call it from an @njit function, or compile "
+                        "it with core.JIT to call it from Python")
+
+
+def guard_jit_only(namespace: dict) -> None:
+    """Make the INNER functions of a module raise TypeError when Python calls them.
+    Called at the end of each kernel module; jitted callers are unaffected."""
+    for obj in list(namespace.values()):
+        if type(obj) is CPUDispatcher and obj.targetoptions.get("no_cpython_wrapper"):
+            obj.__class__ = _JitOnlyDispatcher
 
 # Explicit signatures for the helpers that take small integers: without them numba
 # compiles a separate copy for every literal corner or event number it is called with.
@@ -1837,3 +1858,6 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     S[S_INBAND] = 1.0 if in_band(S, P) else 0.0
     S[S_TIN] = 0.0
     return INIT_OK
+
+
+guard_jit_only(globals())

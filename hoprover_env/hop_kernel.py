@@ -140,3 +140,6 @@ def batch_hop_step_threaded(S, P, O, E, actions, active, obs, rew, term, trunc, 
             rew[i], term[i], trunc[i], succ[i], nev[i] = hop_step(
                 S[i], P[i], O, E, actions[i], obs[i], ev, W[get_thread_id()])
     return -1
+
+
+core.guard_jit_only(globals())

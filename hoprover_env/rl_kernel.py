@@ -310,3 +310,6 @@ def batch_step_threaded_any_integrator(S, P, O, E, actions, active, obs, rew, te
             rew[i], term[i], trunc[i], succ[i], nev[i] = env_step_any_integrator(
                 S[i], P[i], O, E, actions[i], obs[i], ev, W[get_thread_id()])
     return -1
+
+
+core.guard_jit_only(globals())

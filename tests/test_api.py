@@ -114,3 +114,25 @@ def test_roversim_copy_is_independent_and_stop_on():
     assert twin.t == 50.0 and sim.t < 5.0
     with pytest.raises(ValueError):
         sim.advance(3e-4, 10.0, stop_on="nonsense")
+
+
+def test_jit_only_kernel_functions_raise_instead_of_crashing():
+    # Kernel helpers compiled without a Python entry (core.INNER) crashed the interpreter
+    # with a segmentation fault when called from Python; they raise a TypeError instead.
+    import subprocess
+    import sys
+
+    from numba.core.registry import CPUDispatcher
+
+    from hoprover_env import core, hop_kernel, rl_kernel
+    inner = [o for m in (core, rl_kernel, hop_kernel) for o in vars(m).values()
+             if isinstance(o, CPUDispatcher) and o.targetoptions.get("no_cpython_wrapper")]
+    assert len(inner) > 40
+    assert all(type(o) is core._JitOnlyDispatcher for o in inner)
+    code = ("import numpy as np\nfrom hoprover_env import core\n"
+            "try:\n    core.kinetic_energy(np.zeros(core.N_STATE), np.ones(32))\n"
+            "except TypeError as e:\n    print(e)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.returncode
+    assert "core.kinetic_energy is compiled for calls from jitted code only" in out.stdout
