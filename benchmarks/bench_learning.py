@@ -9,6 +9,7 @@ curves are train.py's own evaluations (`evaluations.csv`: 100 validation targets
 7, deterministic policy); the wall axis includes behaviour cloning for the cloned task.
 
     python -m benchmarks.bench_learning [--quick] [--runs runs/learning] [--seeds 0,1,2]
+                                        [--tasks scratch,hop,clone] [--finished-only]
 """
 from __future__ import annotations
 
@@ -144,21 +145,28 @@ def figure(results: dict, path: str, reference: float | None = None) -> None:
     plt.close(fig)
 
 
+def finished(task: str, seed: int, runs: Path) -> bool:
+    return (runs / f"{task}_s{seed}" / "final_model.json").exists()
+
+
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures", runs_dir: str | None = None,
-        seeds=(0, 1, 2), tasks=tuple(TASKS)) -> Section:
+        seeds=(0, 1, 2), tasks=tuple(TASKS), finished_only: bool = False) -> Section:
+    """finished_only: read the finished runs and train none (a task keeps the seeds it has)."""
     tmp = Path(tempfile.mkdtemp())
     runs = Path(runs_dir) if runs_dir else (tmp / "runs" if quick else ROOT / "runs" / "learning")
     if quick:
         seeds = seeds[:1]
-    results = {task: [read_run(train(task, s, runs, quick, tmp)) for s in seeds]
-               for task in tasks}
+    used = {task: [s for s in seeds if not finished_only or finished(task, s, runs)]
+            for task in tasks}
+    results = {task: [read_run(train(task, s, runs, quick, tmp)) for s in used[task]]
+               for task in tasks if used[task]}
     rows = []
     for task, rs in results.items():
         final_s = [r["curve"][-1, 2] for r in rs]
         best_s = [float(np.nanmax(r["curve"][:, 2])) for r in rs]
         final_m = [r["curve"][-1, 3] for r in rs]
         reach = [first_reaching(r["curve"], 0.95) for r in rs]
-        rows.append([task, TASKS[task][1], len(rs),
+        rows.append([task, TASKS[task][1], ", ".join(map(str, used[task])),
                      " / ".join(f"{v:.0%}" for v in final_s),
                      " / ".join(f"{v:.0%}" for v in best_s),
                      " / ".join(f"{v:.0f}" for v in final_m),
@@ -191,9 +199,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--fig-dir", default=str(ROOT / "benchmarks" / "figures"))
+    ap.add_argument("--finished-only", action="store_true",
+                    help="tabulate and plot the finished runs only; train nothing")
     args = ap.parse_args(argv)
     sec = run(args.quick, args.fig_dir, args.runs, tuple(int(s) for s in args.seeds.split(",")),
-              tuple(args.tasks.split(",")))
+              tuple(args.tasks.split(",")), args.finished_only)
     print(sec.markdown)
     return 0
 
