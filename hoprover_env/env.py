@@ -175,7 +175,8 @@ class HopRoverEnv(gym.Env):
         self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
                                             dtype=np.float32)
         self._o = self.config.options_vector()
-        self._event_only = self.config.integrator == "event"
+        self._step_kernel = self.step_kernel if self.config.integrator == "event" \
+            else self.step_kernel_any_integrator
         self._e = self.config.reward_vector()
         self._obs = np.zeros(rl_kernel.OBS_DIM, dtype=np.float32)
         self._w = np.zeros(core.N_WORK)
@@ -213,8 +214,7 @@ class HopRoverEnv(gym.Env):
                 raise ValueError(f"action must be finite, got {a!r}")
         else:
             a = float(check_actions(action, (1,))[0])
-        kernel = self.step_kernel if self._event_only else self.step_kernel_any_integrator
-        reward, terminated, truncated, _, n_ev = kernel(
+        reward, terminated, truncated, _, n_ev = self._step_kernel(
             self._s, self._p, self._o, self._e, a, self._obs, _NO_LOG, self._w)
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
