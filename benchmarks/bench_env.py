@@ -220,7 +220,9 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
         "Cost of simulated time (the kernel alone, per rover): a rover at rest costs only "
         "the per-step bookkeeping, a flight is closed form, a contact phase runs DOP853 with "
         "event location:", cost_md,
-        "Time to the first step in a fresh interpreter (compilation included when cold):",
+        "Time to the first step in a fresh interpreter (compilation included when cold; "
+        f"{os.cpu_count()} cores: on two or more, a helper process compiles part of the "
+        "kernel meanwhile, see the cold-start table of the runs section):",
         first_md,
         f"Memory per sub-env: {mem:.0f} bytes (state, parameters, observation and result "
         f"arrays; per-thread scratch of {core.N_WORK * 8} bytes on top)."])

@@ -11,7 +11,10 @@
 * the cold start, per jitted function: a fresh interpreter with an empty numba cache
   runs `import hoprover_env`, `gym.make` + `reset` and the first `env.step`, timing every
   compilation with numba's event API ("numba:compile"; exclusive = minus the callees
-  compiled inside it), then the same with the cache warm.
+  compiled inside it), then the same with the cache warm; all in one process
+  (HOPROVER_PARALLEL_COMPILE=0);
+* the cold wall time to the first step with the parallel-compile helper (the default)
+  and without it, in alternating runs.
 """
 from __future__ import annotations
 
@@ -22,6 +25,7 @@ import sys
 import tempfile
 
 import numba
+import numpy as np
 
 from benchmarks import bench_core
 from benchmarks.report import Section, table
@@ -65,16 +69,28 @@ print(json.dumps({"phases": phases, "records": records}))
 '''
 
 
-def cold_start(what: str = "step") -> dict:
-    """Phases and per-function compile times, cold (empty numba cache) then warm."""
+def cold_start(what: str = "step", parallel: bool = False) -> dict:
+    """Phases and per-function compile times (of this process; the parallel-compile
+    helper's are not seen), cold (empty numba cache) then warm."""
     out = {}
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache,
+                   HOPROVER_PARALLEL_COMPILE="1" if parallel else "0")
         for label in ("cold", "warm"):
             res = subprocess.run([sys.executable, "-c", COLD_SCRIPT, what], env=env,
                                  check=True, capture_output=True, text=True)
             out[label] = json.loads(res.stdout.strip().splitlines()[-1])
     return out
+
+
+def cold_walls(pairs: int) -> dict:
+    """Cold wall time to the first env.step, with and without the parallel-compile
+    helper, in alternating fresh interpreters (the host's load drifts)."""
+    walls = {"two processes (default)": [], "one process": []}
+    for _ in range(pairs):
+        for label, parallel in (("two processes (default)", True), ("one process", False)):
+            walls[label].append(sum(p[2] for p in cold_start("step", parallel)["cold"]["phases"]))
+    return walls
 
 
 def per_function(records) -> list:
@@ -132,6 +148,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     batch = bench_core.batch_table(scheds, t_end, n_batch, repeat)
     cs = cold_start("import" if quick else "step")
     cold_md, cold_head = cold_markdown(cs, 8 if quick else 15)
+    cold = cold_walls(0 if quick else 3)
     ev = walls["event"]
     md = "\n\n".join([
         f"`simulate()` with a torque schedule runs the whole episode in one kernel call "
@@ -158,7 +175,20 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
         "an empty directory), " + ("`import hoprover_env` only (quick mode)"
                                    if quick else "`import hoprover_env`, `gym.make` + "
                                    "`reset`, the first `env.step`") +
-        "; then the same with the cache it wrote:", cold_md])
+        ", compiling in this one process (HOPROVER_PARALLEL_COMPILE=0); then the same with "
+        "the cache it wrote:", cold_md] + ([
+        "Cold wall time to the first `env.step` (import, `gym.make` + `reset`, `step`), by "
+        "default (on two or more cores a helper process compiles the contact phases into "
+        "the cache meanwhile, hoprover_env/_parallel_compile.py) and in one process, "
+        f"{len(cold['one process'])} alternating runs each:",
+        table(["compiled by", "runs (s)", "median s", "x one process"],
+              [[k, " / ".join(f"{w:.2f}" for w in v), float(np.median(v)),
+                float(np.median(v) / np.median(cold["one process"]))]
+               for k, v in cold.items()],
+              {"median s": ".2f", "x one process": ".2f"})] if cold["one process"] else []))
+    if cold["one process"]:
+        cold_head["cold_first_step_parallel_wall_s"] = float(
+            np.median(cold["two processes (default)"]))
     headline = {"simulate_event_ms": ev * 1e3,
                 "euler1e-4_over_event": walls["euler dt=1e-4"] / ev, **cold_head,
                 **{f"batch_eps_{k}": v for k, v in batch.items()}}

@@ -2,7 +2,7 @@
 
     PYTHONPATH=. python -m benchmarks --only stress [--quick]
 
-Seven families of runs try to break the kernel (hoprover_env/core.py) where hybrid
+Seven families of runs try to break the kernel (hoprover_env/core/) where hybrid
 simulators usually break: very long horizons, torques that flip sign every control step,
 torques that press a bouncing corner back into the ground, landings that graze the
 ground or arrive almost flat, flat two-corner landings, parameter sets at the edges of

@@ -2,20 +2,21 @@
 
 numba keys a cached function on its own bytecode and its own file's time stamp. A cached
 function in rl_kernel.py (or a benchmark driver) that calls the core has the core's
-compiled code linked into it, so after core.py changes it would keep running the old
+compiled code linked into it, so after the core changes it would keep running the old
 physics. `drop_stale_cache(__file__)` fingerprints the kernel sources a module depends
 on and deletes that module's cache files when the fingerprint changes; call it at the
 top of such a module, before its first jitted function is compiled or loaded.
 """
 from __future__ import annotations
 
+import functools
 import glob
 import hashlib
 import os
 
 _HERE = os.path.dirname(os.path.abspath(__file__))
-KERNEL_SOURCES = [os.path.join(_HERE, name) for name in
-                  ("core.py", "params.py", "_dop853_tableau.py", "rl_kernel.py")]
+KERNEL_SOURCES = sorted(glob.glob(os.path.join(_HERE, "core", "*.py"))) + [
+    os.path.join(_HERE, name) for name in ("params.py", "_dop853_tableau.py", "rl_kernel.py")]
 
 
 def _probe():  # a function for numba's cache locators to look at
@@ -37,12 +38,19 @@ def _cache_dirs(py_file: str) -> list[str]:
     return dirs
 
 
-def fingerprint(paths=KERNEL_SOURCES) -> str:
+@functools.lru_cache(maxsize=None)
+def _fingerprint(paths: tuple) -> str:
     h = hashlib.sha256()
     for path in paths:
         with open(path, "rb") as fh:
             h.update(fh.read())
     return h.hexdigest()
+
+
+def fingerprint(paths=KERNEL_SOURCES) -> str:
+    """One hash over the given source files (computed once per process: every kernel
+    module asks at import)."""
+    return _fingerprint(tuple(paths))
 
 
 def drop_stale_cache(py_file: str, dependencies=KERNEL_SOURCES) -> None:

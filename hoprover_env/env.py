@@ -132,7 +132,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from . import core, rl_kernel
+from . import _parallel_compile, core, rl_kernel
 from .env_config import EnvConfig, STATE_LETTERS, sample_episode
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
@@ -175,6 +175,7 @@ class HopRoverEnv(gym.Env):
         self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
                                             dtype=np.float32)
         self._o = self.config.options_vector()
+        _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
         self._step_kernel = self.step_kernel if self.config.integrator == "event" \
             else self.step_kernel_any_integrator
         self._e = self.config.reward_vector()

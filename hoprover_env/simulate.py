@@ -25,7 +25,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import core, rollout
+from . import _parallel_compile, core, rollout
 from .params import MAX_MAGNITUDE, RoverParams
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
@@ -64,6 +64,7 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
 def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
+    _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
     target_x = finite_real("target_x", target_x)
     if initial_state is None:
         initial_state = (0.0, params.half_height, 0.0, 0.0, 0.0, 0.0)

@@ -25,7 +25,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from . import core, rl_kernel
+from . import _parallel_compile, core, rl_kernel
 from .env import check_actions
 from .env_config import EnvConfig, STATE_LETTERS, sample_episode
 from .params import N_PARAMS
@@ -49,6 +49,7 @@ class HopRoverVectorEnv(VectorEnv):
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.config = self.config_class.from_kwargs(**kwargs)
+        _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)

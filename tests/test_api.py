@@ -124,15 +124,26 @@ def test_jit_only_kernel_functions_raise_instead_of_crashing():
 
     from numba.core.registry import CPUDispatcher
 
+    import importlib
+    import pkgutil
+
     from hoprover_env import core, hop_kernel, rl_kernel
-    inner = [o for m in (core, rl_kernel, hop_kernel) for o in vars(m).values()
+    kernel_modules = [importlib.import_module(f"hoprover_env.core.{m.name}")
+                      for m in pkgutil.iter_modules(core.__path__)] + [rl_kernel, hop_kernel]
+    inner = [o for m in kernel_modules for o in vars(m).values()
              if isinstance(o, CPUDispatcher) and o.targetoptions.get("no_cpython_wrapper")]
     assert len(inner) > 40
-    assert all(type(o) is core._JitOnlyDispatcher for o in inner)
+    # guarded, or compiled on first use (declared signature) and guarded then
+    assert all(type(o) in (core._JitOnlyDispatcher, core._DeclaredSignature) for o in inner)
     code = ("import numpy as np\nfrom hoprover_env import core\n"
             "try:\n    core.kinetic_energy(np.zeros(core.N_STATE), np.ones(32))\n"
+            "except TypeError as e:\n    print(e)\n"
+            "try:\n    core.contact_corner(1)\n"
             "except TypeError as e:\n    print(e)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.returncode
-    assert "core.kinetic_energy is compiled for calls from jitted code only" in out.stdout
+    assert "core.forces.kinetic_energy is compiled for calls from jitted code only" \
+        in out.stdout
+    assert "core.forces.contact_corner is compiled for calls from jitted code only" \
+        in out.stdout

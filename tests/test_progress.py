@@ -1,16 +1,23 @@
 """Compilation: one progress line on a cold numba cache, none on a warm one; what a cold
-first step compiles."""
+first step compiles, in one process or with the parallel-compile helper."""
 import json
 import os
 import subprocess
 import sys
+
+import pytest
 
 from hoprover_env._progress import MESSAGE
 
 
 def test_one_progress_line_when_compiling_none_when_cached(tmp_path):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
-    code = "import hoprover_env"          # compiles the explicit-signature kernels
+    # importing compiles nothing (declared signatures compile on first use)
+    bare = subprocess.run([sys.executable, "-c", "import hoprover_env"], env=env,
+                          capture_output=True, text=True, check=True)
+    assert MESSAGE not in bare.stderr
+    assert not list(tmp_path.rglob("*.nbi"))
+    code = "import hoprover_env; hoprover_env.simulate([1e-4], t_end=0.2)"
     cold = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                           text=True, check=True)
     assert cold.stderr.count(MESSAGE) == 1
@@ -33,17 +40,25 @@ class Listener(event.Listener):
 event.register("numba:compile", Listener())
 import numpy as np, gymnasium as gym, hoprover_env
 env = gym.make(sys.argv[1], **json.loads(sys.argv[2]))
-env.reset(seed=0)
-env.step(np.array([0.5], np.float32))
-print(json.dumps(seen))
+obs0, _ = env.reset(seed=0)
+obs, reward, *_ = env.step(np.array([0.5], np.float32))
+for _ in range(30):
+    obs, reward, *_ = env.step(np.array([-0.3], np.float32))
+print(json.dumps({"compiled": seen, "obs": obs.tolist(), "reward": reward}))
 '''
 
 
-def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir))
+def first_steps(cache_dir, env_id="HopRover-v0", parallel=False, **kwargs):
+    """What a fresh interpreter compiled for its first steps, and where they ended."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir),
+               HOPROVER_PARALLEL_COMPILE="1" if parallel else "0")
     out = subprocess.run([sys.executable, "-c", COMPILED, env_id, json.dumps(kwargs)],
                          env=env, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
+    return first_steps(cache_dir, env_id, **kwargs)["compiled"]
 
 
 def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
@@ -56,4 +71,42 @@ def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     assert len(ours) == len(set(ours)), sorted(n for n in ours if ours.count(n) > 1)
     # the Euler env compiles its integrator on first use, from the same (warm) cache
     seen = compiled_by_first_step(tmp_path, integrator="euler")
-    assert "hoprover_env.core._advance_euler" in [name for name, _ in seen]
+    assert "hoprover_env.core.euler._advance_euler" in [name for name, _ in seen]
+
+
+def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path):
+    # on a cold cache a helper process compiles the contact phases into the cache while
+    # this process compiles the rest; the env step then loads them from the cache
+    if len(os.sched_getaffinity(0)) < 2:
+        pytest.skip("the helper only starts with two or more cores")
+    serial = first_steps(tmp_path / "serial")
+    parallel = first_steps(tmp_path / "parallel", parallel=True)
+    main = [name for name, _ in parallel["compiled"] if name.startswith("hoprover_env.")]
+    everything = [name for name, _ in serial["compiled"] if name.startswith("hoprover_env.")]
+    helper_only = {"hoprover_env.core.contact_phases.contact_phase",
+                   "hoprover_env.core.contact_phases.g_phase",
+                   "hoprover_env.core.contact_phases._dop853_step",
+                   "hoprover_env.core.contact_phases._locate"}
+    assert helper_only <= set(everything)
+    assert not helper_only & set(main), sorted(helper_only & set(main))
+    assert "hoprover_env.rl_kernel.env_step" in main
+    assert len(main) == len(set(main)) and len(main) < len(everything) - 10
+    # the same machine code: identical trajectories, bit for bit
+    assert parallel["obs"] == serial["obs"] and parallel["reward"] == serial["reward"]
+    cached = {p.name.split("-")[0] for p in (tmp_path / "parallel").rglob("*.nbi")}
+    assert {"contact_phases.contact_phase", "contact_phases.g_phase"} <= cached
+
+
+def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
+    from hoprover_env import _parallel_compile as pc
+    started = []
+    monkeypatch.setattr(pc, "_start_helper", lambda: started.append(1))
+    monkeypatch.setattr(pc, "_prepared", False)
+    monkeypatch.setenv(pc.ENV_SWITCH, "0")
+    pc.prepare()
+    monkeypatch.setattr(pc, "_prepared", False)
+    monkeypatch.setenv(pc.ENV_SWITCH, "1")
+    for d in pc.helper_functions():       # compiled in this process (the suite's cache)
+        pc.compile_declared(d)
+    pc.prepare()
+    assert started == []

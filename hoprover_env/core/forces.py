@@ -1,0 +1,210 @@
+"""Corner geometry and the contact forces of the seven states (docs/MODEL.md
+section 4), written once for a generic contact corner, and the setters that put the
+body on one or two corners."""
+
+import math
+
+from numba import njit, types as nt
+
+from .._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
+
+from ..params import P_M, P_I, P_R, P_H, P_G, P_MUD, P_VXMIN  # noqa: E402
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _F2, _F5, _I, _V  # noqa: E402
+from .layout import *  # noqa: F403 (the array layouts and tolerances)
+
+
+# ----------------------------------------------------------------------------------
+# Geometry
+# ----------------------------------------------------------------------------------
+@njit_declared(_F2(_V, _I), **JIT)
+def corner_body(P, k):
+    """Body coordinates (bx, by) of corner k: 0 A, 1 B (bottom), 2 TR, 3 TL (top)."""
+    bx = P[P_R] if (k == 0 or k == 2) else -P[P_R]
+    by = -P[P_H] if k < 2 else P[P_H]
+    return bx, by
+
+
+@njit_declared(_F2(_V, _I, _F, _F), **INNER)
+def corner_offset_cs(P, k, c, s):
+    """corner_offset with cos(th), sin(th) given: hot paths compute them once."""
+    bx, by = corner_body(P, k)
+    return bx * c + by * s, -bx * s + by * c
+
+
+@njit_declared(_F2(_V, _I, _F), **JIT)
+def corner_offset(P, k, th):
+    """World offset (dx, dy) of corner k from the c.m. at attitude th."""
+    return corner_offset_cs(P, k, math.cos(th), math.sin(th))
+
+
+@njit(**JIT)
+def wrap_angle(th):
+    """Attitude in (-pi, pi]."""
+    w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)   # exact for th in range
+    return math.pi if w == -math.pi else w
+
+
+@njit(**INNER)
+def kinetic_energy(S, P):
+    return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2
+
+
+@njit_declared(_I(_I), **INNER)
+def contact_corner(mode):
+    """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
+    return 0 if (mode == MODE_B or mode == MODE_C) else 1
+
+
+# ----------------------------------------------------------------------------------
+# Forces (docs/MODEL.md section 4), written once for a generic contact corner.
+# ----------------------------------------------------------------------------------
+@njit_declared(_F5(_V, _I, _F, _F, _F), **INNER)
+def pivot_dynamics(P, k, T, th, w):
+    """Pivot on corner k (state B for A, D for B).
+
+    The corner is fixed: c.m. acceleration a = -thdd (dy, -dx) + w^2 (dx, dy), so
+    thdd = (T - m g dx) / (I + m l^2), f = m a + (0, m g).
+    Returns (thdd, fx, fy, dx, dy).
+    """
+    m = P[P_M]
+    g = P[P_G]
+    dx, dy = corner_offset(P, k, th)
+    thdd = (T - m * g * dx) / (P[P_I] + m * (dx * dx + dy * dy))
+    fx = m * (-thdd * dy + w * w * dx)
+    fy = m * (thdd * dx + w * w * dy + g)
+    return thdd, fx, fy, dx, dy
+
+
+@njit_declared(_F5(_V, _I, _F, _F, _F, _F), **INNER)
+def slide_dynamics(P, k, sigma, T, th, w):
+    """Slide on corner k in direction sigma (state C for A, E for B).
+
+    Only the normal constraint holds; friction f_x = -sigma mu_d f_y.
+    D = I + m dx (dx + sigma mu_d dy) (> 0 outside the Painleve regime),
+    thdd = [T - m (dx + sigma mu_d dy)(w^2 dy + g)] / D, f_y = m (thdd dx + w^2 dy + g).
+    Returns (thdd, fx, fy, dx, dy).
+    """
+    m = P[P_M]
+    g = P[P_G]
+    dx, dy = corner_offset(P, k, th)
+    q = dx + sigma * P[P_MUD] * dy
+    thdd = (T - m * q * (w * w * dy + g)) / (P[P_I] + m * dx * q)
+    fy = m * (thdd * dx + w * w * dy + g)
+    fx = -sigma * P[P_MUD] * fy
+    return thdd, fx, fy, dx, dy
+
+
+@njit(**INNER)
+def double_contact_forces(P, sigma, T):
+    """States F (sigma = 0) and G: both corners on the ground, theta = 0, omega = 0.
+
+    f_Ay + f_By = m g and, from the moment balance, f_Ay - f_By = (T + sigma mu_d m g h) / r.
+    Returns (fAx, fAy, fBx, fBy).
+    """
+    m = P[P_M]
+    g = P[P_G]
+    diff = (T + sigma * P[P_MUD] * m * g * P[P_H]) / P[P_R]
+    fay = 0.5 * (m * g + diff)
+    fby = 0.5 * (m * g - diff)
+    return -sigma * P[P_MUD] * fay, fay, -sigma * P[P_MUD] * fby, fby
+
+
+@njit(**JIT)
+def contact_forces(S, P):
+    """Contact forces (fAx, fAy, fBx, fBy) of the current state and torque."""
+    mode = int(S[S_MODE])
+    T = S[S_TORQUE]
+    if mode == MODE_F:
+        return double_contact_forces(P, 0.0, T)
+    if mode == MODE_G:
+        return double_contact_forces(P, S[S_SIGMA], T)
+    if mode == MODE_A:
+        return 0.0, 0.0, 0.0, 0.0
+    k = contact_corner(mode)
+    if mode == MODE_B or mode == MODE_D:
+        _, fx, fy, _, _ = pivot_dynamics(P, k, T, S[S_TH], S[S_W])
+    else:
+        _, fx, fy, _, _ = slide_dynamics(P, k, S[S_SIGMA], T, S[S_TH], S[S_W])
+    if k == 0:
+        return fx, fy, 0.0, 0.0
+    return 0.0, 0.0, fx, fy
+
+
+@njit_declared(nt.void(_V, _V, _I), **INNER)
+def _set_single_contact(S, P, k):
+    """Make the c.m. state satisfy corner k's constraint exactly: y_k = 0, vy_k = 0.
+
+    The height is snapped (a round-off-sized move); the vertical point velocity is
+    removed by a vertical impulse at the corner (an energy-non-increasing projection).
+    """
+    dx, dy = corner_offset(P, k, S[S_TH])
+    S[S_Y] = -dy
+    vpy = S[S_VY] - S[S_W] * dx
+    if vpy != 0.0:
+        m = P[P_M]
+        inv_i = 1.0 / P[P_I]
+        lam = -vpy / (1.0 / m + dx * dx * inv_i)
+        S[S_VY] += lam / m
+        S[S_W] += -dx * lam * inv_i
+
+
+@njit_declared(nt.void(_V, _V, _I), **INNER)
+def _pin_corner(S, P, k):
+    """Bring corner k's whole velocity to zero by one impulse there (a projection)."""
+    m = P[P_M]
+    inv_i = 1.0 / P[P_I]
+    dx, dy = corner_offset(P, k, S[S_TH])
+    vpx = S[S_VX] + S[S_W] * dy
+    vpy = S[S_VY] - S[S_W] * dx
+    # K = I2/m + u u^T / I with u = (dy, -dx)
+    k11 = 1.0 / m + dy * dy * inv_i
+    k12 = -dy * dx * inv_i
+    k22 = 1.0 / m + dx * dx * inv_i
+    det = k11 * k22 - k12 * k12
+    lx = (-vpx * k22 + vpy * k12) / det
+    ly = (-vpy * k11 + vpx * k12) / det
+    S[S_VX] += lx / m
+    S[S_VY] += ly / m
+    S[S_W] += (dy * lx - dx * ly) * inv_i
+    S[S_Y] = -dy
+
+
+@njit_declared(nt.void(_V, _V, _I), **INNER)
+def _turn_flat_about(S, P, k):
+    """Turn the body about contact corner k to theta = 0, where the other bottom corner
+    touches too: the projection used when that corner ended (round-off or a finite step)
+    under the ground. Keeps corner k's position and its contact constraint."""
+    dx, _ = corner_offset(P, k, S[S_TH])
+    xpiv = S[S_X] + dx
+    S[S_TH] = 0.0
+    dx, dy = corner_offset(P, k, 0.0)
+    S[S_X] = xpiv - dx
+    S[S_Y] = -dy
+    S[S_VY] = S[S_W] * dx
+
+
+@njit(**INNER)
+def _set_double_contact(S, P):
+    """Both corners on the ground: theta = 0, omega = 0, vy = 0, y = h; F or G.
+
+    Decision: the horizontal velocity kept is the c.m.'s. The residual vertical and
+    angular velocities (below v_ymin) are removed by vertical impulses at A and B, which
+    leave vx unchanged and cannot add energy; with omega = 0 the contact points then
+    move with vx, the common horizontal contact velocity.
+    """
+    S[S_TH] = 0.0
+    S[S_W] = 0.0
+    S[S_Y] = P[P_H]
+    S[S_VY] = 0.0
+    if abs(S[S_VX]) < P[P_VXMIN] or S[S_VX] == 0.0:
+        S[S_VX] = 0.0
+        S[S_MODE] = MODE_F
+        S[S_SIGMA] = 0.0
+    else:
+        S[S_MODE] = MODE_G
+        S[S_SIGMA] = 1.0 if S[S_VX] > 0.0 else -1.0
+
+
+guard_jit_only(globals())

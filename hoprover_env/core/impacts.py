@@ -1,0 +1,260 @@
+"""Impacts (docs/MODEL.md section 6): the contest law, the frictionless fallback and
+the post-impact classification."""
+
+from numba import njit
+
+from .._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
+
+from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN  # noqa: E402
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _I, _M, _V  # noqa: E402
+from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .forces import (_pin_corner, _set_double_contact, _set_single_contact, _turn_flat_about,  # noqa: E402
+                     corner_offset, kinetic_energy, wrap_angle)
+from .judge import _log  # noqa: E402
+
+
+# ----------------------------------------------------------------------------------
+# Impacts (docs/MODEL.md section 6)
+# ----------------------------------------------------------------------------------
+@njit(**INNER)
+def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
+    """Solve a symmetric 3x3 system by Cramer's rule (well conditioned here)."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    det = a00 * c00 + a01 * c01 + a02 * c02
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    return ((c00 * b0 + c01 * b1 + c02 * b2) / det,
+            (c01 * b0 + c11 * b1 + c12 * b2) / det,
+            (c02 * b0 + c12 * b1 + c22 * b2) / det)
+
+
+@njit(**JIT)
+def contest_impulses(P, dxs, dys, part, dv, lx, ly):
+    """The contest law's impulses: K Lambda = dv over the taking-part corners.
+
+    One corner: the 2x2 system with K = I2/m + u u^T / I, u = (dy, -dx).
+    Two corners: K = J W J^T is 4x4 of rank 3 (the body has 3 degrees of freedom);
+    the minimum-norm least-squares impulse is K^+ dv = J G W^-1 G J^T dv with
+    G = (J^T J)^-1, J the 4x3 contact Jacobian (rows (1, 0, dy_k), (0, 1, -dx_k)) and
+    W = diag(1/m, 1/m, 1/I). `dv[2k], dv[2k+1]` are the wanted changes of corner k's
+    (vx, vy).
+    """
+    m = P[P_M]
+    inertia = P[P_I]
+    lx[0] = 0.0
+    lx[1] = 0.0
+    ly[0] = 0.0
+    ly[1] = 0.0
+    if part[0] != 0.0 and part[1] != 0.0:
+        dxa, dya, dxb, dyb = dxs[0], dys[0], dxs[1], dys[1]
+        # J^T J
+        a02 = dya + dyb
+        a12 = -dxa - dxb
+        a22 = dxa * dxa + dya * dya + dxb * dxb + dyb * dyb
+        # J^T dv
+        b0 = dv[0] + dv[2]
+        b1 = dv[1] + dv[3]
+        b2 = dya * dv[0] - dxa * dv[1] + dyb * dv[2] - dxb * dv[3]
+        z0, z1, z2 = _solve_sym3(2.0, 0.0, a02, 2.0, a12, a22, b0, b1, b2)
+        y0, y1, y2 = _solve_sym3(2.0, 0.0, a02, 2.0, a12, a22, m * z0, m * z1, inertia * z2)
+        lx[0] = y0 + dya * y2
+        ly[0] = y1 - dxa * y2
+        lx[1] = y0 + dyb * y2
+        ly[1] = y1 - dxb * y2
+        return
+    for k in range(2):
+        if part[k] != 0.0:
+            dx = dxs[k]
+            dy = dys[k]
+            k11 = 1.0 / m + dy * dy / inertia
+            k12 = -dy * dx / inertia
+            k22 = 1.0 / m + dx * dx / inertia
+            det = k11 * k22 - k12 * k12
+            lx[k] = (dv[2 * k] * k22 - dv[2 * k + 1] * k12) / det
+            ly[k] = (dv[2 * k + 1] * k11 - dv[2 * k] * k12) / det
+
+
+@njit(**INNER)
+def frictionless_impulses(P, dxs, on, vpy, target, ly):
+    """Vertical impulses only, as a complementarity problem over the grounded corners.
+
+    Each corner either takes a compressive impulse and ends with exactly its target
+    vertical speed, or takes none and ends at or above it. With two corners: both
+    active, then each alone (the 2x2 Delassus matrix is positive definite, so exactly
+    one of the cases is consistent).
+    """
+    m = P[P_M]
+    inv_i = 1.0 / P[P_I]
+    ly[0] = 0.0
+    ly[1] = 0.0
+    # Delassus matrix of the vertical directions: 1/m + dx_j dx_k / I
+    kaa = 1.0 / m + dxs[0] * dxs[0] * inv_i
+    kbb = 1.0 / m + dxs[1] * dxs[1] * inv_i
+    kab = 1.0 / m + dxs[0] * dxs[1] * inv_i
+    ra = target[0] - vpy[0]
+    rb = target[1] - vpy[1]
+    tol = 1e-14 * (abs(ra) + abs(rb) + 1e-300)
+    if on[0] != 0.0 and on[1] != 0.0:
+        det = kaa * kbb - kab * kab
+        la = (ra * kbb - rb * kab) / det
+        lb = (rb * kaa - ra * kab) / det
+        if la >= 0.0 and lb >= 0.0:
+            ly[0] = la
+            ly[1] = lb
+            return
+        la = ra / kaa
+        if la >= 0.0 and vpy[1] + kab * la >= target[1] - tol:
+            ly[0] = la
+            return
+        lb = rb / kbb
+        if lb >= 0.0 and vpy[0] + kab * lb >= target[0] - tol:
+            ly[1] = lb
+            return
+        return
+    for k in range(2):
+        if on[k] != 0.0:
+            kk = kaa if k == 0 else kbb
+            ly[k] = max(0.0, (target[k] - vpy[k]) / kk)
+
+
+@njit(**INNER)
+def _apply_impulses(S, P, dxs, dys, lx, ly):
+    m = P[P_M]
+    inv_i = 1.0 / P[P_I]
+    S[S_VX] += (lx[0] + lx[1]) / m
+    S[S_VY] += (ly[0] + ly[1]) / m
+    S[S_W] += (dys[0] * lx[0] - dxs[0] * ly[0] + dys[1] * lx[1] - dxs[1] * ly[1]) * inv_i
+
+
+@njit(**JIT)
+def resolve_impact(S, P, law, W):
+    """Apply the impact law at the current configuration and set the new contact state.
+
+    Returns the kinetic energy ratio (after / before) of the impact, after the
+    post-impact classification. See docs/MODEL.md section 6 and docs/PHYSICS.md.
+    """
+    S[S_TH] = wrap_angle(S[S_TH])
+    th = S[S_TH]
+    o = W_IMP
+    dxs = W[o:o + 2]
+    dys = W[o + 2:o + 4]
+    vpx = W[o + 4:o + 6]
+    vpy = W[o + 6:o + 8]
+    on = W[o + 8:o + 10]          # 1.0 / 0.0 flags
+    part = W[o + 10:o + 12]
+    dv = W[o + 12:o + 16]
+    tgt_y = W[o + 16:o + 18]
+    lx = W[o + 18:o + 20]
+    ly = W[o + 20:o + 22]
+    for j in range(22):
+        W[o + j] = 0.0
+    for k in range(2):
+        dx, dy = corner_offset(P, k, th)
+        dxs[k] = dx
+        dys[k] = dy
+        on[k] = 1.0 if S[S_Y] + dy <= H_IMPACT else 0.0
+        vpx[k] = S[S_VX] + S[S_W] * dy
+        vpy[k] = S[S_VY] - S[S_W] * dx
+        part[k] = 1.0 if (on[k] != 0.0 and vpy[k] <= V_TOL) else 0.0
+        if part[k] != 0.0:
+            tx = P[P_EX] * vpx[k]
+            if abs(tx) < P[P_VXMIN]:
+                tx = 0.0
+            ty = -P[P_EY] * vpy[k] if vpy[k] < 0.0 else 0.0
+            if abs(ty) < P[P_VYMIN]:
+                ty = 0.0
+            dv[2 * k] = tx - vpx[k]
+            dv[2 * k + 1] = ty - vpy[k]
+            tgt_y[k] = ty
+    ke0 = kinetic_energy(S, P)
+    if part[0] != 0.0 or part[1] != 0.0:
+        v0x = S[S_VX]
+        v0y = S[S_VY]
+        w0 = S[S_W]
+        contest_impulses(P, dxs, dys, part, dv, lx, ly)
+        _apply_impulses(S, P, dxs, dys, lx, ly)
+        lam_scale = abs(lx[0]) + abs(lx[1]) + abs(ly[0]) + abs(ly[1])
+        ok = True
+        for k in range(2):
+            if part[k] != 0.0 and ly[k] < -1e-12 * lam_scale:
+                ok = False               # the exact law would pull on the ground
+            if on[k] != 0.0 and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
+                ok = False               # a grounded corner would end moving down
+            if law == LAW_DISSIPATIVE and part[k] != 0.0 and \
+                    abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale:
+                ok = False               # outside the friction cone
+        if ok and law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
+            ok = False
+        if not ok:
+            S[S_VX] = v0x
+            S[S_VY] = v0y
+            S[S_W] = w0
+            frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
+            lx[0] = 0.0
+            lx[1] = 0.0
+            _apply_impulses(S, P, dxs, dys, lx, ly)
+            if law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
+                # Multi-contact restitution can add energy; the perfectly inelastic
+                # frictionless impact (an M-orthogonal projection) never does.
+                S[S_VX] = v0x
+                S[S_VY] = v0y
+                S[S_W] = w0
+                tgt_y[0] = 0.0
+                tgt_y[1] = 0.0
+                frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
+                _apply_impulses(S, P, dxs, dys, lx, ly)
+    # Post-impact classification: a grounded corner slower than v_ymin is in contact.
+    c0 = on[0] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
+    c1 = on[1] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]
+    if c0 and c1:
+        _set_double_contact(S, P)
+    elif c0 or c1:
+        k = 0 if c0 else 1
+        _set_single_contact(S, P, k)
+        # the other corner, if it was within H_IMPACT, may now be a hair under the ground
+        _, dyo = corner_offset(P, 1 - k, S[S_TH])
+        if S[S_Y] + dyo < 0.0:
+            _turn_flat_about(S, P, k)
+        _, dyk = corner_offset(P, k, S[S_TH])
+        vpk = S[S_VX] + S[S_W] * dyk
+        if abs(vpk) < P[P_VXMIN]:
+            _pin_corner(S, P, k)
+            S[S_MODE] = MODE_B if k == 0 else MODE_D
+            S[S_SIGMA] = 0.0
+        else:
+            S[S_MODE] = MODE_C if k == 0 else MODE_E
+            S[S_SIGMA] = 1.0 if vpk > 0.0 else -1.0
+    else:
+        S[S_MODE] = MODE_A
+        S[S_SIGMA] = 0.0
+        # never leave a corner under the ground (a round-off-sized lift)
+        low = min(S[S_Y] + dys[0], S[S_Y] + dys[1])
+        if low < 0.0:
+            S[S_Y] -= low
+    ke1 = kinetic_energy(S, P)
+    ratio = ke1 / ke0 if ke0 > 0.0 else 1.0
+    S[S_NIMPACT] += 1.0
+    if ratio > 1.0 + 1e-12:
+        S[S_NGAIN] += 1.0
+        if ratio - 1.0 > S[S_MAXGAIN]:
+            S[S_MAXGAIN] = ratio - 1.0
+    return ratio
+
+
+@njit_declared(_I(_V, _V, _V, _M, _I, _V), **INNER)
+def _impact_event(S, P, O, ev, n, W):
+    # a touchdown is only ever reported with a bottom corner on the ground
+    if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) \
+            + S[S_Y] > H_IMPACT:
+        return n
+    before = S[S_MODE]
+    ratio = resolve_impact(S, P, int(O[O_LAW]), W)
+    return _log(S, ev, n, S[S_T], EV_IMPACT, before, S[S_MODE], ratio)
+
+
+guard_jit_only(globals())

@@ -1,0 +1,91 @@
+"""What happens when a phase of either integrator ends: the transition or impact it
+ended on is applied and logged, and the judge and diagnostics are updated."""
+
+import math
+
+from numba import njit
+
+from .._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
+
+from ..params import P_R, P_BAND  # noqa: E402
+from ._jit import INNER, guard_jit_only, njit_declared, _I, _M, _V  # noqa: E402
+from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .forces import contact_corner, corner_offset, corner_offset_cs, pivot_dynamics  # noqa: E402
+from .judge import _judge_set, _judge_update, _log  # noqa: E402
+from .transitions import settle  # noqa: E402
+from .impacts import _impact_event  # noqa: E402
+
+
+# ----------------------------------------------------------------------------------
+# Event integrator: the loop over phases
+# ----------------------------------------------------------------------------------
+@njit(**INNER)
+def _track_min_height(S, P):
+    c = math.cos(S[S_TH])
+    sn = math.sin(S[S_TH])
+    _, dy0 = corner_offset_cs(P, 0, c, sn)
+    _, dy1 = corner_offset_cs(P, 1, c, sn)
+    low = S[S_Y] + min(dy0, dy1)
+    if low < S[S_MIN_HEIGHT]:
+        S[S_MIN_HEIGHT] = low
+
+
+@njit(**INNER)
+def _band_status_ahead(S, P, sigma):
+    """Band membership just past the current position in direction sigma: decides a
+    crossing unambiguously even where two corners' intervals meet (r = w)."""
+    mode = int(S[S_MODE])
+    xt = S[S_XT]
+    w = P[P_BAND]
+    probe = sigma * 1e-12
+    if mode == MODE_G or mode == MODE_F:
+        xa = S[S_X] + P[P_R] + probe
+        xb = S[S_X] - P[P_R] + probe
+        return abs(xa - xt) <= w or abs(xb - xt) <= w
+    dx, _ = corner_offset(P, contact_corner(mode), S[S_TH])
+    return abs(S[S_X] + dx + probe - xt) <= w
+
+
+@njit_declared(_I(_V, _V, _V, _M, _I, _I, _V), **INNER)
+def _after_phase(S, P, O, ev, n, kind, W):
+    """Carry out the transition that ended a phase, then settle and update the judge."""
+    mode = int(S[S_MODE])
+    t = S[S_T]
+    if kind == PH_NONE:
+        return n
+    _track_min_height(S, P)
+    if kind == PH_BROKEN:
+        S[S_BROKEN] = 1.0
+        n = _judge_set(S, P, ev, n, False)
+        return _log(S, ev, n, t, EV_BROKEN, mode, mode, 0.0)
+    if kind == PH_BAND:
+        return _judge_set(S, P, ev, n, _band_status_ahead(S, P, S[S_SIGMA]))
+    if kind == PH_TOUCH:
+        n = _impact_event(S, P, O, ev, n, W)
+    elif kind == PH_LIFTOFF:
+        S[S_MODE] = MODE_A
+        S[S_SIGMA] = 0.0
+        n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+    elif kind == PH_SLIP:
+        k = contact_corner(mode)
+        _, fx, _, _, _ = pivot_dynamics(P, k, S[S_TORQUE], S[S_TH], S[S_W])
+        new = MODE_C if k == 0 else MODE_E
+        S[S_MODE] = new
+        S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
+        n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+    elif kind == PH_STICK:
+        # the sliding velocity reached zero: settle decides stick or reversal
+        _, dy = corner_offset(P, contact_corner(mode), S[S_TH])
+        S[S_VX] = -S[S_W] * dy
+    elif kind == PH_STOP:
+        S[S_MODE] = MODE_F
+        S[S_SIGMA] = 0.0
+        n = _log(S, ev, n, t, EV_STOP, mode, MODE_F, 0.0)
+    n = settle(S, P, ev, n)
+    _track_min_height(S, P)
+    return _judge_update(S, P, ev, n)
+
+
+guard_jit_only(globals())

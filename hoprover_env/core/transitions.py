@@ -1,0 +1,171 @@
+"""Instantaneous transitions between the contact states (docs/MODEL.md section 5)."""
+
+import math
+
+from .._jitcache import drop_stale_cache
+
+drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
+
+from ..params import P_M, P_G, P_MUS  # noqa: E402
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V  # noqa: E402
+from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .forces import (_pin_corner, _set_double_contact, _set_single_contact, contact_corner,  # noqa: E402
+                     corner_offset, corner_offset_cs, double_contact_forces, pivot_dynamics,
+                     slide_dynamics, wrap_angle)
+from .flight import _resting_corner_driven_down  # noqa: E402
+from .judge import _log  # noqa: E402
+
+
+# ----------------------------------------------------------------------------------
+# Instantaneous transitions (docs/MODEL.md section 5)
+# ----------------------------------------------------------------------------------
+@njit_declared(_F(_V, _V, _I, _F), **INNER)
+def _consistent_slide_direction(S, P, k, T):
+    """A slide direction sigma of corner k, at rest horizontally, that is consistent:
+    compressive normal force and the point accelerating along sigma (0 if none)."""
+    m = P[P_M]
+    ftol = F_TOL * m * P[P_G]
+    w = S[S_W]
+    for sigma in (1.0, -1.0):
+        thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, S[S_TH], w)
+        apx = fx / m + thdd * dy - w * w * dx
+        if fy >= -ftol and sigma * apx > 0.0:
+            return sigma
+    return 0.0
+
+
+@njit_declared(_I(_V, _V, _M, _I), **JIT)
+def settle(S, P, ev, n):
+    """Resolve every transition due at the current instant, in a bounded loop.
+
+    Each pass checks the current state's consistency conditions (contact forces
+    compressive, friction inside its cone, a slide that is really sliding, a resting
+    corner in flight not pressed down) and switches state when one fails. Signs within
+    the tolerances are decided by the dynamics (the next derivative), never by
+    round-off. Returns the updated log count.
+    """
+    m = P[P_M]
+    g = P[P_G]
+    ftol = F_TOL * m * g
+    T = S[S_TORQUE]
+    for _ in range(12):
+        mode = int(S[S_MODE])
+        t = S[S_T]
+        if mode == MODE_F or mode == MODE_G:
+            sigma = S[S_SIGMA] if mode == MODE_G else 0.0
+            _, fay, _, fby = double_contact_forces(P, sigma, T)
+            if fby < -ftol or fay < -ftol:
+                # One corner lifts: the rover tips about the other (B/D pivot when at
+                # rest, C/E slide when already sliding).
+                k = 0 if fby < -ftol else 1
+                if mode == MODE_F:
+                    new = MODE_B if k == 0 else MODE_D
+                    S[S_SIGMA] = 0.0
+                else:
+                    new = MODE_C if k == 0 else MODE_E
+                S[S_MODE] = new
+                n = _log(S, ev, n, t, EV_TIP, mode, new, 0.0)
+                continue
+            return n
+        if mode == MODE_B or mode == MODE_D:
+            k = contact_corner(mode)
+            _, fx, fy, _, _ = pivot_dynamics(P, k, T, S[S_TH], S[S_W])
+            if fy < -ftol:
+                # Sticking would need a pull. If the free corner would rise, it lifts
+                # off; if the flight dynamics still press it down (the pivot's
+                # friction couples into the vertical through the rotation), neither
+                # stick nor separation is consistent and the corner slides.
+                sigma = 0.0
+                if _resting_corner_driven_down(S, P, k):
+                    sigma = _consistent_slide_direction(S, P, k, T)
+                if sigma == 0.0:
+                    S[S_MODE] = MODE_A
+                    S[S_SIGMA] = 0.0
+                    n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                else:
+                    new = MODE_C if k == 0 else MODE_E
+                    S[S_MODE] = new
+                    S[S_SIGMA] = sigma
+                    n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+                continue
+            if abs(fx) > P[P_MUS] * fy + ftol:
+                new = MODE_C if k == 0 else MODE_E
+                S[S_MODE] = new
+                S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
+                n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+                continue
+            return n
+        if mode == MODE_C or mode == MODE_E:
+            k = contact_corner(mode)
+            sigma = S[S_SIGMA]
+            thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, S[S_TH], S[S_W])
+            if fy < -ftol:
+                S[S_MODE] = MODE_A
+                S[S_SIGMA] = 0.0
+                n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                continue
+            w = S[S_W]
+            vpx = S[S_VX] + w * dy
+            if abs(vpx) > V_TOL:
+                if vpx * sigma < 0.0:       # cannot happen after an event; keep sigma honest
+                    S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
+                    continue
+                return n
+            # The contact point is (momentarily) at rest: does it keep sliding?
+            apx = fx / m + thdd * dy - w * w * dx
+            if sigma * apx > A_TOL:
+                return n                    # it accelerates in sigma: the slide goes on
+            _, fxp, fyp, _, _ = pivot_dynamics(P, k, T, S[S_TH], w)
+            if abs(fxp) <= P[P_MUS] * fyp + ftol and fyp >= -ftol:
+                new = MODE_B if k == 0 else MODE_D
+                _pin_corner(S, P, k)
+                S[S_MODE] = new
+                S[S_SIGMA] = 0.0
+                n = _log(S, ev, n, t, EV_STICK, mode, new, 0.0)
+                continue
+            new_sigma = -1.0 if fxp > 0.0 else 1.0
+            if new_sigma != sigma:
+                S[S_SIGMA] = new_sigma
+                n = _log(S, ev, n, t, EV_REVERSE, mode, mode, 0.0)
+                continue
+            return n
+        # Flight: a bottom corner lying on the ground at rest vertically that the flight
+        # dynamics would drive down resumes contact, without an impact.
+        down0 = False
+        down1 = False
+        c = math.cos(S[S_TH])
+        sn = math.sin(S[S_TH])
+        for k in range(2):
+            dx, dy = corner_offset_cs(P, k, c, sn)
+            if abs(S[S_Y] + dy) <= H_TOL and abs(S[S_VY] - S[S_W] * dx) <= V_TOL:
+                if _resting_corner_driven_down(S, P, k):
+                    if k == 0:
+                        down0 = True
+                    else:
+                        down1 = True
+        if down0 and down1:
+            S[S_TH] = wrap_angle(S[S_TH])
+            _set_double_contact(S, P)
+            n = _log(S, ev, n, t, EV_RESUME, MODE_A, S[S_MODE], 0.0)
+            continue
+        if down0 or down1:
+            k = 0 if down0 else 1
+            S[S_TH] = wrap_angle(S[S_TH])
+            _set_single_contact(S, P, k)
+            dx, dy = corner_offset(P, k, S[S_TH])
+            vpx = S[S_VX] + S[S_W] * dy
+            if abs(vpx) <= V_TOL:
+                _pin_corner(S, P, k)
+                new = MODE_B if k == 0 else MODE_D
+                S[S_SIGMA] = 0.0
+            else:
+                new = MODE_C if k == 0 else MODE_E
+                S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
+            S[S_MODE] = new
+            n = _log(S, ev, n, t, EV_RESUME, MODE_A, new, 0.0)
+            continue
+        return n
+    return n
+
+
+guard_jit_only(globals())
