@@ -4,19 +4,23 @@ numba compiles one function at a time, in one process, holding the GIL: the firs
 environment step after installing costs about 10 s on one core while the others idle.
 The core's phases are independent of each other until the integrator's loop links them,
 so on a cold cache `prepare()` starts one helper process that compiles the contact
-phases (state G, states B-E by DOP853) into numba's on-disk cache, while this process
-compiles flight and what follows a phase (transitions, impacts, the judge). It then waits for the helper; the caller's own kernel (env step, run loop)
+phases (state G, states B-E by DOP853; for the envs also the reward and observation
+code) into numba's on-disk cache, while this process compiles flight and what follows a
+phase (transitions, impacts, the judge). It then waits for the helper; the caller's own kernel (env step, run loop)
 loads the helper's functions from the cache when it links them, as it would on any warm
 start. The compiled code is the same either way: a function loaded from the cache is the
 one the helper compiled from the same source with the same numba.
 
 Nothing happens when the cache already holds the helper's functions (every start after
-the first), on a single core, inside the helper itself, or with
-HOPROVER_PARALLEL_COMPILE=0 in the environment. If the helper cannot start, fails or
-hangs, this process compiles everything itself, as numba normally would.
+the first), on a single core, inside the helper itself, while another process's helper
+is working on the same cache (many workers starting at once on a cluster node: one
+helper, not one per worker), or with HOPROVER_PARALLEL_COMPILE=0 in the environment. If
+the helper cannot start, fails or hangs, this process compiles everything itself, as
+numba normally would.
 """
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import sys
@@ -30,11 +34,14 @@ HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is kil
 _prepared = False
 
 
-def helper_functions():
+def helper_functions(extra=()):
     """What the helper compiles: the contact phases (G in closed form, B-E by DOP853),
-    about 40 % of the core's compile time."""
+    about a third of the core's compile time, and the caller's `extra` functions
+    ("module:name", declared signatures)."""
     from .core import contact_phases
-    return [contact_phases.contact_phase, contact_phases.g_phase]
+    return [contact_phases.contact_phase, contact_phases.g_phase] + [
+        getattr(importlib.import_module(name.split(":")[0]), name.split(":")[1])
+        for name in extra]
 
 
 def main_functions():
@@ -62,34 +69,74 @@ def _cores() -> int:
         return os.cpu_count() or 1
 
 
-def _start_helper():
+def _claim(dispatcher):
+    """A lock file beside the cache, so that one helper works on it at a time; None if
+    another process holds it (a lock older than HELPER_TIMEOUT is left over: taken)."""
+    try:
+        path = os.path.join(dispatcher._cache._cache_path, "hoprover-compile-helper.lock")
+    except AttributeError:
+        return None
+    for _ in range(2):
+        try:
+            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            return path
+        except FileExistsError:
+            try:
+                if time.time() - os.path.getmtime(path) < HELPER_TIMEOUT:
+                    return None
+                os.remove(path)
+            except OSError:
+                return None
+        except OSError:             # a read-only cache directory, say
+            return None
+    return None
+
+
+def _start_helper(extra=()):
     # the helper must compile this very package, wherever it was imported from
     package_parent = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     path = os.pathsep.join(p for p in (package_parent, os.environ.get("PYTHONPATH")) if p)
     env = dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"})
     try:
         return subprocess.Popen(
-            [sys.executable, "-c", "from hoprover_env import _parallel_compile as p; p.helper()"],
+            [sys.executable, "-c",
+             "import sys; from hoprover_env import _parallel_compile as p; p.helper(sys.argv[1:])",
+             *extra],
             env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
             stderr=subprocess.DEVNULL)
     except OSError:
         return None
 
 
-def prepare() -> None:
+def prepare(extra=()) -> None:
     """Called by every entry point (envs, simulate, simulate_batch) before its first kernel
-    call; returns at once after the first call in a process."""
+    call; returns at once after the first call in a process. `extra`: more functions for
+    the helper ("module:name", with declared signatures), such as an env's reward and
+    observation code."""
     global _prepared
     if _prepared:
         return
     _prepared = True
     if os.environ.get(_HELPER_FLAG) or os.environ.get(ENV_SWITCH, "1") == "0" or _cores() < 2:
         return
-    if all(_cached(d) for d in helper_functions()):
+    if all(_cached(d) for d in helper_functions(extra)):
         return
-    helper = _start_helper()
-    if helper is None:
+    lock = _claim(helper_functions()[0])
+    if lock is None:
         return
+    try:
+        helper = _start_helper(extra)
+        if helper is not None:
+            _compile_beside(helper)
+    finally:
+        try:
+            os.remove(lock)
+        except OSError:
+            pass
+
+
+def _compile_beside(helper) -> None:
+    """Compile this process's part, then wait for the helper (killed if it hangs)."""
     started = time.monotonic()
     try:
         for d in main_functions():
@@ -103,7 +150,7 @@ def prepare() -> None:
             helper.wait()
 
 
-def helper() -> None:
-    """The helper process: compile the phases into the cache and exit."""
-    for d in helper_functions():
+def helper(extra=()) -> None:
+    """The helper process: compile its functions into the cache and exit."""
+    for d in helper_functions(extra):
         compile_declared(d)

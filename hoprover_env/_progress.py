@@ -11,7 +11,7 @@ import sys
 from numba.core import event
 
 MESSAGE = ("hoprover_env: compiling the simulator with numba, once after installing or "
-           "editing it (usually 10-20 s; cached afterwards) ...")
+           "editing it (usually 5-15 s; cached afterwards) ...")
 
 
 class _CompileNotice(event.Listener):

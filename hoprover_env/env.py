@@ -175,7 +175,7 @@ class HopRoverEnv(gym.Env):
         self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
                                             dtype=np.float32)
         self._o = self.config.options_vector()
-        _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
+        _parallel_compile.prepare(rl_kernel.HELPER_EXTRA)  # cold cache: compile on 2 cores
         self._step_kernel = self.step_kernel if self.config.integrator == "event" \
             else self.step_kernel_any_integrator
         self._e = self.config.reward_vector()

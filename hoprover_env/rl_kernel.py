@@ -14,14 +14,15 @@ Config vector ``E`` (layout ``E_*``): control period, episode length, reward wei
 import math
 
 import numpy as np
-from numba import get_thread_id, njit, prange
+from numba import get_thread_id, njit, prange, types as nt
 
 from ._jitcache import drop_stale_cache
 
 drop_stale_cache(__file__)      # this module's cached code embeds the core's
 
 from . import core  # noqa: E402
-from .core import JIT, INNER  # noqa: E402
+from .core import JIT, INNER, njit_declared  # noqa: E402
+from .core._jit import _B, _F, _V, _V32  # noqa: E402
 from .core import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_TORQUE, S_XT, S_BROKEN,
                    S_INBAND, S_TIN, S_TTRTP, S_NEVENTS, S_ERROR, MODE_A, MODE_F, MODE_G,
                    MODE_B, MODE_C)
@@ -41,6 +42,11 @@ ACTION_LINEAR, ACTION_CUBIC = 0, 1
 U_Q = 50.0
 U_MAX = 5000.0
 ATT_MAX = 2.0 + U_Q * math.log1p(U_MAX / U_Q)   # bound of a(s): (1 - cos theta) <= 2
+
+# Compiled by the parallel-compile helper on a cold cache, beside the core's contact
+# phases (hoprover_env/_parallel_compile.py): the reward and observation code.
+HELPER_EXTRA = tuple(f"hoprover_env.rl_kernel:{name}" for name in
+                     ("finish_step", "start_potential", "action_to_torque"))
 
 # Observation layout and scales (documented in env.py's table).
 OBS_DIM = 19
@@ -94,7 +100,7 @@ def landing_x(S, P):
     return S[S_X] + S[S_VX] * t_fall
 
 
-@njit(**JIT)
+@njit_declared(_F(_V, _V, _V), **JIT)
 def potential(S, P, E):
     """Phi(s) = -w_dist min(|x_ref - x_T|, cap) / 1 m - w_att a(s) - w_band (1 - d(s)).
 
@@ -137,7 +143,7 @@ def dwell_fraction(S, P):
     return 0.0
 
 
-@njit(**JIT)
+@njit_declared(nt.none(_V, _V, _V, _V32), **JIT)
 def observe(S, P, E, obs):
     """Write the float32 observation (see the table in env.py)."""
     xt = S[S_XT]
@@ -158,7 +164,7 @@ def observe(S, P, E, obs):
     obs[18] = S[S_TORQUE] / max(abs(P[P_TMIN]), abs(P[P_TMAX]), 1e-300)
 
 
-@njit(**JIT)
+@njit_declared(_F(_F, _V, _V), **JIT)
 def action_to_torque(a, P, E):
     """Box(-1, 1) onto the torque range; out-of-range actions are clipped.
 
@@ -176,7 +182,7 @@ def action_to_torque(a, P, E):
     return E[E_ACTION_SCALE] * t
 
 
-@njit(**INNER)
+@njit_declared(nt.Tuple((_F, _B, _B, _B))(_V, _V, _V, _F, _B, _F, _V32), **INNER)
 def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
     """Reward, termination and observation after the rover moved for `elapsed` seconds
     from a state of potential phi0. Returns (reward, terminated, truncated, success).
@@ -208,7 +214,7 @@ def finish_step(S, P, E, phi0, had_ttrtp, elapsed, obs):
     return reward, terminated, truncated, success
 
 
-@njit(**INNER)
+@njit_declared(_F(_V, _V, _V), **INNER)
 def start_potential(S, P, E):
     phi0 = S[core.S_PHI]
     if math.isnan(phi0):                  # first step of an episode

@@ -49,7 +49,7 @@ class HopRoverVectorEnv(VectorEnv):
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.config = self.config_class.from_kwargs(**kwargs)
-        _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
+        _parallel_compile.prepare(rl_kernel.HELPER_EXTRA)  # cold cache: compile on 2 cores
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)

@@ -86,7 +86,8 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     helper_only = {"hoprover_env.core.contact_phases.contact_phase",
                    "hoprover_env.core.contact_phases.g_phase",
                    "hoprover_env.core.contact_phases._dop853_step",
-                   "hoprover_env.core.contact_phases._locate"}
+                   "hoprover_env.core.contact_phases._locate",
+                   "hoprover_env.rl_kernel.finish_step", "hoprover_env.rl_kernel.observe"}
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
     assert "hoprover_env.rl_kernel.env_step" in main
@@ -100,13 +101,46 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
 def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
     from hoprover_env import _parallel_compile as pc
     started = []
-    monkeypatch.setattr(pc, "_start_helper", lambda: started.append(1))
+    monkeypatch.setattr(pc, "_start_helper", lambda extra=(): started.append(1))
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "0")
     pc.prepare()
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
-    for d in pc.helper_functions():       # compiled in this process (the suite's cache)
+    from hoprover_env import rl_kernel
+    for d in pc.helper_functions(rl_kernel.HELPER_EXTRA):   # compiled in this process
         pc.compile_declared(d)
-    pc.prepare()
+    pc.prepare(rl_kernel.HELPER_EXTRA)
     assert started == []
+
+
+def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
+    # many workers starting at once on a cold cache (a cluster node) start one helper,
+    # not one each; a lock left behind by a killed process does not block for ever
+    import time
+
+    from hoprover_env import _parallel_compile as pc
+
+    class Cache:
+        _cache_path = str(tmp_path)
+
+    class Dispatcher:
+        _cache = Cache()
+
+    started = []
+    monkeypatch.setattr(pc, "_start_helper", lambda extra=(): started.append(1))  # returns None
+    monkeypatch.setattr(pc, "_cached", lambda d: False)
+    monkeypatch.setattr(pc, "_cores", lambda: 2)
+    monkeypatch.setattr(pc, "helper_functions", lambda extra=(): [Dispatcher()])
+    monkeypatch.setenv(pc.ENV_SWITCH, "1")
+    monkeypatch.delenv(pc._HELPER_FLAG, raising=False)
+    lock = tmp_path / "hoprover-compile-helper.lock"
+    lock.touch()
+    monkeypatch.setattr(pc, "_prepared", False)
+    pc.prepare()
+    assert started == []                      # another process's helper is at work
+    old = time.time() - 2 * pc.HELPER_TIMEOUT
+    os.utime(lock, (old, old))
+    monkeypatch.setattr(pc, "_prepared", False)
+    pc.prepare()
+    assert started == [1] and not lock.exists()

@@ -43,9 +43,11 @@ def guard_jit_only(namespace: dict) -> None:
 # literal a caller passes (a corner 0 or 1, an event kind): Literal[int](0) is its own
 # type. With one, the literals convert to the declared int64.
 _V = nt.float64[::1]
+_V32 = nt.float32[::1]
 _M = nt.float64[:, ::1]
 _F = nt.float64
 _I = nt.int64
+_B = nt.boolean
 _F2 = nt.UniTuple(_F, 2)
 _F4 = nt.UniTuple(_F, 4)
 _F5 = nt.UniTuple(_F, 5)
