@@ -4,8 +4,6 @@ that keeps Python from calling the functions compiled for jitted callers only.""
 from numba import njit, types as nt
 from numba.core.registry import CPUDispatcher
 
-
-
 # How every kernel function is compiled: cached on disk, numpy's error model (a division
 # by zero gives inf/nan, which the callers check, instead of raising) and no reference
 # counting (no function allocates). Functions only ever called from other jitted code get

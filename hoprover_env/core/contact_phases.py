@@ -7,14 +7,14 @@ import numpy as np
 from numba import njit
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5  # noqa: E402
-from ..params import P_M, P_R, P_G, P_MUS, P_MUD, P_BAND  # noqa: E402
-from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _V  # noqa: E402
+from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
+from ..params import P_M, P_R, P_G, P_MUS, P_MUD, P_BAND
+from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics  # noqa: E402
+from .forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

@@ -4,17 +4,17 @@ section 10), over the same forces, transitions and impact law."""
 from numba import njit
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_M, P_I, P_G, P_MUD  # noqa: E402
-from ._jit import INNER, JIT, guard_jit_only  # noqa: E402
+from ..params import P_M, P_I, P_G, P_MUD
+from ._jit import INNER, JIT, guard_jit_only
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_turn_flat_about, contact_corner, corner_offset, pivot_dynamics,  # noqa: E402
+from .forces import (_turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
                      slide_dynamics)
-from .judge import _judge_update  # noqa: E402
-from .transitions import settle  # noqa: E402
-from .phase_end import _after_phase  # noqa: E402
+from .judge import _judge_update
+from .transitions import settle
+from .phase_end import _after_phase
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

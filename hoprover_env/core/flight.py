@@ -7,13 +7,13 @@ import numpy as np
 from numba import njit, types as nt
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_I, P_R, P_H, P_G  # noqa: E402
-from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _I2, _V  # noqa: E402
+from ..params import P_I, P_R, P_H, P_G
+from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _I2, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import corner_body, corner_offset, corner_offset_cs  # noqa: E402
+from .forces import corner_body, corner_offset, corner_offset_cs
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

@@ -7,12 +7,12 @@ import math
 from numba import njit, types as nt
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_M, P_I, P_R, P_H, P_G, P_MUD, P_VXMIN  # noqa: E402
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _F2, _F5, _I, _V  # noqa: E402
+from ..params import P_M, P_I, P_R, P_H, P_G, P_MUD, P_VXMIN
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _F2, _F5, _I, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

@@ -4,15 +4,15 @@ the post-impact classification."""
 from numba import njit
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN  # noqa: E402
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _I, _M, _V  # noqa: E402
+from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _I, _M, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, _turn_flat_about,  # noqa: E402
+from .forces import (_pin_corner, _set_double_contact, _set_single_contact, _turn_flat_about,
                      corner_offset, kinetic_energy, wrap_angle)
-from .judge import _log  # noqa: E402
+from .judge import _log
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

@@ -7,20 +7,21 @@ import numpy as np
 from numba import njit
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_TMIN, P_TMAX, P_DWELL  # noqa: E402
-from ._jit import INNER, INNER_INLINE, JIT, JIT_INLINE, guard_jit_only, njit_declared, _F, _I, _V  # noqa: E402
+from ..params import P_TMIN, P_TMAX, P_DWELL
+from ._jit import (INNER, INNER_INLINE, JIT, JIT_INLINE, guard_jit_only, njit_declared, _F, _I,
+                   _V)
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, corner_offset,  # noqa: E402
+from .forces import (_pin_corner, _set_double_contact, _set_single_contact, corner_offset,
                      wrap_angle)
-from .flight import flight_phase  # noqa: E402
-from .judge import _judge_check, _judge_update, in_band  # noqa: E402
-from .transitions import settle  # noqa: E402
-from .contact_phases import contact_phase, g_phase  # noqa: E402
-from .euler import _advance_euler  # noqa: E402
-from .phase_end import _after_phase, _track_min_height  # noqa: E402
+from .flight import flight_phase
+from .judge import _judge_check, _judge_update, in_band
+from .transitions import settle
+from .contact_phases import contact_phase, g_phase
+from .euler import _advance_euler
+from .phase_end import _after_phase, _track_min_height
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 @njit(**INNER_INLINE)

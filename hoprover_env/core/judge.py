@@ -5,13 +5,13 @@ import math
 from numba import njit, types as nt
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_R, P_BAND, P_DWELL  # noqa: E402
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V  # noqa: E402
+from ..params import P_R, P_BAND, P_DWELL
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import contact_corner, corner_offset  # noqa: E402
+from .forces import contact_corner, corner_offset
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

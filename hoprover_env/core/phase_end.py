@@ -6,16 +6,16 @@ import math
 from numba import njit
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_R, P_BAND  # noqa: E402
-from ._jit import INNER, guard_jit_only, njit_declared, _I, _M, _V  # noqa: E402
+from ..params import P_R, P_BAND
+from ._jit import INNER, guard_jit_only, njit_declared, _I, _M, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import contact_corner, corner_offset, corner_offset_cs, pivot_dynamics  # noqa: E402
-from .judge import _judge_set, _judge_update, _log  # noqa: E402
-from .transitions import settle  # noqa: E402
-from .impacts import _impact_event  # noqa: E402
+from .forces import contact_corner, corner_offset, corner_offset_cs, pivot_dynamics
+from .judge import _judge_set, _judge_update, _log
+from .transitions import settle
+from .impacts import _impact_event
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------

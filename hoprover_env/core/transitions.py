@@ -3,17 +3,17 @@
 import math
 
 from .._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # cached callers embed the code of callees in other files
-
-from ..params import P_M, P_G, P_MUS  # noqa: E402
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V  # noqa: E402
+from ..params import P_M, P_G, P_MUS
+from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, contact_corner,  # noqa: E402
+from .forces import (_pin_corner, _set_double_contact, _set_single_contact, contact_corner,
                      corner_offset, corner_offset_cs, double_contact_forces, pivot_dynamics,
                      slide_dynamics, wrap_angle)
-from .flight import _resting_corner_driven_down  # noqa: E402
-from .judge import _log  # noqa: E402
+from .flight import _resting_corner_driven_down
+from .judge import _log
+
+# cached callers embed the code of callees in other files: drop them when any changed
+drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------
