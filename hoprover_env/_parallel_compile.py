@@ -1,15 +1,17 @@
 """Compile the kernel in two processes at once when numba's cache is cold.
 
 numba compiles one function at a time, in one process, holding the GIL: the first
-environment step after installing costs about 10 s on one core while the others idle.
-The core's phases are independent of each other until the integrator's loop links them,
-so on a cold cache `prepare()` starts one helper process that compiles the contact
-phases (state G, states B-E by DOP853; for the envs also the reward and observation
-code) into numba's on-disk cache, while this process compiles flight and what follows a
-phase (transitions, impacts, the judge). It then waits for the helper; the caller's own kernel (env step, run loop)
-loads the helper's functions from the cache when it links them, as it would on any warm
-start. The compiled code is the same either way: a function loaded from the cache is the
-one the helper compiled from the same source with the same numba.
+environment step after installing costs 10-16 s on one core while the others idle. The
+core's phases are independent of each other until the integrator's loop links them, so
+on a cold cache `prepare()` starts one helper process that compiles the contact phases
+(state G, states B-E by DOP853; for the envs also the reward and observation code) into
+numba's on-disk cache, while this process compiles flight, what follows a phase
+(transitions, impacts, the judge) and the initial-state classification. It then waits
+for the helper; the caller's own kernel (env step, run loop) loads the helper's
+functions from the cache when it links them, as it would on any warm start. The
+compiled code is the same either way: a function loaded from the cache is the one the
+helper compiled from the same source with the same numba (tests/test_progress.py runs
+both ways and compares the trajectories bit for bit).
 
 Nothing happens when the cache already holds the helper's functions (every start after
 the first), on a single core, inside the helper itself, while another process's helper

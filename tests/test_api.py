@@ -147,3 +147,27 @@ def test_jit_only_kernel_functions_raise_instead_of_crashing():
         in out.stdout
     assert "core.forces.contact_corner is compiled for calls from jitted code only" \
         in out.stdout
+
+
+def test_declared_signature_functions_pickle_by_reference():
+    # Ray and multiprocessing pickle what they ship; a function compiled on first use must
+    # come back as the same function, compiled or not
+    import pickle
+
+    from hoprover_env import core
+    for f in (core.flight.flight_phase, core.corner_offset, core.settle):
+        assert pickle.loads(pickle.dumps(f)) is f
+
+
+def test_every_subpackage_is_shipped():
+    # a package missing from pyproject's list installs fine in editable mode and breaks
+    # every non-editable install (the core became a package)
+    import pathlib
+    import tomllib
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    listed = set(tomllib.loads((root / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = {".".join(p.parent.relative_to(root).parts)
+             for p in (root / "hoprover_env").rglob("__init__.py")}
+    assert found <= listed, sorted(found - listed)

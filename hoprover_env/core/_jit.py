@@ -77,6 +77,15 @@ class _DeclaredSignature(CPUDispatcher):
         self.compile_declared()
         return self(*args, **kwargs)
 
+    def __reduce__(self):       # pickled by reference (Ray, multiprocessing), as functions
+        f = self.py_func
+        return _module_attribute, (f.__module__, f.__qualname__)
+
+
+def _module_attribute(module: str, name: str):
+    import importlib
+    return getattr(importlib.import_module(module), name)
+
 
 def njit_declared(signature, **options):
     """`numba.njit(signature, **options)`, compiled on first use instead of at import."""
