@@ -69,14 +69,14 @@ print(json.dumps({"phases": phases, "records": records}))
 '''
 
 
-def cold_start(what: str = "step", parallel: bool = False) -> dict:
+def cold_start(what: str = "step", parallel: bool = False, warm: bool = True) -> dict:
     """Phases and per-function compile times (of this process; the parallel-compile
-    helper's are not seen), cold (empty numba cache) then warm."""
+    helper's are not seen), cold (empty numba cache), then warm unless warm=False."""
     out = {}
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache,
                    HOPROVER_PARALLEL_COMPILE="1" if parallel else "0")
-        for label in ("cold", "warm"):
+        for label in ("cold", "warm") if warm else ("cold",):
             res = subprocess.run([sys.executable, "-c", COLD_SCRIPT, what], env=env,
                                  check=True, capture_output=True, text=True)
             out[label] = json.loads(res.stdout.strip().splitlines()[-1])
@@ -89,7 +89,8 @@ def cold_walls(pairs: int) -> dict:
     walls = {"two processes (default)": [], "one process": []}
     for _ in range(pairs):
         for label, parallel in (("two processes (default)", True), ("one process", False)):
-            walls[label].append(sum(p[2] for p in cold_start("step", parallel)["cold"]["phases"]))
+            cold = cold_start("step", parallel, warm=False)["cold"]
+            walls[label].append(sum(p[2] for p in cold["phases"]))
     return walls
 
 

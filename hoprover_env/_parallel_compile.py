@@ -121,9 +121,10 @@ def prepare(extra=()) -> None:
     _prepared = True
     if os.environ.get(_HELPER_FLAG) or os.environ.get(ENV_SWITCH, "1") == "0" or _cores() < 2:
         return
-    if all(_cached(d) for d in helper_functions(extra)):
+    functions = helper_functions(extra)
+    if all(_cached(d) for d in functions):
         return
-    lock = _claim(helper_functions()[0])
+    lock = _claim(functions[0])
     if lock is None:
         return
     try:
