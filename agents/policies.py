@@ -108,7 +108,7 @@ class RandomPolicy:
 
 
 def torque_to_action(torque: float, params: RoverParams, config=None) -> float:
-    """The inverse of the env's action map (`rl_kernel.action_to_torque`; linear unless
+    """The inverse of the env's action map (`tasks.torque.action_to_torque`; linear unless
     the env config says otherwise), clipped to [-1, 1]."""
     lo, hi = params.torque_min, params.torque_max
     amap = getattr(config, "action_map", "linear")

@@ -50,9 +50,7 @@ from hoprover_env import RoverParams, RoverSim, simulate
 from hoprover_env import core
 from hoprover_env.params import P_I
 from hoprover_env.simulate import make_options, make_state
-from hoprover_env._jitcache import drop_stale_cache
 
-drop_stale_cache(__file__)      # the jitted drivers below embed the core's code
 
 # ----------------------------------------------------------------------------------
 # The scenario: launch, attitude hold in flight, idle once landed

@@ -29,9 +29,7 @@ from agents.compiled import hop_plan, plan_torque
 from benchmarks.scenarios import HopSequence, hop_schedule
 from hoprover_env import RoverParams, core, simulate, simulate_batch
 from hoprover_env.simulate import make_options, make_state
-from hoprover_env._jitcache import drop_stale_cache
 
-drop_stale_cache(__file__)      # the jitted drivers below embed the core's code
 
 RUNS = [("event", {}), ("euler dt=1e-3", {"integrator": "euler", "euler_dt": 1e-3}),
         ("euler dt=1e-4", {"integrator": "euler", "euler_dt": 1e-4})]

@@ -56,9 +56,7 @@ from hoprover_env import RoverParams, core, simulate
 from hoprover_env.core import MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G
 from hoprover_env.params import P_H, P_I, P_TMAX
 from hoprover_env.simulate import make_options, make_state
-from hoprover_env._jitcache import drop_stale_cache
 
-drop_stale_cache(__file__)      # the jitted drivers below embed the core's code
 
 # ----------------------------------------------------------------------------------
 # What the driver reports. Violation kinds (bits of a mask and slots of the counters).

@@ -8,13 +8,10 @@ Contest (2015) as an exact, fast simulator and a Gymnasium environment.
 """
 from gymnasium.envs.registration import register, registry
 
-from . import _progress
-
-_progress.install()             # one line on stderr while numba compiles the kernel
-
-from .params import RoverParams  # noqa: E402
-from .simulate import Rollout, RoverSim, simulate  # noqa: E402
-from .batch import BatchRollout, simulate_batch  # noqa: E402
+from .params import RoverParams
+from .rollout import Rollout
+from .simulate import RoverSim, simulate
+from .batch import BatchRollout, simulate_batch
 
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",

@@ -33,7 +33,6 @@ the run index.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Mapping, Sequence
 
 import numba
@@ -42,6 +41,7 @@ import numpy as np
 from . import core, rollout
 from .params import RoverParams
 from .simulate import DEFAULT_RTOL, control_grid, make_options, make_state, simulate
+from .validate import positive_real, real_array
 
 
 MAX_STEPS = 10**9                 # control intervals x samples per run
@@ -100,13 +100,6 @@ class BatchRollout:
                                      self.targets[i])
 
 
-def _positive(name, v):
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-            or not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-    return float(v)
-
-
 def _run_params(params, randomize, seed, n) -> list:
     if randomize is not None:
         if params is not None and not isinstance(params, (RoverParams, Mapping)):
@@ -140,30 +133,11 @@ def _run_params(params, randomize, seed, n) -> list:
     return out
 
 
-def _real_array(name, value) -> np.ndarray:
-    """A float64 array of `value`, refusing what is not real numbers (strings, booleans,
-    complex numbers, objects) with an error that names the argument."""
-    if isinstance(value, (list, tuple)) and value and all(
-            isinstance(row, (list, tuple, np.ndarray)) for row in value):
-        lengths = [len(row) for row in value]
-        for i, length in enumerate(lengths):
-            if length != lengths[0]:
-                raise ValueError(f"run {i}: {name} row has {length} entries, run 0 has "
-                                 f"{lengths[0]}")
-    try:
-        raw = np.asarray(value)
-    except (TypeError, ValueError):          # ragged deeper down
-        raise ValueError(f"{name} must be a rectangular array of real numbers") from None
-    if raw.dtype.kind not in "iuf":
-        raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
-    return np.ascontiguousarray(raw, dtype=np.float64)
-
-
 def _per_run_rows(name, value, n, width):
     """None, one row of `width`, or (n, width) -> list of n rows (or Nones)."""
     if value is None:
         return [None] * n
-    a = _real_array(name, value)
+    a = real_array(name, value)
     if a.shape == (width,):
         return [a] * n
     if a.ndim != 2 or a.shape[1] != width:
@@ -180,7 +154,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
                    sample_dt: float | None = None, controller_args=None,
                    record: bool = True) -> BatchRollout:
     """N runs in one threaded kernel call; see the module docstring."""
-    targets = _real_array("targets", targets)
+    targets = real_array("targets", targets)
     if targets.ndim != 1 or targets.size == 0:
         raise ValueError(f"targets must be a non-empty 1-D array (one per run), got shape "
                          f"{targets.shape}")
@@ -188,14 +162,15 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     bad = np.flatnonzero(~np.isfinite(targets))
     if bad.size:
         raise ValueError(f"run {bad[0]}: target_x must be finite, got {targets[bad[0]]!r}")
-    t_end = _positive("t_end", t_end)
-    control_dt = _positive("control_dt", control_dt)
+    t_end = positive_real("t_end", t_end)
+    control_dt = positive_real("control_dt", control_dt)
     if sample_dt is not None:
-        sample_dt = _positive("sample_dt", sample_dt)
+        sample_dt = positive_real("sample_dt", sample_dt)
     if not isinstance(record, bool):
         raise TypeError(f"record must be True or False, got {record!r}")
 
     use_ctrl = rollout.is_compiled(controller)
+    source = rollout.CTRL_COMPILED if use_ctrl else rollout.CTRL_SCHEDULE
     if use_ctrl:
         rollout.kernel_one()
         ctrl = rollout.control_function(controller)
@@ -205,7 +180,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
                         "numba-compiled controller; loop over simulate() for a Python "
                         "controller")
     else:
-        sched = _real_array("torque schedules", controller)
+        sched = real_array("torque schedules", controller)
         if sched.ndim != 2:
             raise ValueError(f"torque schedules must have shape (N, K), one row per run, got "
                              f"shape {sched.shape}")
@@ -223,7 +198,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         if not use_ctrl:
             raise ValueError("controller_args are passed to a compiled controller; a torque "
                              "schedule takes none")
-        cargs = _real_array("controller_args", controller_args)
+        cargs = real_array("controller_args", controller_args)
         if cargs.ndim != 2 or cargs.shape[0] != n:
             raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
                              f"{cargs.shape}")
@@ -265,7 +240,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         # them to the threads one at a time instead of in equal static blocks
         chunk = numba.set_parallel_chunksize(1)
         try:
-            run_many(S, P, opts, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl,
+            run_many(S, P, opts, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl,
                      sub, record, buf.rows, buf.cmds, buf.applied, buf.log, buf.prog, active,
                      evbuf, w, backup, cbuf)
         finally:

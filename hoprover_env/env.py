@@ -89,10 +89,22 @@ parameters are re-drawn each episode from the env's own generator.
 
 ## Info
 
-`is_success` (bool), `ttrtp` (float, None until reached; NaN in the vector env's array),
-`state` (letter), `target_x`,
-`broken`, `n_events` (events located during the step). `info_level="full"` adds the c.m.
-state and the contact forces.
+Every value is a number or a boolean of fixed dtype and shape from the first step (no
+None, no NaN, no string), so any RL library's buffer can store it:
+
+| Key | Type | Meaning |
+|---|---|---|
+| `is_success` | bool | the judge's TTRTP has been reached |
+| `ttrtp` | float64 | the TTRTP [s] once reached; -1.0 before (`TTRTP_NOT_REACHED`) |
+| `state` | int64 | contact state code 0..6 = A..G (`"ABCDEFG"[code]`: 0 flight, 5 at rest) |
+| `target_x` | float64 | the target [m] |
+| `broken` | bool | a top corner hit the ground |
+| `n_events` | int64 | events located during the step |
+
+`info_level="full"` adds `t` (s), `rover_state` (x, y, theta, vx, vy, omega),
+`contact_forces` (fAx, fAy, fBx, fBy; single env) and the reward's terms
+`reward_distance`, `reward_attitude`, `reward_band`, `reward_time`, `reward_bonus`,
+`reward_penalty`, which sum to the reward (up to rounding; hoprover_env/reward.py).
 
 ## Arguments
 
@@ -116,6 +128,11 @@ state and the contact forces.
 | `info_level` | "basic" | "full" adds state and forces to info |
 | `render_mode` | None | "rgb_array" or "human" |
 
+## Version history
+
+* v0: the contest's task (2015 model, exact events); info values numeric since the
+  library-compatibility release (`ttrtp` -1.0 before success, `state` an integer code).
+
 ## Vectorized environment
 
 `gym.make_vec("HopRover-v0", num_envs=N)` returns `HopRoverVectorEnv`, which steps all
@@ -132,10 +149,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from . import _parallel_compile, core, rl_kernel
-from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+from . import _compile, core, reward
+from .env_config import EnvConfig, sample_episode
+from .tasks import torque
+from .tasks.observation import OBS_DIM, OBS_HIGH, OBS_LOW, observe
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
+TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
 
 
 def check_actions(action, shape, what="action") -> np.ndarray:
@@ -160,10 +180,7 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 class HopRoverEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     config_class = EnvConfig
-    # one control period: event integrator only / any integrator (euler included); two
-    # kernels so that a default env never compiles the Euler integrator
-    step_kernel = staticmethod(rl_kernel.env_step)
-    step_kernel_any_integrator = staticmethod(rl_kernel.env_step_any_integrator)
+    task = torque               # its KERNELS[integrator].step advances one env
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
         self.config = self.config_class.from_kwargs(**kwargs)
@@ -172,14 +189,14 @@ class HopRoverEnv(gym.Env):
                              f"got {render_mode!r}")
         self.render_mode = render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
-                                            dtype=np.float32)
+        self.observation_space = spaces.Box(OBS_LOW, OBS_HIGH, dtype=np.float32)
         self._o = self.config.options_vector()
-        _parallel_compile.prepare(rl_kernel.HELPER_EXTRA)  # cold cache: compile on 2 cores
-        self._step_kernel = self.step_kernel if self.config.integrator == "event" \
-            else self.step_kernel_any_integrator
-        self._e = self.config.reward_vector()
-        self._obs = np.zeros(rl_kernel.OBS_DIM, dtype=np.float32)
+        _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
+        self._step_kernel = self.task.KERNELS[self.config.integrator].step
+        self._e = self.config.task_vector()
+        self._rw = self.config.reward_vector()
+        self._rm = reward.new_memory()
+        self._obs = np.zeros(OBS_DIM, dtype=np.float32)
         self._w = np.zeros(core.N_WORK)
         self._s = None
         self._p = None
@@ -194,7 +211,8 @@ class HopRoverEnv(gym.Env):
         super().reset(seed=seed)
         self.target_x, self.params, self._s, self._p = sample_episode(
             self.config, self.np_random, options)
-        rl_kernel.observe(self._s, self._p, self._e, self._obs)
+        self._rm[:] = reward.new_memory()
+        observe(self._s, self._p, self._e, self._obs)
         self._trace = []
         self._done = False
         if self.render_mode is not None:
@@ -216,7 +234,8 @@ class HopRoverEnv(gym.Env):
         else:
             a = float(check_actions(action, (1,))[0])
         reward, terminated, truncated, _, n_ev = self._step_kernel(
-            self._s, self._p, self._o, self._e, a, self._obs, _NO_LOG, self._w)
+            self._s, self._p, self._o, self._e, self._rw, self._rm, a, self._obs, _NO_LOG,
+            self._w)
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
             if self.render_mode == "human":
@@ -229,14 +248,14 @@ class HopRoverEnv(gym.Env):
         s = self._s
         ttrtp = float(s[core.S_TTRTP])
         reached = ttrtp == ttrtp                      # not NaN
-        info = {"is_success": reached, "ttrtp": ttrtp if reached else None,
-                "state": core.MODE_LETTERS[int(s[core.S_MODE])],
-                "target_x": self.target_x, "broken": bool(s[core.S_BROKEN] != 0.0),
-                "n_events": n_events}
+        info = {"is_success": reached, "ttrtp": ttrtp if reached else TTRTP_NOT_REACHED,
+                "state": int(s[core.S_MODE]), "target_x": float(self.target_x),
+                "broken": bool(s[core.S_BROKEN] != 0.0), "n_events": int(n_events)}
         if self.config.info_level == "full":
             info["t"] = float(s[core.S_T])
             info["rover_state"] = s[:6].copy()
             info["contact_forces"] = np.array(core.contact_forces(s, self._p))
+            info.update(reward.terms_info(self._rm))
         return info
 
     # ------------------------------------------------------------------------------
@@ -252,7 +271,7 @@ class HopRoverEnv(gym.Env):
             self._renderer = Renderer(mode=self.render_mode, fps=self.metadata["render_fps"])
         s = self._s
         return self._renderer.draw(s, self.params, self.target_x, self._trace,
-                                   float(s[core.S_T]), STATE_LETTERS[int(s[core.S_MODE])],
+                                   float(s[core.S_T]), core.MODE_LETTERS[int(s[core.S_MODE])],
                                    float(s[core.S_TORQUE]))
 
     def __getstate__(self):

@@ -10,14 +10,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from typing import Any, Mapping
 
 import numpy as np
 
-from . import core, rl_kernel
 from .params import RoverParams
-from .simulate import make_options, make_state, finite_real, positive_real, DEFAULT_RTOL
+from .reward import RewardConfig
+from .simulate import DEFAULT_RTOL, make_options, make_state
+from .tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_HOLD_KD,
+                           E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN, E_T_TOTAL, N_E)
+from .validate import finite_real, is_real, positive_real
 
 # Parameters that domain randomisation may scale, and the bounds they are clipped to.
 RANDOMIZABLE = {
@@ -26,18 +28,12 @@ RANDOMIZABLE = {
     "mu_static": (0.0, 1.0), "mu_dynamic": (0.0, 1.0),
     "restitution_x": (0.0, 1.0), "restitution_y": (0.0, 1.0),
 }
-SHAPINGS = {"contact": rl_kernel.SHAPING_CONTACT, "landing": rl_kernel.SHAPING_LANDING}
-ACTION_MAPS = {"linear": rl_kernel.ACTION_LINEAR, "cubic": rl_kernel.ACTION_CUBIC}
-
-
-def _is_real(v) -> bool:
-    """A real number, numpy scalars included; booleans are not numbers here."""
-    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
 
 
 @dataclasses.dataclass(frozen=True)
-class EnvConfig:
-    """Arguments of HopRoverEnv / HopRoverVectorEnv (see the table in env.py)."""
+class EnvConfig(RewardConfig):
+    """Arguments of HopRoverEnv / HopRoverVectorEnv (see the table in env.py); the
+    reward's own arguments and their checks are RewardConfig's (hoprover_env/reward.py)."""
 
     control_dt: float = 0.5
     episode_time: float = 600.0
@@ -49,20 +45,13 @@ class EnvConfig:
     euler_dt: float = 1e-3
     params: RoverParams = dataclasses.field(default_factory=RoverParams)
     randomize: Mapping[str, float] | None = None
-    dist_weight: float = 1.0
-    time_cost: float = 1.0 / 600.0
-    success_bonus: float = 10.0
-    break_penalty: float = 10.0
-    gamma: float = 0.99
-    shaping: str = "contact"
-    attitude_weight: float = 0.0
-    band_weight: float = 0.5
-    dist_cap: float = 5.0
     action_map: str = "linear"
     action_scale: float = 1.0
     info_level: str = "basic"
 
     def __post_init__(self):
+        super().__post_init__()
+
         def positive(name):
             object.__setattr__(self, name, positive_real(name, getattr(self, name)))
 
@@ -73,7 +62,7 @@ class EnvConfig:
                              f"({self.episode_time})")
         rng = self.target_range
         if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
-                and all(_is_real(v) and math.isfinite(v) for v in rng) and rng[0] <= rng[1]):
+                and all(is_real(v) and math.isfinite(v) for v in rng) and rng[0] <= rng[1]):
             raise ValueError(f"target_range must be (low, high) with low <= high, got "
                              f"{self.target_range!r}")
         object.__setattr__(self, "target_range", (float(rng[0]), float(rng[1])))
@@ -93,26 +82,14 @@ class EnvConfig:
             if key not in RANDOMIZABLE:
                 raise ValueError(f"randomize: unknown parameter {key!r}; choose from "
                                  f"{sorted(RANDOMIZABLE)}")
-            if not (_is_real(rel) and 0.0 <= rel < 1.0):
+            if not (is_real(rel) and 0.0 <= rel < 1.0):
                 raise ValueError(f"randomize[{key!r}] must be a relative half-range in "
                                  f"[0, 1), got {rel!r}")
         object.__setattr__(self, "randomize", dict(sorted(rand.items())))
-        for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
-                     "attitude_weight", "band_weight"):
-            v = getattr(self, name)
-            if not (_is_real(v) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a non-negative number, got {v!r}")
-        if not (_is_real(self.gamma) and 0.0 < self.gamma <= 1.0):
-            raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
-        if self.shaping not in SHAPINGS:
-            raise ValueError(f"shaping must be one of {sorted(SHAPINGS)}, got {self.shaping!r}")
-        if not (_is_real(self.dist_cap) and math.isfinite(self.dist_cap)
-                and self.dist_cap > 0):
-            raise ValueError(f"dist_cap must be a positive number [m], got {self.dist_cap!r}")
         if self.action_map not in ACTION_MAPS:
             raise ValueError(f"action_map must be one of {sorted(ACTION_MAPS)}, got "
                              f"{self.action_map!r}")
-        if not (_is_real(self.action_scale) and 0.0 < self.action_scale <= 1.0):
+        if not (is_real(self.action_scale) and 0.0 < self.action_scale <= 1.0):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
@@ -122,27 +99,23 @@ class EnvConfig:
         names = {f.name for f in dataclasses.fields(cls)}
         bad = sorted(set(kwargs) - names)
         if bad:
-            raise TypeError(f"unknown environment argument(s) {bad}; valid: {sorted(names)}")
+            # Python's own wording, which wrappers probe for (TorchRL drops frameskip=1
+            # when it reads it), then what is valid
+            raise TypeError(f"{cls.__name__}() got an unexpected keyword argument "
+                            f"{bad[0]!r} (unknown environment argument(s) {bad}); valid: "
+                            f"{sorted(names)}")
         return cls(**kwargs)
 
     def options_vector(self) -> np.ndarray:
         return make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
 
-    def reward_vector(self) -> np.ndarray:
-        e = np.zeros(rl_kernel.N_ECONFIG)
-        e[rl_kernel.E_CONTROL_DT] = self.control_dt
-        e[rl_kernel.E_T_TOTAL] = self.episode_time
-        e[rl_kernel.E_W_DIST] = self.dist_weight
-        e[rl_kernel.E_W_TIME] = self.time_cost
-        e[rl_kernel.E_SUCCESS] = self.success_bonus
-        e[rl_kernel.E_BREAK] = self.break_penalty
-        e[rl_kernel.E_GAMMA] = self.gamma
-        e[rl_kernel.E_SHAPING] = SHAPINGS[self.shaping]
-        e[rl_kernel.E_W_ATT] = self.attitude_weight
-        e[rl_kernel.E_W_BAND] = self.band_weight
-        e[rl_kernel.E_DIST_CAP] = self.dist_cap
-        e[rl_kernel.E_ACTION_MAP] = ACTION_MAPS[self.action_map]
-        e[rl_kernel.E_ACTION_SCALE] = self.action_scale
+    def task_vector(self) -> np.ndarray:
+        """The task configuration vector E (hoprover_env/tasks/layout.py)."""
+        e = np.zeros(N_E)
+        e[E_CONTROL_DT] = self.control_dt
+        e[E_T_TOTAL] = self.episode_time
+        e[E_ACTION_MAP] = ACTION_MAPS[self.action_map]
+        e[E_ACTION_SCALE] = self.action_scale
         return e
 
     @property
@@ -166,19 +139,18 @@ class HopEnvConfig(EnvConfig):
         super().__post_init__()
         for name in ("hold_kp", "hold_kd", "launch_max"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and not isinstance(v, bool)
-                    and math.isfinite(v) and v > 0):
+            if not (is_real(v) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not (_is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
+        if not (is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
             raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
                              f"in (1, 1000), got {self.launch_min!r}")
 
-    def reward_vector(self) -> np.ndarray:
-        e = super().reward_vector()
-        e[rl_kernel.E_HOLD_KP] = self.hold_kp
-        e[rl_kernel.E_HOLD_KD] = self.hold_kd
-        e[rl_kernel.E_LAUNCH_MAX] = self.launch_max
-        e[rl_kernel.E_LAUNCH_MIN] = self.launch_min
+    def task_vector(self) -> np.ndarray:
+        e = super().task_vector()
+        e[E_HOLD_KP] = self.hold_kp
+        e[E_HOLD_KD] = self.hold_kd
+        e[E_LAUNCH_MAX] = self.launch_max
+        e[E_LAUNCH_MIN] = self.launch_min
         return e
 
 
@@ -225,5 +197,3 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
     state = make_state(params, target, options.get("initial_state"))
     return target, params, state, params.as_array()
 
-
-STATE_LETTERS = np.array(list(core.MODE_LETTERS))

@@ -69,19 +69,17 @@ of a step in one jitted call, threaded over the cores from 64 sub-envs on.
 """
 from __future__ import annotations
 
-from . import hop_kernel
 from .env import HopRoverEnv
 from .env_config import HopEnvConfig
+from .tasks import hop
 from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverHopEnv(HopRoverEnv):
     config_class = HopEnvConfig
-    step_kernel = staticmethod(hop_kernel.hop_step)             # either integrator
-    step_kernel_any_integrator = step_kernel
+    task = hop
 
 
 class HopRoverHopVectorEnv(HopRoverVectorEnv):
     config_class = HopEnvConfig
-    kernels = (hop_kernel.batch_hop_step, hop_kernel.batch_hop_step_threaded)
-    kernels_any_integrator = kernels
+    task = hop

@@ -1,11 +1,14 @@
-"""Whole runs inside the kernel: the control loop of `simulate` compiled with the physics.
+"""Whole runs: the control loop of `simulate` and `simulate_batch`, compiled with the
+physics, and the `Rollout` it produces.
 
-`simulate()` routes a torque schedule, or a numba-compiled controller, here: every
-control instant, every sample (t, x, y, theta, vx, vy, omega, state, sigma, torque) and
-every event is written into preallocated arrays by one jitted call, so a run costs what
-the kernel costs. The result is the same `Rollout`, bit for bit, as the Python loop that
-`simulate` runs for a plain Python controller (tests/test_rollout.py replays the same
-torques through both).
+Every control instant, every sample (t, x, y, theta, vx, vy, omega, state, sigma, torque)
+and every event is written into preallocated arrays by one jitted loop, `_run`, the only
+control loop there is. A torque schedule or a numba-compiled controller runs a whole
+run in one call, so a run costs what the kernel costs. A plain Python controller runs
+through the same loop: at each control instant the loop returns to Python
+(ST_NEED_COMMAND), `run_rollout` calls the controller and the loop goes on where it
+stopped, so the bookkeeping (sampling, the event log, t_end, errors) exists once and
+every controller gets the same `Rollout` for the same torques, bit for bit.
 
 Compiled controllers
 --------------------
@@ -38,6 +41,7 @@ again, and the run continues where it stopped (same arithmetic, so the same resu
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -45,20 +49,20 @@ from numba import get_thread_id, njit, prange, types as nt
 from numba.experimental.function_type import WrapperAddressProtocol
 from numba.extending import is_jitted
 
-from ._jitcache import drop_stale_cache
-
-drop_stale_cache(__file__)      # this module's cached code embeds the core's
-
-from . import core  # noqa: E402
-from .params import P_TMIN, P_TMAX  # noqa: E402
+from . import core
+from ._compile import OPTIONS, drop_stale_cache
+from .params import P_TMIN, P_TMAX, RoverParams
+from .validate import check_torque
 
 ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma
 EV_CAP = core.MAX_EVENTS + 64        # events one advance may log (as RoverSim keeps)
 
 # prog: where a run stands (float64 so one vector carries the held command too)
-G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD = range(6)
-N_PROG = 6
-ST_RUNNING, ST_DONE, ST_ROOM, ST_BUDGET, ST_BAD_TORQUE = range(5)
+G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD, G_CMD_K = range(7)   # G_CMD_K: G_CMD's instant
+N_PROG = 7
+ST_RUNNING, ST_DONE, ST_ROOM, ST_BUDGET, ST_BAD_TORQUE, ST_NEED_COMMAND = range(6)
+# who decides the torque at a control instant
+CTRL_SCHEDULE, CTRL_COMPILED, CTRL_PYTHON = 0, 1, 2
 POS_T = 4                             # scratch: pos 0:2, vel 2:4, posT 4:6, args 6:
 
 _V = nt.float64[::1]
@@ -76,10 +80,10 @@ def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
     return 0.0
 
 
-def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, record,
+def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, record,
          rows, cmds, applied, log, prog, evbuf, W, backup, cbuf):
-    """One run from prog[G_K], prog[G_J] on; see the module docstring. The loop and its
-    arithmetic mirror `simulate`'s Python loop line for line (bit-identical results)."""
+    """One run from prog[G_K], prog[G_J] on, with the torque from `source` (CTRL_*); see
+    the module docstring."""
     k = int(prog[G_K])
     j = int(prog[G_J])
     nr = int(prog[G_ROWS])
@@ -92,8 +96,15 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
         t_next = (k + 1) * control_dt
         if t_end < t_next:
             t_next = t_end
-        if j == 0:
-            if use_ctrl:
+        if j == 0 and prog[G_CMD_K] != k:
+            if source == CTRL_PYTHON:
+                prog[G_K] = k
+                prog[G_J] = 0
+                prog[G_ROWS] = nr
+                prog[G_LOG] = nl
+                prog[G_STATUS] = ST_NEED_COMMAND
+                return
+            if source == CTRL_COMPILED:
                 cbuf[0] = S[core.S_X]
                 cbuf[1] = S[core.S_Y]
                 cbuf[2] = S[core.S_VX]
@@ -112,6 +123,7 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
             else:
                 cmd = sched[k] if k < sched.shape[0] else 0.0
             prog[G_CMD] = cmd
+            prog[G_CMD_K] = k
         cmd = prog[G_CMD]
         # Python's min(max(cmd, tmin), tmax), ties included
         app = tmin if tmin > cmd else cmd
@@ -171,7 +183,7 @@ def _run(S, P, O, sched, ctrl, use_ctrl, cargs, control_dt, t_end, n_ctrl, sub, 
     prog[G_STATUS] = ST_DONE
 
 
-def _run_many(Sb, Pb, Ob, schedb, ctrlb, use_ctrlb, cargsb, control_dtb, t_endb, n_ctrlb,
+def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
               subb, recordb, rowsb, cmdsb, appliedb, logb, progb, activeb, evbufb, Wb,
               backupb, cbufb):
     """`_run` over the rows where `active` is set, spread over numba's threads; each
@@ -180,16 +192,15 @@ def _run_many(Sb, Pb, Ob, schedb, ctrlb, use_ctrlb, cargsb, control_dtb, t_endb,
     for i in prange(Sb.shape[0]):
         if activeb[i]:
             tid = get_thread_id()
-            run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, use_ctrlb, cargsb[i], control_dtb,
+            run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
                     t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
                     progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
 
 
-_RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _B, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
+_RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
                    _V, _M, _V, _V, _V)
-_RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _B, _M, _F, _F, _I, _I, _B, _T3, _M,
+_RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B, _T3, _M,
                         _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M)
-_OPTS = dict(cache=True, error_model="numpy", _nrt=False)
 # Explicit signatures make the controller a function pointer (one compiled loop for every
 # controller); they would also compile at import, so the two entry points are built on
 # first use: most sessions (the environments) never need them.
@@ -205,6 +216,15 @@ class _FixedAddress(WrapperAddressProtocol):
         cres = dispatcher.get_compile_result(CONTROL_SIG)
         self.address = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
 
+
+def _fixed_address(dispatcher):
+    """The controller as `_FixedAddress`, or the dispatcher itself (numba then looks its
+    address up per call) should a numba release move the internals that needs."""
+    try:
+        return _FixedAddress(dispatcher)
+    except Exception:      # noqa: BLE001 - any internal moved: the slower, public path
+        return dispatcher
+
     def __wrapper_address__(self):
         return self.address
 
@@ -216,8 +236,11 @@ def kernel_one():
     """The one-run loop, compiled (or loaded from numba's cache) on first use."""
     global run_one, no_control
     if run_one is None:
-        no_control = _FixedAddress(njit(CONTROL_SIG, **_OPTS)(_no_control))
-        run_one = njit(_RUN_SIG, **_OPTS)(_run)
+        no_control = _fixed_address(njit(CONTROL_SIG, **OPTIONS)(_no_control))
+        run_one = njit(**OPTIONS)(_run)
+        drop_stale_cache(run_one)       # its cached code embeds the core's
+        run_one.compile(_RUN_SIG)
+        run_one.disable_compile()
     return run_one
 
 
@@ -226,7 +249,9 @@ def kernel_many():
     global run_many
     if run_many is None:
         kernel_one()
-        run_many = njit(_RUN_MANY_SIG, parallel=True, **_OPTS)(_run_many)
+        run_many = njit(parallel=True, **OPTIONS)(_run_many)
+        run_many.compile(_RUN_MANY_SIG)
+        run_many.disable_compile()
     return run_many
 
 
@@ -282,6 +307,7 @@ class Buffers:
         self.applied = np.zeros((n, rows))
         self.log = np.zeros((n, log_rows if record else 0, core.EV_COLS))
         self.prog = np.zeros((n, N_PROG))
+        self.prog[:, G_CMD_K] = -1.0         # no command decided yet
 
     def grow_log(self) -> None:
         """Double the event log (at least EV_CAP more rows)."""
@@ -304,16 +330,77 @@ def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
         err = budget_error(float(S[core.S_T]), float(S[core.S_ERROR]))
         raise type(err)(where + str(err))
     if status == ST_BAD_TORQUE:
-        from .simulate import check_torque
         try:
             check_torque(prog[G_CMD], "the controller's torque")
         except ValueError as err:
             raise ValueError(where + str(err)) from None
 
 
+@dataclasses.dataclass
+class Rollout:
+    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
+    the controller saw, before its new torque acts) and at the end of the run."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    omega: np.ndarray
+    state: np.ndarray            # letters 'A'..'G'
+    torque: np.ndarray           # applied torque from each sample on (clipped)
+    torque_cmd: np.ndarray       # what the controller asked for
+    events: list                 # (time, kind, state before, state after)
+    ttrtp: float | None
+    broken: bool
+    target_x: float
+    params: RoverParams
+    impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
+    n_events: int
+    sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
+    min_corner_height: float     # lowest bottom-corner height after any event or interval
+
+    @property
+    def success(self) -> bool:
+        return self.ttrtp is not None
+
+    def corner(self, which: str):
+        """World position (x, y) and velocity (vx, vy) arrays of corner 'A' or 'B'."""
+        k = {"A": 0, "B": 1}[which]
+        bx = self.params.half_width * (1.0 if k == 0 else -1.0)
+        by = -self.params.half_height
+        c, s = np.cos(self.theta), np.sin(self.theta)
+        dx, dy = bx * c + by * s, -bx * s + by * c
+        return (self.x + dx, self.y + dy,
+                self.vx + self.omega * dy, self.vy - self.omega * dx)
+
+    def contact_forces(self):
+        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied.
+
+        A sample at a control instant holds the state before the new torque acts; when
+        that torque ends the state at once (a corner of state F unloaded by a tipping
+        torque), the forces are those of the state the kernel switches to, not the
+        negative normal force the old state would need."""
+        p = self.params.as_array()
+        out = np.zeros((len(self.t), 4))
+        s = np.zeros(core.N_STATE)
+        no_log = np.zeros((0, core.EV_COLS))
+        for i in range(len(self.t)):
+            s[:] = 0.0
+            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
+                     self.omega[i])
+            s[core.S_T] = self.t[i]
+            s[core.S_MODE] = core.MODE_LETTERS.index(self.state[i])
+            s[core.S_TORQUE] = self.torque[i]
+            s[core.S_SIGMA] = self.sigma[i]
+            core.settle(s, p, no_log, 0)
+            out[i] = core.contact_forces(s, p)
+        return out
+
+
 def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
     """The `Rollout` of one finished run from its kernel arrays."""
-    from .simulate import Rollout
     nr = int(prog[G_ROWS])
     nl = int(prog[G_LOG])
     a = rows[:nr]
@@ -337,24 +424,39 @@ def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
         min_corner_height=float(S[core.S_MIN_HEIGHT]))
 
 
-def simulate_compiled(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub,
-                      target_x, params):
-    """`simulate`'s loop for a torque schedule (1-D float64, checked finite) or a
-    compiled controller, in one kernel call (more only if the event log must grow)."""
-    use_ctrl = schedule is None
+def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, target_x,
+                params):
+    """`simulate`'s run: a torque schedule (1-D float64, checked finite), a compiled
+    controller, or a Python controller (called here at every control instant with the
+    contest's arguments), through the one compiled loop. Returns the `Rollout`."""
     run = kernel_one()
-    ctrl = control_function(controller) if use_ctrl else no_control
-    sched = np.zeros(0) if use_ctrl else np.ascontiguousarray(schedule, dtype=np.float64)
+    if schedule is not None:
+        source, ctrl = CTRL_SCHEDULE, no_control
+    elif is_compiled(controller):
+        source, ctrl = CTRL_COMPILED, control_function(controller)
+    else:
+        source, ctrl = CTRL_PYTHON, no_control
+    sched = np.zeros(0) if schedule is None else np.ascontiguousarray(schedule, np.float64)
     buf = Buffers(1, n_ctrl * sub + 1, 256)
+    prog = buf.prog[0]
     evbuf, w, backup, cbuf = scratch(1, 0)
     no_args = np.zeros(0)
+    pos_t = np.array([float(target_x), 0.0])
     while True:
-        run(S, P, O, sched, ctrl, use_ctrl, no_args, float(control_dt), float(t_end),
-            n_ctrl, sub, True, buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0],
-            buf.prog[0], evbuf[0], w[0], backup[0], cbuf[0])
-        if buf.prog[0, G_STATUS] != ST_ROOM:
+        run(S, P, O, sched, ctrl, source, no_args, float(control_dt), float(t_end), n_ctrl,
+            sub, True, buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, evbuf[0],
+            w[0], backup[0], cbuf[0])
+        status = prog[G_STATUS]
+        if status == ST_ROOM:
+            buf.grow_log()
+        elif status == ST_NEED_COMMAND:
+            prog[G_CMD] = check_torque(controller(
+                S[0:2].copy(), S[3:5].copy(), float(S[core.S_TH]), float(S[core.S_W]),
+                pos_t.copy(), float(S[core.S_T]), float(t_end),
+                core.MODE_LETTERS[int(S[core.S_MODE])]), "the controller's torque")
+            prog[G_CMD_K] = prog[G_K]
+        else:
             break
-        buf.grow_log()
-    check_status(buf.prog[0], S)
-    return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], buf.prog[0],
-                         S, params, target_x)
+    check_status(prog, S)
+    return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, S,
+                         params, target_x)

@@ -75,14 +75,13 @@ class HopRoverSB3VecEnv(VecEnv):
         if dones.any():
             fin, final_obs = infos["final_info"], infos["final_obs"]
             for i in np.flatnonzero(dones):
-                ttrtp = float(fin["ttrtp"][i])
                 out[i] = {"terminal_observation": final_obs[i],
                           "TimeLimit.truncated": bool(trunc[i] and not term[i]),
                           "is_success": bool(fin["is_success"][i]),
-                          "ttrtp": None if np.isnan(ttrtp) else ttrtp,
+                          "ttrtp": float(fin["ttrtp"][i]),
                           "broken": bool(fin["broken"][i]),
                           "target_x": float(fin["target_x"][i]),
-                          "state": str(fin["state"][i])}
+                          "state": int(fin["state"][i])}
         return obs, rew.astype(np.float32), dones, out
 
     def close(self) -> None:

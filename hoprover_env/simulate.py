@@ -11,22 +11,26 @@ called at every control instant with the state at that instant (no delay). The t
 is clipped to [T_min, T_max] and held (zero-order hold). A NaN or infinite torque raises
 ``ValueError``; it never reaches the state.
 
-A torque schedule, or a controller compiled with ``numba.njit`` (state passed as an
-integer code 0..6 for A..G; see hoprover_env/rollout.py), runs the whole run in one
-kernel call; a plain Python callable runs the Python loop below. Both give the same
-`Rollout` bit for bit. For many runs at once see `hoprover_env.simulate_batch`.
+Every controller runs through the one compiled control loop of hoprover_env/rollout.py:
+a torque schedule, or a controller compiled with ``numba.njit`` (state passed as an
+integer code 0..6 for A..G), in one kernel call; a plain Python callable at the cost of
+one Python call per control instant. All give the same `Rollout` for the same torques,
+bit for bit. For many runs at once see `hoprover_env.simulate_batch`.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
-import numbers
 from typing import Callable, Sequence
 
 import numpy as np
 
-from . import _parallel_compile, core, rollout
+from . import _compile, core
 from .params import MAX_MAGNITUDE, RoverParams
+from .rollout import Rollout, budget_error, run_rollout
+from .validate import check_torque, finite_real, positive_real
+
+__all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "control_grid",
+           "DEFAULT_RTOL"]
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
 IMPACT_LAWS = {"contest": core.LAW_CONTEST, "dissipative": core.LAW_DISSIPATIVE}
@@ -64,7 +68,7 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
 def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
-    _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
+    _compile.prepare()              # on a cold numba cache: compile on two cores
     target_x = finite_real("target_x", target_x)
     if initial_state is None:
         initial_state = (0.0, params.half_height, 0.0, 0.0, 0.0, 0.0)
@@ -86,84 +90,6 @@ def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.n
         raise ValueError(f"initial_state {tuple(st)} is not consistent with a contact "
                          f"state: {_INIT_ERRORS[code]}")
     return s
-
-
-def check_torque(torque, what="torque") -> float:
-    """A finite float, or ValueError naming the bad value. Numpy scalars and one-element
-    real arrays (what a policy's predict returns) are welcome; strings ('1e-4'),
-    booleans and complex numbers are refused rather than converted."""
-    if isinstance(torque, np.ndarray) and torque.size == 1 and torque.dtype.kind in "iuf":
-        torque = torque.reshape(()).item()
-    if isinstance(torque, (bool, np.bool_)) or not isinstance(torque, numbers.Real):
-        raise ValueError(f"{what} must be a real number, got {type(torque).__name__} "
-                         f"{torque!r}")
-    value = float(torque)
-    if not math.isfinite(value):
-        raise ValueError(f"{what} must be finite, got {value!r}")
-    return value
-
-
-@dataclasses.dataclass
-class Rollout:
-    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
-    the controller saw, before its new torque acts) and at the end of the run."""
-
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    theta: np.ndarray
-    vx: np.ndarray
-    vy: np.ndarray
-    omega: np.ndarray
-    state: np.ndarray            # letters 'A'..'G'
-    torque: np.ndarray           # applied torque from each sample on (clipped)
-    torque_cmd: np.ndarray       # what the controller asked for
-    events: list                 # (time, kind, state before, state after)
-    ttrtp: float | None
-    broken: bool
-    target_x: float
-    params: RoverParams
-    impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
-    n_events: int
-    sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
-    min_corner_height: float     # lowest bottom-corner height after any event or interval
-
-    @property
-    def success(self) -> bool:
-        return self.ttrtp is not None
-
-    def corner(self, which: str):
-        """World position (x, y) and velocity (vx, vy) arrays of corner 'A' or 'B'."""
-        k = {"A": 0, "B": 1}[which]
-        bx = self.params.half_width * (1.0 if k == 0 else -1.0)
-        by = -self.params.half_height
-        c, s = np.cos(self.theta), np.sin(self.theta)
-        dx, dy = bx * c + by * s, -bx * s + by * c
-        return (self.x + dx, self.y + dy,
-                self.vx + self.omega * dy, self.vy - self.omega * dx)
-
-    def contact_forces(self):
-        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied.
-
-        A sample at a control instant holds the state before the new torque acts; when
-        that torque ends the state at once (a corner of state F unloaded by a tipping
-        torque), the forces are those of the state the kernel switches to, not the
-        negative normal force the old state would need."""
-        p = self.params.as_array()
-        out = np.zeros((len(self.t), 4))
-        s = np.zeros(core.N_STATE)
-        no_log = np.zeros((0, core.EV_COLS))
-        for i in range(len(self.t)):
-            s[:] = 0.0
-            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
-                     self.omega[i])
-            s[core.S_T] = self.t[i]
-            s[core.S_MODE] = "ABCDEFG".index(self.state[i])
-            s[core.S_TORQUE] = self.torque[i]
-            s[core.S_SIGMA] = self.sigma[i]
-            core.settle(s, p, no_log, 0)
-            out[i] = core.contact_forces(s, p)
-        return out
 
 
 class RoverSim:
@@ -208,7 +134,6 @@ class RoverSim:
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
         n = core.advance(self.s, self.p, self.o, torque, t_stop, self._ev, self._w)
         if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP, core.ERR_WORK):
-            from .rollout import budget_error
             raise budget_error(self.t, float(self.s[core.S_ERROR]))
         ev = self._ev
         return [(float(ev[i, 0]), core.EVENT_NAMES[int(ev[i, 1])],
@@ -244,25 +169,6 @@ class RoverSim:
     def contact_forces(self):
         """(fAx, fAy, fBx, fBy) now, under the torque last applied."""
         return core.contact_forces(self.s, self.p)
-
-
-def finite_real(name: str, v) -> float:
-    """A finite real number as float (numpy scalars welcome); strings, booleans and
-    complex numbers are refused with a message naming the argument."""
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
-        raise TypeError(f"{name} must be a real number, got {type(v).__name__} {v!r}")
-    v = float(v)
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {v!r}")
-    return v
-
-
-def positive_real(name: str, v) -> float:
-    """A positive finite real number as float (see finite_real)."""
-    v = finite_real(name, v)
-    if not v > 0:
-        raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-    return v
 
 
 MAX_SAMPLES = 10**7     # samples one call may produce: ~1 GB of output arrays, minutes of CPU
@@ -334,44 +240,5 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         raise ValueError(f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
                          f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
                          "or the event integrator")
-    rows, cmds, applied, events = [], [], [], []
-    ratios = []
-    pos_t = np.array([float(target_x), 0.0])
-    if schedule is not None or rollout.is_compiled(controller):
-        # the whole run in one kernel call, bit-identical to the Python loop below
-        return rollout.simulate_compiled(s, sim.p, sim.o, schedule, controller, control_dt,
-                                         t_end, n_ctrl, sub, target_x, params)
-    for k in range(n_ctrl):
-        t_k = k * control_dt
-        t_next = min((k + 1) * control_dt, t_end)
-        cmd = check_torque(controller(
-            s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
-            pos_t.copy(), float(s[core.S_T]), float(t_end),
-            core.MODE_LETTERS[int(s[core.S_MODE])]), "the controller's torque")
-        for j in range(sub):
-            t_stop = t_next if j == sub - 1 else min(t_k + (j + 1) * control_dt / sub, t_next)
-            rows.append(s[:core.S_SIGMA + 1].copy())
-            cmds.append(cmd)
-            applied.append(min(max(cmd, params.torque_min), params.torque_max))
-            for (te, kind, before, after, value) in sim.advance(cmd, t_stop):
-                events.append((te, kind, before, after))
-                if kind == "impact":
-                    ratios.append(value)
-            if s[core.S_BROKEN]:
-                break
-        if s[core.S_BROKEN]:
-            break
-    rows.append(s[:core.S_SIGMA + 1].copy())
-    cmds.append(cmds[-1])
-    applied.append(applied[-1])
-    a = np.array(rows)
-    ttrtp = s[core.S_TTRTP]
-    return Rollout(
-        t=a[:, core.S_T], x=a[:, core.S_X], y=a[:, core.S_Y], theta=a[:, core.S_TH],
-        vx=a[:, core.S_VX], vy=a[:, core.S_VY], omega=a[:, core.S_W],
-        state=np.array([core.MODE_LETTERS[int(m)] for m in a[:, core.S_MODE]]),
-        torque=np.array(applied), torque_cmd=np.array(cmds), events=events,
-        ttrtp=None if math.isnan(ttrtp) else float(ttrtp), broken=bool(s[core.S_BROKEN]),
-        target_x=float(target_x), params=params, impact_energy_ratios=np.array(ratios),
-        n_events=int(s[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
-        min_corner_height=float(s[core.S_MIN_HEIGHT]))
+    return run_rollout(s, sim.p, sim.o, schedule, controller, control_dt, t_end, n_ctrl, sub,
+                       target_x, params)

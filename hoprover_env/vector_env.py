@@ -3,7 +3,7 @@
     envs = gym.make_vec("HopRover-v0", num_envs=4096)            # this class
     envs = HopRoverVectorEnv(256, autoreset_mode="SameStep", threads=True)
 
-Every sub-env runs `rl_kernel.env_step`, the code the single `HopRoverEnv` runs, on a
+Every sub-env runs its task's step (hoprover_env/tasks), the code `HopRoverEnv` runs, on a
 row of a 2-D state array; resets draw from a per-sub-env numpy Generator exactly as the
 single env does (seed s gives sub-env i the seed s + i, as Gymnasium's SyncVectorEnv).
 So sub-env i and `HopRoverEnv` seeded with s + i agree bit for bit.
@@ -25,10 +25,12 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from . import _parallel_compile, core, rl_kernel
-from .env import check_actions
-from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+from . import _compile, core, reward
+from .env import TTRTP_NOT_REACHED, check_actions
+from .env_config import EnvConfig, sample_episode
 from .params import N_PARAMS
+from .tasks import torque
+from .tasks.observation import OBS_DIM, OBS_HIGH, OBS_LOW, observe
 
 THREAD_THRESHOLD = 64
 
@@ -37,10 +39,7 @@ class HopRoverVectorEnv(VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
     config_class = EnvConfig
-    # (serial, threaded): event integrator only / any integrator (see HopRoverEnv)
-    kernels = (rl_kernel.batch_step, rl_kernel.batch_step_threaded)
-    kernels_any_integrator = (rl_kernel.batch_step_any_integrator,
-                              rl_kernel.batch_step_threaded_any_integrator)
+    task = torque               # its KERNELS[integrator].batch(_threaded) steps all envs
 
     def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
                  max_episode_steps: int | None = None, threads: bool | None = None,
@@ -49,7 +48,7 @@ class HopRoverVectorEnv(VectorEnv):
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.config = self.config_class.from_kwargs(**kwargs)
-        _parallel_compile.prepare(rl_kernel.HELPER_EXTRA)  # cold cache: compile on 2 cores
+        _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -69,22 +68,22 @@ class HopRoverVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        kernels = self.kernels if self.config.integrator == "event" \
-            else self.kernels_any_integrator
-        self._kernel = kernels[1] if self.threads else kernels[0]
+        kernels = self.task.KERNELS[self.config.integrator]
+        self._kernel = kernels.batch_threaded if self.threads else kernels.batch
 
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.single_observation_space = spaces.Box(rl_kernel.OBS_LOW, rl_kernel.OBS_HIGH,
-                                                   dtype=np.float32)
+        self.single_observation_space = spaces.Box(OBS_LOW, OBS_HIGH, dtype=np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
         n = self.num_envs
         self._o = self.config.options_vector()
-        self._e = self.config.reward_vector()
+        self._e = self.config.task_vector()
+        self._rw = self.config.reward_vector()
+        self._rm = reward.new_memory(n)
         self.S = np.zeros((n, core.N_STATE))
         self.P = np.zeros((n, N_PARAMS))
-        self._obs = np.zeros((n, rl_kernel.OBS_DIM), dtype=np.float32)
+        self._obs = np.zeros((n, OBS_DIM), dtype=np.float32)
         self._rew = np.zeros(n)
         self._term = np.zeros(n, dtype=np.bool_)
         self._trunc = np.zeros(n, dtype=np.bool_)
@@ -110,7 +109,8 @@ class HopRoverVectorEnv(VectorEnv):
         self.targets[i] = target
         self.params[i] = params
         self._steps[i] = 0
-        rl_kernel.observe(self.S[i], self.P[i], self._e, self._obs[i])
+        self._rm[i] = reward.new_memory()
+        observe(self.S[i], self.P[i], self._e, self._obs[i])
         if self.render_mode:
             self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
 
@@ -161,8 +161,9 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
-        bad = self._kernel(self.S, self.P, self._o, self._e, a, active, self._obs, self._rew,
-                           self._term, self._trunc, self._succ, self._nev, self._log, self._work)
+        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, a, active,
+                           self._obs, self._rew, self._term, self._trunc, self._succ,
+                           self._nev, self._log, self._work)
         if bad >= 0:
             raise ValueError(f"actions must be finite, got {a[bad]!r} for sub-env {bad}")
         if done.size:
@@ -197,13 +198,16 @@ class HopRoverVectorEnv(VectorEnv):
         n = self.num_envs
         mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
         ttrtp = self.S[:, core.S_TTRTP].copy()
-        info = {"is_success": ~np.isnan(ttrtp), "ttrtp": ttrtp,
-                "state": STATE_LETTERS[self.S[:, core.S_MODE].astype(np.int64)],
+        reached = ~np.isnan(ttrtp)
+        ttrtp[~reached] = TTRTP_NOT_REACHED
+        info = {"is_success": reached, "ttrtp": ttrtp,
+                "state": self.S[:, core.S_MODE].astype(np.int64),
                 "target_x": self.targets.copy(), "broken": self.S[:, core.S_BROKEN] != 0.0,
-                "n_events": nev.copy()}
+                "n_events": nev.astype(np.int64)}
         if self.config.info_level == "full":
             info["t"] = self.S[:, core.S_T].copy()
             info["rover_state"] = self.S[:, :6].copy()
+            info.update(reward.terms_info(self._rm))
         for key in list(info):
             info["_" + key] = mask       # one mask array shared by all keys of this step
         return info
@@ -220,7 +224,7 @@ class HopRoverVectorEnv(VectorEnv):
             s = self.S[i]
             frames.append(self._renderers[i].draw(
                 s, self.params[i], self.targets[i], self._traces[i], float(s[core.S_T]),
-                STATE_LETTERS[int(s[core.S_MODE])], float(s[core.S_TORQUE])))
+                core.MODE_LETTERS[int(s[core.S_MODE])], float(s[core.S_TORQUE])))
         return tuple(frames)
 
     def close_extras(self, **kwargs):

@@ -127,14 +127,16 @@ def test_jit_only_kernel_functions_raise_instead_of_crashing():
     import importlib
     import pkgutil
 
-    from hoprover_env import core, hop_kernel, rl_kernel
+    from hoprover_env import _compile, core, reward, tasks
     kernel_modules = [importlib.import_module(f"hoprover_env.core.{m.name}")
-                      for m in pkgutil.iter_modules(core.__path__)] + [rl_kernel, hop_kernel]
+                      for m in pkgutil.iter_modules(core.__path__)] + [
+        importlib.import_module(f"hoprover_env.tasks.{m.name}")
+        for m in pkgutil.iter_modules(tasks.__path__)] + [reward]
     inner = [o for m in kernel_modules for o in vars(m).values()
              if isinstance(o, CPUDispatcher) and o.targetoptions.get("no_cpython_wrapper")]
     assert len(inner) > 40
     # guarded, or compiled on first use (declared signature) and guarded then
-    assert all(type(o) in (core._JitOnlyDispatcher, core._DeclaredSignature) for o in inner)
+    assert all(isinstance(o, (_compile._JitOnly, _compile._Declared)) for o in inner)
     code = ("import numpy as np\nfrom hoprover_env import core\n"
             "try:\n    core.kinetic_energy(np.zeros(core.N_STATE), np.ones(32))\n"
             "except TypeError as e:\n    print(e)\n"

@@ -27,7 +27,7 @@ def test_checkers_pass(env_id):
 def test_registration_and_defaults():
     env = gym.make("HopRoverContest-v0")
     _, info = env.reset(seed=3)
-    assert info["target_x"] == 0.5 and info["state"] == "F"
+    assert info["target_x"] == 0.5 and info["state"] == hoprover_env.core.MODE_F
     envs = gym.make_vec("HopRover-v0", num_envs=3)
     assert isinstance(envs.unwrapped, HopRoverVectorEnv)
     assert envs.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
@@ -143,7 +143,7 @@ def test_vector_max_episode_steps_and_infos():
     for key in ("is_success", "ttrtp", "state", "target_x", "broken", "n_events"):
         assert info[key].shape == (2,) and info["_" + key].all()
     obs, r, te, tr, info = envs.step(np.zeros((2, 1)))      # NEXT_STEP: the reset
-    assert (r == 0).all() and not tr.any() and (info["state"] == "F").all()
+    assert (r == 0).all() and not tr.any() and (info["state"] == hoprover_env.core.MODE_F).all()
 
 
 def test_seeding_is_bit_for_bit():

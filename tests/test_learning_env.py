@@ -10,7 +10,8 @@ from gymnasium.vector import AutoresetMode
 import hoprover_env  # noqa: F401  (registers the envs)
 from agents.policies import ControllerPolicy, torque_to_action
 from agents.scripted import ScriptedHopper
-from hoprover_env import rl_kernel
+from hoprover_env import reward
+from hoprover_env.tasks import hop, torque
 from hoprover_env.env import HopRoverEnv
 from hoprover_env.hop_env import HopRoverHopEnv, HopRoverHopVectorEnv
 from hoprover_env.params import RoverParams
@@ -85,6 +86,7 @@ def test_return_ranks_success_over_staying_put_over_breaking():
 def test_potential_is_bounded_below_by_phi_min():
     env = HopRoverEnv(**GAMED)
     e = env.config.reward_vector()
+    m = reward.new_memory()
     s = np.array(env.reset(seed=0)[0])          # noqa: F841 - sets env._s
     S = env.unwrapped._s.copy()
     P = env.unwrapped._p
@@ -93,7 +95,7 @@ def test_potential_is_bounded_below_by_phi_min():
         for th in (0.0, 1.0, math.pi):
             S[hoprover_env.core.S_W], S[hoprover_env.core.S_TH] = w, th
             S[hoprover_env.core.S_X] = 1e6
-            assert rl_kernel.potential(S, P, e) >= rl_kernel.phi_min(e) - 1e-12
+            assert reward.potential(S, P, e, m) >= reward.phi_min(e) - 1e-12
 
 
 @pytest.mark.parametrize("amap", ["linear", "cubic"])
@@ -101,12 +103,12 @@ def test_potential_is_bounded_below_by_phi_min():
 def test_action_maps_and_their_inverse(amap, scale):
     env = HopRoverEnv(action_map=amap, action_scale=scale)
     p = RoverParams()
-    e = env.config.reward_vector()
+    e = env.config.task_vector()
     for a in np.linspace(-1, 1, 41):
-        t = rl_kernel.action_to_torque(a, p.as_array(), e)
+        t = torque.action_to_torque(a, p.as_array(), e)
         assert abs(t) <= scale * p.torque_max + 1e-18
         assert torque_to_action(t, p, env.config) == pytest.approx(a, abs=1e-9)
-    assert rl_kernel.action_to_torque(0.0, p.as_array(), e) == 0.0
+    assert torque.action_to_torque(0.0, p.as_array(), e) == 0.0
     if amap == "cubic":       # fine resolution near zero: the tipping torque at |a| ~ 0.2
         a_tip = torque_to_action(p.tipping_torque, p, env.config)
         assert 0.2 * scale ** (-1 / 3) * 0.9 < a_tip < 0.25 * scale ** (-1 / 3)
@@ -176,7 +178,7 @@ def test_hop_lands_near_where_the_torque_sends_it_and_in_band_succeeds():
     for a in (-0.6, 0.3, 0.6):
         env.reset(seed=0, options={"target_x": 5.0})
         obs, r, te, tr, info = env.step(np.array([a], np.float32))
-        assert info["state"] == "F" and not te
+        assert info["state"] == hoprover_env.core.MODE_F and not te
         x.append(info["rover_state"][0])
     assert x[0] < -0.1 and 0.0 < x[1] < x[2]            # direction and length follow |a|
 
@@ -189,10 +191,9 @@ def test_hop_policy_through_controller_matches_hop_env():
     a = float(np.float32(0.55))          # what the env receives
     env.step(np.array([a], np.float32))
     x_hop = env.unwrapped._s[0]
-    torque = hoprover_env.hop_kernel.hop_torque(a, RoverParams().as_array(),
-                                                env.config.reward_vector())
+    launch = hop.hop_torque(a, RoverParams().as_array(), env.config.task_vector())
     hopper = ScriptedHopper(control_dt=0.5)
-    x_pred, t_rest, broken = hopper.predict(0.0, torque, 0.0, 590.0)
+    x_pred, t_rest, broken = hopper.predict(0.0, launch, 0.0, 590.0)
     assert not broken
     assert x_hop == pytest.approx(x_pred, abs=1e-12)
     assert env.unwrapped._s[6] == pytest.approx(t_rest, abs=1e-12)
@@ -206,7 +207,7 @@ def test_controller_policy_uses_the_envs_action_map():
     obs, _ = venv.reset(seed=0)
     pol.reset(2)
     a = pol.act(obs, venv)
-    t = rl_kernel.action_to_torque(a[0, 0], RoverParams().as_array(), venv.config.reward_vector())
+    t = torque.action_to_torque(a[0, 0], RoverParams().as_array(), venv.config.task_vector())
     assert t == pytest.approx(1e-5, rel=1e-9)
 
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hoprover_env import RoverParams, simulate
+from hoprover_env import params
 from helpers import kinematic_violations
 
 
@@ -90,7 +91,7 @@ dy = -r * math.sin(th) - h * math.cos(th)
 S = np.zeros(core.N_STATE)
 S[core.S_Y], S[core.S_TH], S[core.S_VX] = -dy, th, 1e-3
 S[core.S_MODE], S[core.S_SIGMA] = core.MODE_C, 1.0
-S[core.S_XT], S[core.S_TTRTP], S[core.S_STOP_ON], S[core.S_PHI] = 5.0, math.nan, -1.0, math.nan
+S[core.S_XT], S[core.S_TTRTP], S[core.S_STOP_ON] = 5.0, math.nan, -1.0
 S[core.S_HSTEP] = float(sys.argv[2])
 from hoprover_env.simulate import make_options
 core.advance(S, P, make_options("event", "contest", 1e-11, 1e-3), 0.0, 1.0,
@@ -209,8 +210,8 @@ def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
     assert abs(_lowest_corner_height(sim.s, p)) < 1e-9
     x, y, th, vx, vy, w = s0[:6]
     tt = np.arange(0.0, sim.t - t0 + 1.0, 1e-5)
-    thh = th + w * tt + 0.5 * 3.7e-4 / p[core.P_I] * tt ** 2
-    yy = y + vy * tt - 0.5 * p[core.P_G] * tt ** 2
+    thh = th + w * tt + 0.5 * 3.7e-4 / p[params.P_I] * tt ** 2
+    yy = y + vy * tt - 0.5 * p[params.P_G] * tt ** 2
     h = np.min([yy - bx * np.sin(thh) + by * np.cos(thh)
                 for bx, by in (core.corner_body(p, k) for k in range(4))], axis=0)
     first = t0 + tt[np.argmax(h[10:] <= 0.0) + 10]
@@ -224,7 +225,7 @@ def _return_time_exact(s0, p, torque, k=0):
     from hoprover_env import core
     mp.mp.dps = 40
     y, th, vy, w = (mp.mpf(float(s0[i])) for i in (core.S_Y, core.S_TH, core.S_VY, core.S_W))
-    g, beta = mp.mpf(float(p[core.P_G])), mp.mpf(torque) / mp.mpf(float(p[core.P_I]))
+    g, beta = mp.mpf(float(p[params.P_G])), mp.mpf(torque) / mp.mpf(float(p[params.P_I]))
     bx, by = (mp.mpf(float(v)) for v in core.corner_body(p, k))
 
     def h(t):

@@ -1,4 +1,4 @@
-"""The physics of the hopping rover: one jitted kernel over flat float arrays.
+"""The physics of the hopping rover: jitted functions over flat float arrays.
 
 Everything that moves the rover lives here, once: contact forces of the seven states,
 the instantaneous transitions between them (`settle`), the impact laws
@@ -12,10 +12,10 @@ the instantaneous transitions between them (`settle`), the impact laws
   transitions and impact law, but guards are only checked at the end of each step.
 
 State vector ``S`` (float64, layout ``S_*``): the c.m. state, time, contact mode,
-slide direction, applied torque, target, judge and diagnostics. Parameter vector
-``P`` (layout ``P_*`` of :mod:`hoprover_env.params`). Options ``O`` (layout ``O_*``).
-The kernel takes no Python objects, so the vector env loops it over rows of 2-D
-arrays in one jitted call.
+slide direction, applied torque, target, judge and diagnostics: physics only (an RL
+reward keeps its own memory, hoprover_env/reward.py). Parameter vector ``P`` (layout
+``P_*`` of :mod:`hoprover_env.params`). Options ``O`` (layout ``O_*``). The kernel takes
+no Python objects, so the vector env loops it over rows of 2-D arrays in one jitted call.
 
 Conventions (docs/MODEL.md section 2): x right, y up, theta clockwise-positive, positive T
 clockwise. A body point with world offset d = (dx, dy) from the c.m. moves with
@@ -25,11 +25,8 @@ world offset dx = bx cos(th) + by sin(th), dy = -bx sin(th) + by cos(th).
 
 Decisions beyond docs/MODEL.md are documented in docs/PHYSICS.md and marked "Decision" here.
 The kernel allocates nothing: scratch space comes in a workspace row ``W`` (N_WORK floats).
-All kernels use numba's numpy error model: a float division never raises (every divisor
-here is a positive physical quantity), which keeps calls cheap (the Python model costs
-~70 ns per call through its exception path).
 
-The package is split along the kernel's own sections, one module each:
+One module per section of the kernel (docs/ARCHITECTURE.md has the whole map):
 
 =================  ==================================================================
 ``layout``         the S / O / W / event-log layouts, tolerances, budgets, error codes
@@ -43,21 +40,36 @@ The package is split along the kernel's own sections, one module each:
 ``euler``          the fixed-step Euler baseline
 ``integrator``     the event integrator's loop, ``advance``, ``advance_event``,
                    ``init_state``
-``_jit``           how every function is compiled, and the guard for jit-only ones
 =================  ==================================================================
 
-Everything public is re-exported here, so callers write ``core.settle``, ``core.S_T``.
+The names below are the core's public surface: callers write ``core.settle``,
+``core.S_T``. Each comes from the one module that defines it.
 """
-from ._jit import *  # noqa: F401,F403
-from ._jit import _DeclaredSignature, _JitOnlyDispatcher  # noqa: F401
-from .layout import *  # noqa: F401,F403
-from .forces import *  # noqa: F401,F403
-from .flight import *  # noqa: F401,F403
-from .judge import *  # noqa: F401,F403
-from .transitions import *  # noqa: F401,F403
-from .impacts import *  # noqa: F401,F403
-from .contact_phases import *  # noqa: F401,F403
-from .phase_end import *  # noqa: F401,F403
-from .euler import *  # noqa: F401,F403
-from .euler import _advance_euler  # noqa: F401
-from .integrator import *  # noqa: F401,F403
+from .layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TORQUE, S_XT,
+                     S_BROKEN, S_INBAND, S_TIN, S_TTRTP, S_HSTEP, S_NEVENTS, S_NIMPACT,
+                     S_NGAIN, S_MAXGAIN, S_ERROR, S_STOP_ON, S_STOPPED, S_MIN_HEIGHT,
+                     N_STATE, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
+                     MODE_LETTERS, O_INTEGRATOR, O_LAW, O_RTOL, O_EULER_DT, N_OPTIONS,
+                     INTEGRATOR_EVENT, INTEGRATOR_EULER, LAW_CONTEST, LAW_DISSIPATIVE,
+                     EV_LIFTOFF, EV_SLIP, EV_STICK, EV_REVERSE, EV_IMPACT, EV_RESUME,
+                     EV_TIP, EV_STOP, EV_BAND_IN, EV_BAND_OUT, EV_BROKEN, EV_TTRTP,
+                     EVENT_NAMES, EV_COLS, MAX_EVENTS, N_WORK, W_IMP, W_FLT, W_RK, W_WORK,
+                     H_TOL, V_TOL, A_TOL, F_TOL, CA_TOL, H_IMPACT, MAX_CA_ITER,
+                     FLIGHT_WINDOW_MAX, RK_SAFETY, RK_MIN_FACTOR, ERR_BUDGET, ERR_TORQUE,
+                     ERR_STEP, ERR_WORK, MAX_RK_STEPS, MAX_WORK, MAX_PHASES, RK_MAX_FACTOR,
+                     TWO_PI, PH_NONE, PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN,
+                     PH_BAND, PH_STOP)
+from .forces import (corner_body, corner_offset_cs, corner_offset, wrap_angle,
+                     kinetic_energy, contact_corner, pivot_dynamics, slide_dynamics,
+                     double_contact_forces, contact_forces, set_single_contact, pin_corner,
+                     turn_flat_about, set_double_contact)
+from .flight import (flight_at, flight_rise, resting_corner_driven_down, flight_phase)
+from .judge import (log_event, in_band, judge_check, judge_set, judge_update)
+from .transitions import (settle)
+from .impacts import (contest_impulses, frictionless_impulses, resolve_impact,
+                      impact_event)
+from .contact_phases import (g_phase, contact_phase)
+from .phase_end import (track_min_height, after_phase)
+from .euler import (event_budget, advance_euler)
+from .integrator import (advance, advance_event, init_state, INIT_OK, INIT_PENETRATION,
+                         INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT)

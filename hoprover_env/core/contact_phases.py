@@ -4,23 +4,22 @@ single-contact states B-E by DOP853 with every guard located as an event."""
 import math
 
 import numpy as np
-from numba import njit
 
-from .._jitcache import drop_stale_cache
 from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
+from .._compile import kernel, F64, I64, VEC
 from ..params import P_M, P_R, P_G, P_MUS, P_MUD, P_BAND
-from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .layout import (ERR_STEP, ERR_WORK, F_TOL, H_TOL, MAX_RK_STEPS, MAX_WORK, MODE_C,
+                     MODE_E, O_RTOL, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
+                     PH_STICK, PH_STOP, PH_TOUCH, RK_MAX_FACTOR, RK_MIN_FACTOR, RK_SAFETY,
+                     S_ERROR, S_HSTEP, S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY,
+                     S_W, S_X, S_XT, S_Y, V_TOL, W_RK, W_WORK)
 from .forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------
 # Event integrator: state G in closed form
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
+@kernel(inner=True)
 def _next_band_boundary(xp, sigma, xt, w, offset):
     """Nearest boundary of the band (for a point at c.m. offset `offset`) strictly ahead
     of xp in direction sigma, as a c.m. position; NaN when none is ahead."""
@@ -32,7 +31,7 @@ def _next_band_boundary(xp, sigma, xt, w, offset):
     return best
 
 
-@njit_declared(_I(_V, _V, _F), **INNER)
+@kernel(I64(VEC, VEC, F64), inner=True)
 def g_phase(S, P, t_stop):
     """Slide on both corners: x(t) quadratic, decelerating at mu_d g to a stop.
 
@@ -75,7 +74,7 @@ def g_phase(S, P, t_stop):
 N_GUARDS = 6
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _rhs(P, k, sliding, sigma, T, u, out):
     if sliding:
         thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, u[0], u[1])
@@ -87,13 +86,13 @@ def _rhs(P, k, sliding, sigma, T, u, out):
     out[3] = fx / P[P_M]
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _finite4(u):
     return (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2])
             and math.isfinite(u[3]))
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol):
     """One DOP853 step of length h from u (f0 = f(u)); returns the scaled error norm."""
     for j in range(4):
@@ -127,7 +126,7 @@ def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
     return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * 4.0)
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     """Guard functions of a single-contact phase (positive = no event yet).
 
@@ -163,7 +162,7 @@ def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     gv[4] = y + dy3
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _force_guards(P, k, sliding, sigma, T, th, w):
     """The two force guards (lift-off, slip) as functions of (theta, omega)."""
     mg = P[P_M] * P[P_G]
@@ -174,7 +173,7 @@ def _force_guards(P, k, sliding, sigma, T, th, w):
     return fy / mg, (P[P_MUS] * fy - abs(fx)) / mg
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
     """Time derivatives of the guards at u (du = f(u)): analytic for the heights, the
     stick and the band guards, central differences in (theta, omega) for the forces."""
@@ -200,7 +199,7 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
         gr[2 + c] = w * (dxk - dxc)       # vertical speed of that corner (vy = w dx_k)
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _hermite_dip(g0, g1, d0, d1):
     """Where the cubic Hermite interpolant of a guard over a step (values g0, g1 and
     slopes d0, d1 per unit step) is lowest inside (0, 1): returns (tau, value)."""
@@ -234,7 +233,7 @@ def _hermite_dip(g0, g1, d0, d1):
     return best_t, best_v
 
 
-@njit_declared(_I(_V, _V, _V, _F, _V), **INNER)
+@kernel(I64(VEC, VEC, VEC, F64, VEC), inner=True)
 def contact_phase(S, P, O, t_stop, W):
     """Advance a single-contact phase (B, C, D, E) to t_stop or its first event.
 
@@ -420,7 +419,7 @@ def contact_phase(S, P, O, t_stop, W):
     return kind
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, rtol, atol,
             gi, lev, fa, fb):
     """Smallest s in (0, h] where guard gi - lev changes sign: Illinois regula falsi on
@@ -454,6 +453,3 @@ def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, 
                 fb *= 0.5
             side = 1
     return b
-
-
-guard_jit_only(globals())

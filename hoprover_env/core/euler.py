@@ -1,26 +1,24 @@
 """The Euler integrator: the contest-style fixed-step baseline (docs/MODEL.md
 section 10), over the same forces, transitions and impact law."""
 
-from numba import njit
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel
 from ..params import P_M, P_I, P_G, P_MUD
-from ._jit import INNER, JIT, guard_jit_only
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
+from .layout import (H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
+                     MODE_E, MODE_F, MODE_G, O_EULER_DT, O_INTEGRATOR, PH_BROKEN, PH_NONE,
+                     PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_ERROR, S_MODE, S_SIGMA,
+                     S_STOPPED, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL)
+from .forces import (turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
                      slide_dynamics)
-from .judge import _judge_update
+from .judge import judge_update
 from .transitions import settle
-from .phase_end import _after_phase
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .phase_end import after_phase
 
 
 # ----------------------------------------------------------------------------------
 # Euler integrator: the contest-style fixed-step baseline (docs/MODEL.md section 10)
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
+@kernel(inner=True)
 def _euler_contact_step(S, P, dt):
     """Explicit Euler on (theta, omega, x, vx) of a single-contact state; y, vy (and
     x, vx for a pivot) from the constraint."""
@@ -50,7 +48,7 @@ def _euler_contact_step(S, P, dt):
     S[S_VY] = w * dx
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _euler_ground_check(S, P):
     """End-of-step geometry check of the Euler baseline (it locates no events).
 
@@ -69,7 +67,7 @@ def _euler_ground_check(S, P):
             S[S_Y] -= low
         else:
             k = contact_corner(mode)
-            _turn_flat_about(S, P, k)
+            turn_flat_about(S, P, k)
             if mode == MODE_B or mode == MODE_D:
                 _, dy = corner_offset(P, k, 0.0)
                 S[S_VX] = -S[S_W] * dy
@@ -86,7 +84,7 @@ def _euler_ground_check(S, P):
     return PH_NONE
 
 
-@njit(**JIT)
+@kernel
 def event_budget(O, duration):
     """Events one `advance` over `duration` may have: MAX_EVENTS for `event`. A corner
     pressed down bounces every other Euler step (it gains a dt of speed per step, an
@@ -96,8 +94,8 @@ def event_budget(O, duration):
     return MAX_EVENTS
 
 
-@njit(**INNER)
-def _advance_euler(S, P, O, t_stop, ev, n, W):
+@kernel(inner=True)
+def advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
     budget = event_budget(O, t_stop - S[S_T])
@@ -137,11 +135,8 @@ def _advance_euler(S, P, O, t_stop, ev, n, W):
                 if S[S_SIGMA] * (S[S_VX] + S[S_W] * dy) <= 0.0:
                     kind = PH_STICK
         if kind != PH_NONE:
-            n = _after_phase(S, P, O, ev, n, kind, W)
+            n = after_phase(S, P, O, ev, n, kind, W)
         else:
             n = settle(S, P, ev, n)
-            n = _judge_update(S, P, ev, n)
+            n = judge_update(S, P, ev, n)
     return n
-
-
-guard_jit_only(globals())

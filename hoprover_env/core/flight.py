@@ -4,22 +4,19 @@ flight phase by conservative advancement on the closed form."""
 import math
 
 import numpy as np
-from numba import njit, types as nt
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, F64, I64, BOOL, VEC, I64x2
 from ..params import P_I, P_R, P_H, P_G
-from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _I2, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .layout import (A_TOL, CA_TOL, ERR_STEP, ERR_WORK, FLIGHT_WINDOW_MAX, H_IMPACT, H_TOL,
+                     MAX_CA_ITER, MAX_WORK, PH_BROKEN, PH_NONE, PH_TOUCH, S_ERROR, S_T,
+                     S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL, W_FLT, W_WORK)
 from .forces import corner_body, corner_offset, corner_offset_cs
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------
 # Flight (state A) in closed form
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
+@kernel(inner=True)
 def flight_at(S, P, tau):
     """State after a flight of duration tau under the held torque."""
     g = P[P_G]
@@ -30,7 +27,7 @@ def flight_at(S, P, tau):
     return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
 
 
-@njit_declared(_F(_V, _V, _I, _F), **INNER)
+@kernel(F64(VEC, VEC, I64, F64), inner=True)
 def flight_rise(S, P, k, tau):
     """Height gained by corner k after a flight of duration tau, h_k(tau) - h_k(0),
     computed as a difference (sin a - sin b = 2 cos((a+b)/2) sin((a-b)/2)): a corner
@@ -45,7 +42,7 @@ def flight_rise(S, P, k, tau):
     return S[S_VY] * tau - 0.5 * P[P_G] * tau * tau - bx * d_sin + by * d_cos
 
 
-@njit_declared(_F(_V, _V, _I, _F, _F, _F), **INNER)
+@kernel(F64(VEC, VEC, I64, F64, F64, F64), inner=True)
 def _bisect_touchdown(S, P, k, lo, hi, drop):
     """The time in [lo, hi] at which corner k has risen by `drop` (< 0: it is back at
     the level where it should touch), given rise(lo) >= drop > rise(hi). Bisection on
@@ -61,8 +58,8 @@ def _bisect_touchdown(S, P, k, lo, hi, drop):
     return hi
 
 
-@njit_declared(nt.boolean(_V, _V, _I), **INNER)
-def _resting_corner_driven_down(S, P, k):
+@kernel(BOOL(VEC, VEC, I64), inner=True)
+def resting_corner_driven_down(S, P, k):
     """A corner on the ground at rest vertically, in flight: is it pressed down?
 
     Decided by the flight dynamics (docs/MODEL.md section 5): the sign of the corner's
@@ -85,7 +82,7 @@ def _resting_corner_driven_down(S, P, k):
 # Event integrator: flight by conservative advancement on closed forms
 # ----------------------------------------------------------------------------------
 
-@njit(**INNER)
+@kernel(inner=True)
 def _commit_flight(S, P, tau):
     x, y, th, vx, vy, w = flight_at(S, P, tau)
     S[S_X] = x
@@ -97,7 +94,7 @@ def _commit_flight(S, P, tau):
     S[S_T] += tau
 
 
-@njit_declared(_F(_V, _V, _I, _F, _F, _F, _F, _F, _F), **INNER)
+@kernel(F64(VEC, VEC, I64, F64, F64, F64, F64, F64, F64), inner=True)
 def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
     """Place a detected touchdown of corner k (at tau, height f above its trigger level,
     descending at v) on the closed form's root, safeguarded against small v."""
@@ -127,7 +124,7 @@ def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
     return tau      # it curves away within CA_TOL of the ground: touching at tau
 
 
-@njit_declared(_I2(_V, _V, _F, _V), **INNER)
+@kernel(I64x2(VEC, VEC, F64, VEC), inner=True)
 def flight_phase(S, P, t_stop, W):
     """Advance a flight under constant torque to t_stop or the first touchdown.
 
@@ -243,6 +240,3 @@ def flight_phase(S, P, t_stop, W):
     if min(h0, h1) > H_IMPACT:
         return PH_NONE, -1
     return PH_TOUCH, 0 if h0 <= h1 else 1
-
-
-guard_jit_only(globals())

@@ -4,21 +4,18 @@ body on one or two corners."""
 
 import math
 
-from numba import njit, types as nt
+from numba import types as nt
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, F64, I64, VEC, F64x2, F64x5
 from ..params import P_M, P_I, P_R, P_H, P_G, P_MUD, P_VXMIN
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _F2, _F5, _I, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_F, MODE_G, S_MODE, S_SIGMA, S_TH,
+                     S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, TWO_PI)
 
 
 # ----------------------------------------------------------------------------------
 # Geometry
 # ----------------------------------------------------------------------------------
-@njit_declared(_F2(_V, _I), **JIT)
+@kernel(F64x2(VEC, I64))
 def corner_body(P, k):
     """Body coordinates (bx, by) of corner k: 0 A, 1 B (bottom), 2 TR, 3 TL (top)."""
     bx = P[P_R] if (k == 0 or k == 2) else -P[P_R]
@@ -26,32 +23,32 @@ def corner_body(P, k):
     return bx, by
 
 
-@njit_declared(_F2(_V, _I, _F, _F), **INNER)
+@kernel(F64x2(VEC, I64, F64, F64), inner=True)
 def corner_offset_cs(P, k, c, s):
     """corner_offset with cos(th), sin(th) given: hot paths compute them once."""
     bx, by = corner_body(P, k)
     return bx * c + by * s, -bx * s + by * c
 
 
-@njit_declared(_F2(_V, _I, _F), **JIT)
+@kernel(F64x2(VEC, I64, F64))
 def corner_offset(P, k, th):
     """World offset (dx, dy) of corner k from the c.m. at attitude th."""
     return corner_offset_cs(P, k, math.cos(th), math.sin(th))
 
 
-@njit(**JIT)
+@kernel
 def wrap_angle(th):
     """Attitude in (-pi, pi]."""
     w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)   # exact for th in range
     return math.pi if w == -math.pi else w
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def kinetic_energy(S, P):
     return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2
 
 
-@njit_declared(_I(_I), **INNER)
+@kernel(I64(I64), inner=True)
 def contact_corner(mode):
     """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
     return 0 if (mode == MODE_B or mode == MODE_C) else 1
@@ -60,7 +57,7 @@ def contact_corner(mode):
 # ----------------------------------------------------------------------------------
 # Forces (docs/MODEL.md section 4), written once for a generic contact corner.
 # ----------------------------------------------------------------------------------
-@njit_declared(_F5(_V, _I, _F, _F, _F), **INNER)
+@kernel(F64x5(VEC, I64, F64, F64, F64), inner=True)
 def pivot_dynamics(P, k, T, th, w):
     """Pivot on corner k (state B for A, D for B).
 
@@ -77,7 +74,7 @@ def pivot_dynamics(P, k, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit_declared(_F5(_V, _I, _F, _F, _F, _F), **INNER)
+@kernel(F64x5(VEC, I64, F64, F64, F64, F64), inner=True)
 def slide_dynamics(P, k, sigma, T, th, w):
     """Slide on corner k in direction sigma (state C for A, E for B).
 
@@ -96,7 +93,7 @@ def slide_dynamics(P, k, sigma, T, th, w):
     return thdd, fx, fy, dx, dy
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def double_contact_forces(P, sigma, T):
     """States F (sigma = 0) and G: both corners on the ground, theta = 0, omega = 0.
 
@@ -111,7 +108,7 @@ def double_contact_forces(P, sigma, T):
     return -sigma * P[P_MUD] * fay, fay, -sigma * P[P_MUD] * fby, fby
 
 
-@njit(**JIT)
+@kernel
 def contact_forces(S, P):
     """Contact forces (fAx, fAy, fBx, fBy) of the current state and torque."""
     mode = int(S[S_MODE])
@@ -132,8 +129,8 @@ def contact_forces(S, P):
     return 0.0, 0.0, fx, fy
 
 
-@njit_declared(nt.void(_V, _V, _I), **INNER)
-def _set_single_contact(S, P, k):
+@kernel(nt.void(VEC, VEC, I64), inner=True)
+def set_single_contact(S, P, k):
     """Make the c.m. state satisfy corner k's constraint exactly: y_k = 0, vy_k = 0.
 
     The height is snapped (a round-off-sized move); the vertical point velocity is
@@ -150,8 +147,8 @@ def _set_single_contact(S, P, k):
         S[S_W] += -dx * lam * inv_i
 
 
-@njit_declared(nt.void(_V, _V, _I), **INNER)
-def _pin_corner(S, P, k):
+@kernel(nt.void(VEC, VEC, I64), inner=True)
+def pin_corner(S, P, k):
     """Bring corner k's whole velocity to zero by one impulse there (a projection)."""
     m = P[P_M]
     inv_i = 1.0 / P[P_I]
@@ -171,8 +168,8 @@ def _pin_corner(S, P, k):
     S[S_Y] = -dy
 
 
-@njit_declared(nt.void(_V, _V, _I), **INNER)
-def _turn_flat_about(S, P, k):
+@kernel(nt.void(VEC, VEC, I64), inner=True)
+def turn_flat_about(S, P, k):
     """Turn the body about contact corner k to theta = 0, where the other bottom corner
     touches too: the projection used when that corner ended (round-off or a finite step)
     under the ground. Keeps corner k's position and its contact constraint."""
@@ -185,8 +182,8 @@ def _turn_flat_about(S, P, k):
     S[S_VY] = S[S_W] * dx
 
 
-@njit(**INNER)
-def _set_double_contact(S, P):
+@kernel(inner=True)
+def set_double_contact(S, P):
     """Both corners on the ground: theta = 0, omega = 0, vy = 0, y = h; F or G.
 
     Decision: the horizontal velocity kept is the c.m.'s. The residual vertical and
@@ -205,6 +202,3 @@ def _set_double_contact(S, P):
     else:
         S[S_MODE] = MODE_G
         S[S_SIGMA] = 1.0 if S[S_VX] > 0.0 else -1.0
-
-
-guard_jit_only(globals())

@@ -1,24 +1,21 @@
 """Impacts (docs/MODEL.md section 6): the contest law, the frictionless fallback and
 the post-impact classification."""
 
-from numba import njit
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, I64, VEC, MAT
 from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _I, _M, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, _turn_flat_about,
+from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, MODE_B, MODE_C, MODE_D,
+                     MODE_E, O_LAW, S_MAXGAIN, S_MODE, S_NGAIN, S_NIMPACT, S_SIGMA, S_T,
+                     S_TH, S_VX, S_VY, S_W, S_Y, V_TOL, W_IMP)
+from .forces import (pin_corner, set_double_contact, set_single_contact, turn_flat_about,
                      corner_offset, kinetic_energy, wrap_angle)
-from .judge import _log
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .judge import log_event
 
 
 # ----------------------------------------------------------------------------------
 # Impacts (docs/MODEL.md section 6)
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
+@kernel(inner=True)
 def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     """Solve a symmetric 3x3 system by Cramer's rule (well conditioned here)."""
     c00 = a11 * a22 - a12 * a12
@@ -33,7 +30,7 @@ def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
             (c02 * b0 + c12 * b1 + c22 * b2) / det)
 
 
-@njit(**JIT)
+@kernel
 def contest_impulses(P, dxs, dys, part, dv, lx, ly):
     """The contest law's impulses: K Lambda = dv over the taking-part corners.
 
@@ -79,7 +76,7 @@ def contest_impulses(P, dxs, dys, part, dv, lx, ly):
             ly[k] = (dv[2 * k + 1] * k11 - dv[2 * k] * k12) / det
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def frictionless_impulses(P, dxs, on, vpy, target, ly):
     """Vertical impulses only, as a complementarity problem over the grounded corners.
 
@@ -122,7 +119,7 @@ def frictionless_impulses(P, dxs, on, vpy, target, ly):
             ly[k] = max(0.0, (target[k] - vpy[k]) / kk)
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _apply_impulses(S, P, dxs, dys, lx, ly):
     m = P[P_M]
     inv_i = 1.0 / P[P_I]
@@ -131,7 +128,7 @@ def _apply_impulses(S, P, dxs, dys, lx, ly):
     S[S_W] += (dys[0] * lx[0] - dxs[0] * ly[0] + dys[1] * lx[1] - dxs[1] * ly[1]) * inv_i
 
 
-@njit(**JIT)
+@kernel
 def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
 
@@ -212,18 +209,18 @@ def resolve_impact(S, P, law, W):
     c0 = on[0] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
     c1 = on[1] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]
     if c0 and c1:
-        _set_double_contact(S, P)
+        set_double_contact(S, P)
     elif c0 or c1:
         k = 0 if c0 else 1
-        _set_single_contact(S, P, k)
+        set_single_contact(S, P, k)
         # the other corner, if it was within H_IMPACT, may now be a hair under the ground
         _, dyo = corner_offset(P, 1 - k, S[S_TH])
         if S[S_Y] + dyo < 0.0:
-            _turn_flat_about(S, P, k)
+            turn_flat_about(S, P, k)
         _, dyk = corner_offset(P, k, S[S_TH])
         vpk = S[S_VX] + S[S_W] * dyk
         if abs(vpk) < P[P_VXMIN]:
-            _pin_corner(S, P, k)
+            pin_corner(S, P, k)
             S[S_MODE] = MODE_B if k == 0 else MODE_D
             S[S_SIGMA] = 0.0
         else:
@@ -246,15 +243,12 @@ def resolve_impact(S, P, law, W):
     return ratio
 
 
-@njit_declared(_I(_V, _V, _V, _M, _I, _V), **INNER)
-def _impact_event(S, P, O, ev, n, W):
+@kernel(I64(VEC, VEC, VEC, MAT, I64, VEC), inner=True)
+def impact_event(S, P, O, ev, n, W):
     # a touchdown is only ever reported with a bottom corner on the ground
     if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) \
             + S[S_Y] > H_IMPACT:
         return n
     before = S[S_MODE]
     ratio = resolve_impact(S, P, int(O[O_LAW]), W)
-    return _log(S, ev, n, S[S_T], EV_IMPACT, before, S[S_MODE], ratio)
-
-
-guard_jit_only(globals())
+    return log_event(S, ev, n, S[S_T], EV_IMPACT, before, S[S_MODE], ratio)

@@ -4,28 +4,26 @@
 import math
 
 import numpy as np
-from numba import njit
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, F64, I64, VEC
 from ..params import P_TMIN, P_TMAX, P_DWELL
-from ._jit import (INNER, INNER_INLINE, JIT, JIT_INLINE, guard_jit_only, njit_declared, _F, _I,
-                   _V)
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, corner_offset,
+from .layout import (ERR_BUDGET, ERR_STEP, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
+                     MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, N_STATE,
+                     N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN, S_ERROR, S_INBAND,
+                     S_MIN_HEIGHT, S_MODE, S_SIGMA, S_STOPPED, S_STOP_ON, S_T, S_TH,
+                     S_TIN, S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
+from .forces import (pin_corner, set_double_contact, set_single_contact, corner_offset,
                      wrap_angle)
 from .flight import flight_phase
-from .judge import _judge_check, _judge_update, in_band
+from .judge import judge_check, judge_update, in_band
 from .transitions import settle
 from .contact_phases import contact_phase, g_phase
-from .euler import _advance_euler
-from .phase_end import _after_phase, _track_min_height
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .euler import advance_euler
+from .phase_end import after_phase, track_min_height
 
 
-@njit(**INNER_INLINE)
-def _advance_event(S, P, O, t_stop, ev, n, W):
+@kernel(inner=True, inline=True)
+def advance_event_loop(S, P, O, t_stop, ev, n, W):
     n_start = n
     phases = 0
     while S[S_T] < t_stop and S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
@@ -49,7 +47,7 @@ def _advance_event(S, P, O, t_stop, ev, n, W):
         if mode == MODE_F:
             S[S_T] = t_lim                  # at rest: nothing to integrate
             if t_lim < t_stop:
-                n = _judge_check(S, P, ev, n)
+                n = judge_check(S, P, ev, n)
                 continue
             break
         if mode == MODE_A:
@@ -58,16 +56,16 @@ def _advance_event(S, P, O, t_stop, ev, n, W):
             kind = g_phase(S, P, t_lim)
         else:
             kind = contact_phase(S, P, O, t_lim, W)
-        n = _after_phase(S, P, O, ev, n, kind, W)
+        n = after_phase(S, P, O, ev, n, kind, W)
         if kind == PH_NONE and t_lim < t_stop:
-            n = _judge_check(S, P, ev, n)   # the phase ended at the judge's deadline
+            n = judge_check(S, P, ev, n)   # the phase ended at the judge's deadline
     return n
 
 
 # ----------------------------------------------------------------------------------
 # Entry points
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
+@kernel(inner=True)
 def _advance_begin(S, P, torque_cmd, t_stop, ev, W):
     """What both integrators do first: refuse a non-finite torque, apply the clipped
     torque and resolve the transitions it causes at once. Returns (integrate?, events)."""
@@ -80,18 +78,18 @@ def _advance_begin(S, P, torque_cmd, t_stop, ev, W):
     S[S_STOPPED] = 0.0
     W[W_WORK] = 0.0
     n = settle(S, P, ev, 0)
-    n = _judge_update(S, P, ev, n)
+    n = judge_update(S, P, ev, n)
     return S[S_STOPPED] == 0.0, n
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _advance_end(S, P, ev, n):
     if n > 0:
-        _track_min_height(S, P)         # between events no corner can sink
-    return _judge_check(S, P, ev, n)
+        track_min_height(S, P)         # between events no corner can sink
+    return judge_check(S, P, ev, n)
 
 
-@njit(**JIT_INLINE)
+@kernel(inline=True)
 def advance(S, P, O, torque_cmd, t_stop, ev, W):
     """Hold `torque_cmd` (clipped to [T_min, T_max]) from S[S_T] to t_stop.
 
@@ -107,13 +105,13 @@ def advance(S, P, O, torque_cmd, t_stop, ev, W):
     if not go:
         return n
     if int(O[O_INTEGRATOR]) == INTEGRATOR_EULER:
-        n = _advance_euler(S, P, O, t_stop, ev, n, W)
+        n = advance_euler(S, P, O, t_stop, ev, n, W)
     else:
-        n = _advance_event(S, P, O, t_stop, ev, n, W)
+        n = advance_event_loop(S, P, O, t_stop, ev, n, W)
     return _advance_end(S, P, ev, n)
 
 
-@njit(**JIT_INLINE)
+@kernel(inline=True)
 def advance_event(S, P, O, torque_cmd, t_stop, ev, W):
     """`advance` with the event integrator, whatever O[O_INTEGRATOR] says.
 
@@ -125,14 +123,14 @@ def advance_event(S, P, O, torque_cmd, t_stop, ev, W):
     go, n = _advance_begin(S, P, torque_cmd, t_stop, ev, W)
     if not go:
         return n
-    return _advance_end(S, P, ev, _advance_event(S, P, O, t_stop, ev, n, W))
+    return _advance_end(S, P, ev, advance_event_loop(S, P, O, t_stop, ev, n, W))
 
 
 INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT = range(5)
 INIT_GROUND_TOL = 1e-9   # m: how far a given initial corner may be from the ground
 
 
-@njit_declared(_I(_V, _V, _F, _F, _F, _F, _F, _F, _F), **JIT)
+@kernel(I64(VEC, VEC, F64, F64, F64, F64, F64, F64, F64))
 def init_state(S, P, x, y, th, vx, vy, w, xt):
     """Fill S from a c.m. state and classify its contact state from the kinematics.
 
@@ -152,7 +150,6 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     S[S_TTRTP] = np.nan
     S[S_STOP_ON] = -1.0
     S[S_MIN_HEIGHT] = np.inf
-    S[S_PHI] = np.nan
     S[S_MODE] = MODE_A
     on0 = False
     on1 = False
@@ -177,14 +174,14 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     if on0 and on1:
         if abs(S[S_TH]) > 1e-6 or abs(w) > 1e-6:
             return INIT_NOT_FLAT
-        _set_double_contact(S, P)
+        set_double_contact(S, P)
     elif on0 or on1:
         k = 0 if on0 else 1
-        _set_single_contact(S, P, k)
+        set_single_contact(S, P, k)
         _, dy = corner_offset(P, k, S[S_TH])
         vpx = S[S_VX] + S[S_W] * dy
         if abs(vpx) <= INIT_GROUND_TOL:
-            _pin_corner(S, P, k)
+            pin_corner(S, P, k)
             S[S_MODE] = MODE_B if k == 0 else MODE_D
         else:
             S[S_MODE] = MODE_C if k == 0 else MODE_E
@@ -192,6 +189,3 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     S[S_INBAND] = 1.0 if in_band(S, P) else 0.0
     S[S_TIN] = 0.0
     return INIT_OK
-
-
-guard_jit_only(globals())

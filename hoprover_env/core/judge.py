@@ -2,23 +2,20 @@
 
 import math
 
-from numba import njit, types as nt
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, F64, I64, BOOL, VEC, MAT
 from ..params import P_R, P_BAND, P_DWELL
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .layout import (EV_BAND_IN, EV_BAND_OUT, EV_TTRTP, MODE_A, MODE_F, MODE_G, S_INBAND,
+                     S_MODE, S_NEVENTS, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN, S_TTRTP,
+                     S_X, S_XT)
 from .forces import contact_corner, corner_offset
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
 
 
 # ----------------------------------------------------------------------------------
 # Event log and judge (docs/MODEL.md section 8)
 # ----------------------------------------------------------------------------------
-@njit_declared(_I(_V, _M, _I, _F, _F, _F, _F, _F), **JIT)
-def _log(S, ev, n, t, kind, before, after, value):
+@kernel(I64(VEC, MAT, I64, F64, F64, F64, F64, F64))
+def log_event(S, ev, n, t, kind, before, after, value):
     S[S_NEVENTS] += 1.0
     if kind == S[S_STOP_ON]:
         S[S_STOPPED] = 1.0
@@ -31,7 +28,7 @@ def _log(S, ev, n, t, kind, before, after, value):
     return n + 1
 
 
-@njit(**JIT)
+@kernel
 def in_band(S, P):
     """Is a contact point within the band? (A, B in F/G; none in flight)."""
     mode = int(S[S_MODE])
@@ -49,36 +46,33 @@ def in_band(S, P):
     return abs(S[S_X] + dx - xt) <= w + tol
 
 
-@njit_declared(_I(_V, _V, _M, _I), **INNER)
-def _judge_check(S, P, ev, n):
+@kernel(I64(VEC, VEC, MAT, I64), inner=True)
+def judge_check(S, P, ev, n):
     """Record TTRTP once the current stay in the band has lasted the dwell time."""
     if S[S_INBAND] == 1.0 and math.isnan(S[S_TTRTP]):
         t_star = S[S_TIN] + P[P_DWELL]
         if S[S_T] >= t_star:
             S[S_TTRTP] = t_star
             m = S[S_MODE]
-            n = _log(S, ev, n, t_star, EV_TTRTP, m, m, 0.0)
+            n = log_event(S, ev, n, t_star, EV_TTRTP, m, m, 0.0)
     return n
 
 
-@njit_declared(_I(_V, _V, _M, _I, nt.boolean), **INNER)
-def _judge_set(S, P, ev, n, status):
+@kernel(I64(VEC, VEC, MAT, I64, BOOL), inner=True)
+def judge_set(S, P, ev, n, status):
     """The band status becomes `status` at the current time."""
     if status and S[S_INBAND] == 0.0:
         S[S_INBAND] = 1.0
         S[S_TIN] = S[S_T]
-        n = _log(S, ev, n, S[S_T], EV_BAND_IN, S[S_MODE], S[S_MODE], 0.0)
+        n = log_event(S, ev, n, S[S_T], EV_BAND_IN, S[S_MODE], S[S_MODE], 0.0)
     elif (not status) and S[S_INBAND] == 1.0:
-        n = _judge_check(S, P, ev, n)
+        n = judge_check(S, P, ev, n)
         S[S_INBAND] = 0.0
-        n = _log(S, ev, n, S[S_T], EV_BAND_OUT, S[S_MODE], S[S_MODE], 0.0)
+        n = log_event(S, ev, n, S[S_T], EV_BAND_OUT, S[S_MODE], S[S_MODE], 0.0)
     return n
 
 
-@njit_declared(_I(_V, _V, _M, _I), **INNER)
-def _judge_update(S, P, ev, n):
-    n = _judge_set(S, P, ev, n, in_band(S, P))
-    return _judge_check(S, P, ev, n)
-
-
-guard_jit_only(globals())
+@kernel(I64(VEC, VEC, MAT, I64), inner=True)
+def judge_update(S, P, ev, n):
+    n = judge_set(S, P, ev, n, in_band(S, P))
+    return judge_check(S, P, ev, n)

@@ -26,8 +26,7 @@ S_ERROR = 20     # 0 = fine; 1 = event budget of one advance exhausted; 2 = bad 
 S_STOP_ON = 21   # event kind that ends `advance` early (-1: none), for look-ahead tools
 S_STOPPED = 22   # set when that event happened in the last `advance`
 S_MIN_HEIGHT = 23  # diagnostics: lowest bottom-corner height seen after any event
-S_PHI = 24       # the RL reward's potential at the current state (NaN: not computed)
-N_STATE = 25
+N_STATE = 24
 
 MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G = 0, 1, 2, 3, 4, 5, 6
 MODE_LETTERS = "ABCDEFG"

@@ -3,26 +3,24 @@ ended on is applied and logged, and the judge and diagnostics are updated."""
 
 import math
 
-from numba import njit
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, I64, VEC, MAT
 from ..params import P_R, P_BAND
-from ._jit import INNER, guard_jit_only, njit_declared, _I, _M, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
+from .layout import (EV_BROKEN, EV_LIFTOFF, EV_SLIP, EV_STOP, MODE_A, MODE_C, MODE_E,
+                     MODE_F, MODE_G, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
+                     PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_MIN_HEIGHT, S_MODE, S_SIGMA,
+                     S_T, S_TH, S_TORQUE, S_VX, S_W, S_X, S_XT, S_Y)
 from .forces import contact_corner, corner_offset, corner_offset_cs, pivot_dynamics
-from .judge import _judge_set, _judge_update, _log
+from .judge import judge_set, judge_update, log_event
 from .transitions import settle
-from .impacts import _impact_event
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .impacts import impact_event
 
 
 # ----------------------------------------------------------------------------------
 # Event integrator: the loop over phases
 # ----------------------------------------------------------------------------------
-@njit(**INNER)
-def _track_min_height(S, P):
+@kernel(inner=True)
+def track_min_height(S, P):
     c = math.cos(S[S_TH])
     sn = math.sin(S[S_TH])
     _, dy0 = corner_offset_cs(P, 0, c, sn)
@@ -32,7 +30,7 @@ def _track_min_height(S, P):
         S[S_MIN_HEIGHT] = low
 
 
-@njit(**INNER)
+@kernel(inner=True)
 def _band_status_ahead(S, P, sigma):
     """Band membership just past the current position in direction sigma: decides a
     crossing unambiguously even where two corners' intervals meet (r = w)."""
@@ -48,33 +46,33 @@ def _band_status_ahead(S, P, sigma):
     return abs(S[S_X] + dx + probe - xt) <= w
 
 
-@njit_declared(_I(_V, _V, _V, _M, _I, _I, _V), **INNER)
-def _after_phase(S, P, O, ev, n, kind, W):
+@kernel(I64(VEC, VEC, VEC, MAT, I64, I64, VEC), inner=True)
+def after_phase(S, P, O, ev, n, kind, W):
     """Carry out the transition that ended a phase, then settle and update the judge."""
     mode = int(S[S_MODE])
     t = S[S_T]
     if kind == PH_NONE:
         return n
-    _track_min_height(S, P)
+    track_min_height(S, P)
     if kind == PH_BROKEN:
         S[S_BROKEN] = 1.0
-        n = _judge_set(S, P, ev, n, False)
-        return _log(S, ev, n, t, EV_BROKEN, mode, mode, 0.0)
+        n = judge_set(S, P, ev, n, False)
+        return log_event(S, ev, n, t, EV_BROKEN, mode, mode, 0.0)
     if kind == PH_BAND:
-        return _judge_set(S, P, ev, n, _band_status_ahead(S, P, S[S_SIGMA]))
+        return judge_set(S, P, ev, n, _band_status_ahead(S, P, S[S_SIGMA]))
     if kind == PH_TOUCH:
-        n = _impact_event(S, P, O, ev, n, W)
+        n = impact_event(S, P, O, ev, n, W)
     elif kind == PH_LIFTOFF:
         S[S_MODE] = MODE_A
         S[S_SIGMA] = 0.0
-        n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+        n = log_event(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
     elif kind == PH_SLIP:
         k = contact_corner(mode)
         _, fx, _, _, _ = pivot_dynamics(P, k, S[S_TORQUE], S[S_TH], S[S_W])
         new = MODE_C if k == 0 else MODE_E
         S[S_MODE] = new
         S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
-        n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+        n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
     elif kind == PH_STICK:
         # the sliding velocity reached zero: settle decides stick or reversal
         _, dy = corner_offset(P, contact_corner(mode), S[S_TH])
@@ -82,10 +80,7 @@ def _after_phase(S, P, O, ev, n, kind, W):
     elif kind == PH_STOP:
         S[S_MODE] = MODE_F
         S[S_SIGMA] = 0.0
-        n = _log(S, ev, n, t, EV_STOP, mode, MODE_F, 0.0)
+        n = log_event(S, ev, n, t, EV_STOP, mode, MODE_F, 0.0)
     n = settle(S, P, ev, n)
-    _track_min_height(S, P)
-    return _judge_update(S, P, ev, n)
-
-
-guard_jit_only(globals())
+    track_min_height(S, P)
+    return judge_update(S, P, ev, n)

@@ -2,24 +2,22 @@
 
 import math
 
-from .._jitcache import drop_stale_cache
+from .._compile import kernel, F64, I64, VEC, MAT
 from ..params import P_M, P_G, P_MUS
-from ._jit import INNER, JIT, guard_jit_only, njit_declared, _F, _I, _M, _V
-from .layout import *  # noqa: F403 (the array layouts and tolerances)
-from .forces import (_pin_corner, _set_double_contact, _set_single_contact, contact_corner,
+from .layout import (A_TOL, EV_LIFTOFF, EV_RESUME, EV_REVERSE, EV_SLIP, EV_STICK, EV_TIP,
+                     F_TOL, H_TOL, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
+                     S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_Y, V_TOL)
+from .forces import (pin_corner, set_double_contact, set_single_contact, contact_corner,
                      corner_offset, corner_offset_cs, double_contact_forces, pivot_dynamics,
                      slide_dynamics, wrap_angle)
-from .flight import _resting_corner_driven_down
-from .judge import _log
-
-# cached callers embed the code of callees in other files: drop them when any changed
-drop_stale_cache(__file__)
+from .flight import resting_corner_driven_down
+from .judge import log_event
 
 
 # ----------------------------------------------------------------------------------
 # Instantaneous transitions (docs/MODEL.md section 5)
 # ----------------------------------------------------------------------------------
-@njit_declared(_F(_V, _V, _I, _F), **INNER)
+@kernel(F64(VEC, VEC, I64, F64), inner=True)
 def _consistent_slide_direction(S, P, k, T):
     """A slide direction sigma of corner k, at rest horizontally, that is consistent:
     compressive normal force and the point accelerating along sigma (0 if none)."""
@@ -34,7 +32,7 @@ def _consistent_slide_direction(S, P, k, T):
     return 0.0
 
 
-@njit_declared(_I(_V, _V, _M, _I), **JIT)
+@kernel(I64(VEC, VEC, MAT, I64))
 def settle(S, P, ev, n):
     """Resolve every transition due at the current instant, in a bounded loop.
 
@@ -64,7 +62,7 @@ def settle(S, P, ev, n):
                 else:
                     new = MODE_C if k == 0 else MODE_E
                 S[S_MODE] = new
-                n = _log(S, ev, n, t, EV_TIP, mode, new, 0.0)
+                n = log_event(S, ev, n, t, EV_TIP, mode, new, 0.0)
                 continue
             return n
         if mode == MODE_B or mode == MODE_D:
@@ -76,23 +74,23 @@ def settle(S, P, ev, n):
                 # friction couples into the vertical through the rotation), neither
                 # stick nor separation is consistent and the corner slides.
                 sigma = 0.0
-                if _resting_corner_driven_down(S, P, k):
+                if resting_corner_driven_down(S, P, k):
                     sigma = _consistent_slide_direction(S, P, k, T)
                 if sigma == 0.0:
                     S[S_MODE] = MODE_A
                     S[S_SIGMA] = 0.0
-                    n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                    n = log_event(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
                 else:
                     new = MODE_C if k == 0 else MODE_E
                     S[S_MODE] = new
                     S[S_SIGMA] = sigma
-                    n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+                    n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
                 continue
             if abs(fx) > P[P_MUS] * fy + ftol:
                 new = MODE_C if k == 0 else MODE_E
                 S[S_MODE] = new
                 S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
-                n = _log(S, ev, n, t, EV_SLIP, mode, new, 0.0)
+                n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
                 continue
             return n
         if mode == MODE_C or mode == MODE_E:
@@ -102,7 +100,7 @@ def settle(S, P, ev, n):
             if fy < -ftol:
                 S[S_MODE] = MODE_A
                 S[S_SIGMA] = 0.0
-                n = _log(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
+                n = log_event(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
                 continue
             w = S[S_W]
             vpx = S[S_VX] + w * dy
@@ -118,15 +116,15 @@ def settle(S, P, ev, n):
             _, fxp, fyp, _, _ = pivot_dynamics(P, k, T, S[S_TH], w)
             if abs(fxp) <= P[P_MUS] * fyp + ftol and fyp >= -ftol:
                 new = MODE_B if k == 0 else MODE_D
-                _pin_corner(S, P, k)
+                pin_corner(S, P, k)
                 S[S_MODE] = new
                 S[S_SIGMA] = 0.0
-                n = _log(S, ev, n, t, EV_STICK, mode, new, 0.0)
+                n = log_event(S, ev, n, t, EV_STICK, mode, new, 0.0)
                 continue
             new_sigma = -1.0 if fxp > 0.0 else 1.0
             if new_sigma != sigma:
                 S[S_SIGMA] = new_sigma
-                n = _log(S, ev, n, t, EV_REVERSE, mode, mode, 0.0)
+                n = log_event(S, ev, n, t, EV_REVERSE, mode, mode, 0.0)
                 continue
             return n
         # Flight: a bottom corner lying on the ground at rest vertically that the flight
@@ -138,34 +136,31 @@ def settle(S, P, ev, n):
         for k in range(2):
             dx, dy = corner_offset_cs(P, k, c, sn)
             if abs(S[S_Y] + dy) <= H_TOL and abs(S[S_VY] - S[S_W] * dx) <= V_TOL:
-                if _resting_corner_driven_down(S, P, k):
+                if resting_corner_driven_down(S, P, k):
                     if k == 0:
                         down0 = True
                     else:
                         down1 = True
         if down0 and down1:
             S[S_TH] = wrap_angle(S[S_TH])
-            _set_double_contact(S, P)
-            n = _log(S, ev, n, t, EV_RESUME, MODE_A, S[S_MODE], 0.0)
+            set_double_contact(S, P)
+            n = log_event(S, ev, n, t, EV_RESUME, MODE_A, S[S_MODE], 0.0)
             continue
         if down0 or down1:
             k = 0 if down0 else 1
             S[S_TH] = wrap_angle(S[S_TH])
-            _set_single_contact(S, P, k)
+            set_single_contact(S, P, k)
             dx, dy = corner_offset(P, k, S[S_TH])
             vpx = S[S_VX] + S[S_W] * dy
             if abs(vpx) <= V_TOL:
-                _pin_corner(S, P, k)
+                pin_corner(S, P, k)
                 new = MODE_B if k == 0 else MODE_D
                 S[S_SIGMA] = 0.0
             else:
                 new = MODE_C if k == 0 else MODE_E
                 S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
             S[S_MODE] = new
-            n = _log(S, ev, n, t, EV_RESUME, MODE_A, new, 0.0)
+            n = log_event(S, ev, n, t, EV_RESUME, MODE_A, new, 0.0)
             continue
         return n
     return n
-
-
-guard_jit_only(globals())

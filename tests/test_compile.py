@@ -1,5 +1,6 @@
-"""Compilation: one progress line on a cold numba cache, none on a warm one; what a cold
-first step compiles, in one process or with the parallel-compile helper."""
+"""Compilation (hoprover_env/_compile.py): one progress line on a cold numba cache, none
+on a warm one; what a cold first step compiles, in one process or with the
+parallel-compile helper; the fallback to plain numba when its internals are missing."""
 import json
 import os
 import subprocess
@@ -7,7 +8,7 @@ import sys
 
 import pytest
 
-from hoprover_env._progress import MESSAGE
+from hoprover_env._compile import MESSAGE
 
 
 def test_one_progress_line_when_compiling_none_when_cached(tmp_path):
@@ -64,20 +65,20 @@ def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
 def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     seen = compiled_by_first_step(tmp_path)
     ours = [name for name, _ in seen if name.startswith("hoprover_env.")]
-    assert "hoprover_env.rl_kernel.env_step" in ours and len(ours) > 40
+    assert "hoprover_env.tasks.torque.torque_step_event" in ours and len(ours) > 40
     assert not [n for n in ours if "euler" in n.lower()]
     # each function once: a second specialisation (say for a literal int argument) would
     # compile the function again and relink everything above it
     assert len(ours) == len(set(ours)), sorted(n for n in ours if ours.count(n) > 1)
     # the Euler env compiles its integrator on first use, from the same (warm) cache
     seen = compiled_by_first_step(tmp_path, integrator="euler")
-    assert "hoprover_env.core.euler._advance_euler" in [name for name, _ in seen]
+    assert "hoprover_env.core.euler.advance_euler" in [name for name, _ in seen]
 
 
 def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path):
     # on a cold cache a helper process compiles the contact phases into the cache while
     # this process compiles the rest; the env step then loads them from the cache
-    from hoprover_env import _parallel_compile as pc
+    from hoprover_env import _compile as pc
     if pc._cores() < 2:
         pytest.skip("the helper only starts with two or more cores")
     serial = first_steps(tmp_path / "serial")
@@ -88,10 +89,10 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
                    "hoprover_env.core.contact_phases.g_phase",
                    "hoprover_env.core.contact_phases._dop853_step",
                    "hoprover_env.core.contact_phases._locate",
-                   "hoprover_env.rl_kernel.finish_step", "hoprover_env.rl_kernel.observe"}
+                   "hoprover_env.tasks.common.finish", "hoprover_env.tasks.observation.observe"}
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
-    assert "hoprover_env.rl_kernel.env_step" in main
+    assert "hoprover_env.tasks.torque.torque_step_event" in main
     assert len(main) == len(set(main)) and len(main) < len(everything) - 10
     # the same machine code: identical trajectories, bit for bit
     assert parallel["obs"] == serial["obs"] and parallel["reward"] == serial["reward"]
@@ -99,19 +100,27 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     assert {"contact_phases.contact_phase", "contact_phases.g_phase"} <= cached
 
 
+def _no_helper_popen(started):
+    class Popen:                          # records the start; the helper "fails to start"
+        def __init__(self, *args, **kwargs):
+            started.append(1)
+            raise OSError("not started in this test")
+    return Popen
+
+
 def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
-    from hoprover_env import _parallel_compile as pc
+    from hoprover_env import _compile as pc
+    from hoprover_env.tasks import torque
     started = []
-    monkeypatch.setattr(pc, "_start_helper", lambda extra=(): started.append(1))
+    monkeypatch.setattr(pc.subprocess, "Popen", _no_helper_popen(started))
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "0")
     pc.prepare()
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
-    from hoprover_env import rl_kernel
-    for d in pc.helper_functions(rl_kernel.HELPER_EXTRA):   # compiled in this process
-        pc.compile_declared(d)
-    pc.prepare(rl_kernel.HELPER_EXTRA)
+    for d in pc._resolve(pc.HELPER_FUNCTIONS + torque.HELPER_EXTRA):  # compiled here
+        pc.compile_now(d)
+    pc.prepare(torque.HELPER_EXTRA)
     assert started == []
 
 
@@ -120,19 +129,19 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
     # not one each; a lock left behind by a killed process does not block for ever
     import time
 
-    from hoprover_env import _parallel_compile as pc
+    from hoprover_env import _compile as pc
 
     class Cache:
-        _cache_path = str(tmp_path)
+        cache_path = str(tmp_path)
 
     class Dispatcher:
         _cache = Cache()
 
     started = []
-    monkeypatch.setattr(pc, "_start_helper", lambda extra=(): started.append(1))  # returns None
+    monkeypatch.setattr(pc.subprocess, "Popen", _no_helper_popen(started))
     monkeypatch.setattr(pc, "_cached", lambda d: False)
     monkeypatch.setattr(pc, "_cores", lambda: 2)
-    monkeypatch.setattr(pc, "helper_functions", lambda extra=(): [Dispatcher()])
+    monkeypatch.setattr(pc, "_resolve", lambda names: [Dispatcher()])
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
     monkeypatch.delenv(pc._HELPER_FLAG, raising=False)
     lock = tmp_path / "hoprover-compile-helper.lock"
@@ -145,3 +154,36 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
     monkeypatch.setattr(pc, "_prepared", False)
     pc.prepare()
     assert started == [1] and not lock.exists()
+
+
+HIDDEN = r"""
+import warnings, numpy as np
+import numba.core.registry, numba.core.caching
+# a numba release that moved the internals hoprover's compile layer uses
+del numba.core.registry.CPUDispatcher
+del numba.core.caching.FunctionCache.cache_path
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    from hoprover_env import simulate
+    roll = simulate(np.r_[np.full(40, 3e-4), np.zeros(100)], t_end=60.0, control_dt=0.5,
+                    target_x=0.3)
+print(any("falling back to plain numba" in str(w.message) for w in caught))
+print(repr(roll.x[-1]), repr(roll.t[-1]), roll.state[-1], len(roll.events))
+"""
+
+
+def test_without_the_numba_internals_it_falls_back_to_plain_numba(tmp_path):
+    # the fallback compiles with plain numba.njit(cache=True), warns once, and runs the
+    # same physics: the same rollout as the compile layer gives, bit for bit
+    import numpy as np
+    from hoprover_env import simulate
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), HOPROVER_PARALLEL_COMPILE="0")
+    out = subprocess.run([sys.executable, "-c", HIDDEN], env=env, capture_output=True,
+                         text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    warned, result = out.stdout.strip().splitlines()[-2:]
+    assert warned == "True"
+    roll = simulate(np.r_[np.full(40, 3e-4), np.zeros(100)], t_end=60.0, control_dt=0.5,
+                    target_x=0.3)
+    assert result == f"{roll.x[-1]!r} {roll.t[-1]!r} {roll.state[-1]} {len(roll.events)}"
+    assert len(roll.events) > 3          # it hopped: the run exercises the whole kernel

@@ -1,0 +1,337 @@
+"""How every jitted function of hoprover is compiled: one decorator, `kernel`.
+
+    @kernel                                  # callable from Python and from jitted code
+    @kernel(inner=True)                      # called from jitted code only
+    @kernel(F64(VEC, I64), inner=True)       # with a declared signature
+    @kernel(parallel=True)                   # a prange loop
+
+Every kernel is cached on disk (numba's ``cache=True``), uses numpy's error model (a
+division by zero gives inf/nan, which callers check, instead of raising) and no
+reference counting (nothing allocates). On top of plain numba it adds four things, each
+for the cold start (the first use after installing or editing, 6-10 s instead of 10-16 s):
+
+* ``inner=True``: no Python/C entry wrappers. numba would otherwise build, optimise and
+  link one per helper into every caller. Python calling such a function raises a
+  TypeError instead of jumping to a missing entry (a crash).
+* a declared signature compiles on first use, not at import (``numba.njit(signature)``
+  compiles at once); it also stops numba from compiling a second copy for a literal
+  argument (``corner = 0`` is its own type otherwise).
+* stale caches are dropped: numba keys a cached function on its own file only, so a
+  caller would keep an old callee's code linked in. One fingerprint over the kernel
+  sources guards every module's cache.
+* `prepare()`: on a cold cache with two or more cores, a helper process compiles the
+  contact phases (and an env's extra functions) into the cache while this process
+  compiles the rest, like ``make -j2``. ``HOPROVER_PARALLEL_COMPILE=0`` turns it off.
+
+These lean on four numba internals (`_numba_internals`): the CPUDispatcher class, its
+`get_call_template` hook, a dispatcher's `_cache` and the wrapper options. Should a
+numba release move one, everything falls back to plain ``numba.njit(cache=True)`` with
+a warning: correct results, a slower cold start (tests/test_compile.py hides them).
+"""
+from __future__ import annotations
+
+import functools
+import glob
+import hashlib
+import importlib
+import inspect
+import os
+import subprocess
+import sys
+import time
+import warnings
+
+from numba import njit, types as nt
+from numba.core import event
+
+F64, I64, BOOL, NONE = nt.float64, nt.int64, nt.boolean, nt.none
+VEC, VEC32, MAT = nt.float64[::1], nt.float32[::1], nt.float64[:, ::1]
+F64x2, F64x4, F64x5, I64x2 = (nt.UniTuple(F64, 2), nt.UniTuple(F64, 4),
+                              nt.UniTuple(F64, 5), nt.UniTuple(I64, 2))
+OPTIONS = dict(cache=True, error_model="numpy", _nrt=False)
+
+_HERE = os.path.dirname(os.path.abspath(__file__))
+# the files whose code a cached kernel may embed (a change to any drops every cache)
+KERNEL_SOURCES = sorted(glob.glob(os.path.join(_HERE, "core", "*.py"))
+                        + glob.glob(os.path.join(_HERE, "tasks", "*.py"))
+                        + [os.path.join(_HERE, name) for name in (
+                            "params.py", "_dop853_tableau.py", "reward.py", "controllers.py",
+                            "rollout.py", "_compile.py")])
+
+
+@functools.lru_cache(maxsize=None)
+def _numba_internals():
+    """The numba internals used here, or None (with one warning) if any has moved."""
+    try:
+        from numba.core.registry import CPUDispatcher
+        for name in ("get_call_template", "compile", "disable_compile"):
+            if not hasattr(CPUDispatcher, name):
+                raise AttributeError(f"CPUDispatcher.{name}")
+        from numba.core.caching import FunctionCache
+        if not hasattr(FunctionCache, "cache_path"):
+            raise AttributeError("FunctionCache.cache_path")
+    except (ImportError, AttributeError) as exc:
+        warnings.warn(f"hoprover_env: this numba ({exc} is missing) is not one hoprover's "
+                      "compile layer knows; falling back to plain numba.njit(cache=True): "
+                      "results are the same, the first run compiles more slowly",
+                      RuntimeWarning, stacklevel=3)
+        return None
+    return CPUDispatcher
+
+
+class _JitOnly:
+    """Mixed into an inner function's dispatcher: Python may not call it."""
+
+    __slots__ = ()
+
+    def __call__(self, *args, **kwargs):
+        f = self.py_func
+        raise TypeError(f"{f.__module__}.{f.__qualname__} is compiled for calls from jitted "
+                        "code only (kernel(inner=True)): call it from a jitted function, or "
+                        "declare it without inner=True to call it from Python")
+
+
+class _Declared:
+    """Mixed into a dispatcher with a declared signature: compiled when first used."""
+
+    __slots__ = ()
+
+    def compile_declared(self):
+        self.compile(self.declared)
+        self.disable_compile()
+        self.__class__ = self.compiled_class
+
+    def get_call_template(self, args, kws):       # a jitted caller is being typed
+        self.compile_declared()
+        return self.get_call_template(args, kws)
+
+    def __call__(self, *args, **kwargs):
+        self.compile_declared()
+        return self(*args, **kwargs)
+
+    def __reduce__(self):       # pickled by reference (Ray, multiprocessing), as functions
+        f = self.py_func
+        return _module_attribute, (f.__module__, f.__qualname__)
+
+
+def _module_attribute(module: str, name: str):
+    return getattr(importlib.import_module(module), name)
+
+
+@functools.lru_cache(maxsize=None)
+def _subclass(*mixins):
+    base = _numba_internals()
+    return type("".join(m.__name__.strip("_") for m in mixins) + "Dispatcher",
+                (*mixins, base), {})
+
+
+def kernel(signature=None, *, inner: bool = False, inline: bool = False,
+           parallel: bool = False):
+    """Compile a function with numba (see the module docstring); usable bare."""
+    if inspect.isfunction(signature):
+        return kernel()(signature)
+
+    def wrap(func):
+        plain = _numba_internals() is None
+        options = dict(OPTIONS, parallel=parallel)
+        if inline:
+            options["inline"] = "always"
+        if inner and not plain:
+            options.update(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+        dispatcher = njit(**options)(func)
+        drop_stale_cache(dispatcher)
+        if plain:
+            return dispatcher
+        if signature is not None:
+            dispatcher.__class__ = _subclass(_Declared)
+            dispatcher.declared = signature
+            dispatcher.compiled_class = _subclass(_JitOnly) if inner else _numba_internals()
+        elif inner:
+            dispatcher.__class__ = _subclass(_JitOnly)
+        return dispatcher
+    return wrap
+
+
+def compile_now(dispatcher) -> None:
+    """Compile a declared-signature kernel now (nothing if it already is)."""
+    if isinstance(dispatcher, _Declared):
+        dispatcher.compile_declared()
+
+
+def _cache_path(dispatcher):
+    try:
+        return dispatcher._cache.cache_path
+    except AttributeError:
+        return None
+
+
+@functools.lru_cache(maxsize=None)
+def _fingerprint() -> str:
+    h = hashlib.sha256()
+    for path in KERNEL_SOURCES:
+        with open(path, "rb") as fh:
+            h.update(fh.read())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=None)
+def _checked(cache_dir: str, stem: str) -> None:
+    marker = os.path.join(cache_dir, f"{stem}.kernel-sources")
+    try:
+        with open(marker) as fh:
+            if fh.read() == _fingerprint():
+                return
+    except OSError:
+        pass
+    for path in glob.glob(os.path.join(cache_dir, f"{stem}.*.nb[ic]")):
+        try:
+            os.remove(path)
+        except OSError:
+            pass
+    try:
+        os.makedirs(cache_dir, exist_ok=True)
+        with open(marker, "w") as fh:
+            fh.write(_fingerprint())
+    except OSError:             # a read-only install: its cache was built for its sources
+        pass
+
+
+def drop_stale_cache(dispatcher) -> None:
+    """Delete the cache files of the dispatcher's module if the kernel sources changed
+    since they were written (checked once per module and process, before any load)."""
+    path = _cache_path(dispatcher)
+    if path is not None:
+        stem = os.path.splitext(os.path.basename(dispatcher.py_func.__code__.co_filename))[0]
+        _checked(path, stem)
+
+
+# ---------------------------------------------------------------- the two-process compile
+ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0" turns the helper off
+_HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
+HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
+HELPER_FUNCTIONS = ("hoprover_env.core.contact_phases:contact_phase",
+                    "hoprover_env.core.contact_phases:g_phase")
+MAIN_FUNCTIONS = ("hoprover_env.core.phase_end:after_phase",
+                  "hoprover_env.core.flight:flight_phase",
+                  "hoprover_env.core.integrator:init_state")
+_prepared = False
+
+
+def _resolve(names):
+    return [_module_attribute(*name.split(":")) for name in names]
+
+
+def _cached(dispatcher) -> bool:
+    """Compiled in this process, or in numba's cache for the current source."""
+    if dispatcher.overloads:
+        return True
+    try:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:           # noqa: BLE001 - caching off, or another numba layout:
+        return True             # then a helper could not share its work; do not start it
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:      # macOS, Windows
+        return os.cpu_count() or 1
+
+
+def _claim(dispatcher):
+    """A lock file beside the cache, so that one helper works on it at a time; None if
+    another process holds it (a lock older than HELPER_TIMEOUT is left over: taken)."""
+    path = _cache_path(dispatcher)
+    if path is None:
+        return None
+    path = os.path.join(path, "hoprover-compile-helper.lock")
+    for _ in range(2):
+        try:
+            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            return path
+        except FileExistsError:
+            try:
+                if time.time() - os.path.getmtime(path) < HELPER_TIMEOUT:
+                    return None
+                os.remove(path)
+            except OSError:
+                return None
+        except OSError:             # a read-only cache directory, say
+            return None
+    return None
+
+
+def prepare(extra=()) -> None:
+    """Called by every entry point (envs, simulate, simulate_batch) before its first kernel
+    call; returns at once after the first call in a process. `extra`: more declared
+    functions ("module:name") for the helper, such as an env's reward and observation."""
+    global _prepared
+    if _prepared:
+        return
+    _prepared = True
+    if _numba_internals() is None or os.environ.get(_HELPER_FLAG) \
+            or os.environ.get(ENV_SWITCH, "1") == "0" or _cores() < 2:
+        return
+    functions = _resolve(HELPER_FUNCTIONS + tuple(extra))
+    if all(_cached(d) for d in functions):
+        return
+    lock = _claim(functions[0])
+    if lock is None:
+        return
+    try:
+        # the helper must compile this very package, wherever it was imported from
+        parent = os.path.dirname(_HERE)
+        path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
+        try:
+            helper = subprocess.Popen(
+                [sys.executable, "-c", "import sys; from hoprover_env import _compile as c; "
+                 "[c.compile_now(d) for d in c._resolve(c.HELPER_FUNCTIONS + "
+                 "tuple(sys.argv[1:]))]", *extra],
+                env=dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"}),
+                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL)
+        except OSError:
+            return
+        started = time.monotonic()
+        try:
+            for d in _resolve(MAIN_FUNCTIONS):
+                compile_now(d)
+            helper.wait(timeout=max(0.0, started + HELPER_TIMEOUT - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            pass                # this process compiles what the helper did not finish
+        finally:
+            if helper.poll() is None:
+                helper.kill()
+                helper.wait()
+    finally:
+        try:
+            os.remove(lock)
+        except OSError:
+            pass
+
+
+# ---------------------------------------------------------------- the compile notice
+MESSAGE = ("hoprover_env: compiling the simulator with numba, once after installing or "
+           "editing it (usually 5-15 s; cached afterwards) ...")
+
+
+class _CompileNotice(event.Listener):
+    """One line on stderr when numba starts compiling one of this package's kernels
+    (cached runs compile nothing and print nothing)."""
+
+    shown = False
+
+    def on_start(self, ev):
+        if self.shown:
+            return
+        data = ev.data if isinstance(ev.data, dict) else {}
+        func = getattr(data.get("dispatcher"), "py_func", None)
+        if getattr(func, "__module__", "").startswith("hoprover_env."):
+            type(self).shown = True
+            print(MESSAGE, file=sys.stderr, flush=True)
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", _CompileNotice())

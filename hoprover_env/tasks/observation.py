@@ -1,0 +1,110 @@
+"""What a policy sees: the observation vector, one named slot each, and the two
+measurements the observation and the reward share (the reference point and the
+ballistic landing point).
+
+Table of slots and scales: hoprover_env/env.py. Every value is clipped to the
+observation space's bounds (OBS_LOW, OBS_HIGH).
+"""
+import math
+
+import numpy as np
+
+from .._compile import kernel, NONE, VEC, VEC32
+from ..core import corner_offset_cs
+from ..core.layout import (MODE_A, MODE_B, MODE_C, MODE_F, MODE_G, S_INBAND, S_MODE, S_T,
+                           S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W, S_X, S_XT, S_Y)
+from ..params import P_BAND, P_DWELL, P_G, P_H, P_R, P_TMAX, P_TMIN
+from .layout import E_T_TOTAL
+
+OBS_DX = 0           # (x - x_T) / POS_SCALE
+OBS_HEIGHT = 1       # (y - h) / HEIGHT_SCALE
+OBS_VX = 2           # vx / VEL_SCALE
+OBS_VY = 3           # vy / VEL_SCALE
+OBS_SIN = 4          # sin theta
+OBS_COS = 5          # cos theta
+OBS_RATE = 6         # omega / RATE_SCALE
+OBS_MODE = 7         # 7..13: one-hot contact state A..G
+OBS_TIME = 14        # t / episode length
+OBS_DWELL = 15       # the judge's clock: time in the band / 5 s
+OBS_REF = 16         # (reference point - x_T) / band half-width
+OBS_LANDING = 17     # (ballistic landing x - x_T) / POS_SCALE
+OBS_TORQUE = 18      # applied torque / max |T|
+OBS_DIM = 19
+
+POS_SCALE = 1.0        # m
+HEIGHT_SCALE = 0.5     # m
+VEL_SCALE = 0.01       # m/s
+RATE_SCALE = 0.3       # rad/s
+OBS_LOW = np.array([-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -1],
+                   dtype=np.float32)
+OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtype=np.float32)
+
+
+@kernel(inner=True)
+def clip(v, lo, hi):
+    return lo if v < lo else (hi if v > hi else v)
+
+
+@kernel(inner=True)
+def reference_point(S, P):
+    """x of the contact point (the one nearer the target in F/G), or of the bottom corner
+    nearest the target in flight: what the distance reward measures [m]."""
+    mode = int(S[S_MODE])
+    xt = S[S_XT]
+    if mode == MODE_F or mode == MODE_G:
+        xa = S[S_X] + P[P_R]
+        xb = S[S_X] - P[P_R]
+        return xa if abs(xa - xt) <= abs(xb - xt) else xb
+    c = math.cos(S[S_TH])
+    sn = math.sin(S[S_TH])
+    dxa, _ = corner_offset_cs(P, 0, c, sn)
+    dxb, _ = corner_offset_cs(P, 1, c, sn)
+    if mode == MODE_B or mode == MODE_C:
+        return S[S_X] + dxa
+    if mode != MODE_A:
+        return S[S_X] + dxb
+    xa = S[S_X] + dxa
+    xb = S[S_X] + dxb
+    return xa if abs(xa - xt) <= abs(xb - xt) else xb
+
+
+@kernel(inner=True)
+def landing_x(S, P):
+    """Where the c.m. will come down to rest height in a ballistic flight (the current x
+    when not flying) [m]: a closed form any contest controller could compute."""
+    if int(S[S_MODE]) != MODE_A:
+        return S[S_X]
+    g = P[P_G]
+    vy = S[S_VY]
+    drop = max(S[S_Y] - P[P_H], 0.0)
+    t_fall = (vy + math.sqrt(vy * vy + 2.0 * g * drop)) / g
+    return S[S_X] + S[S_VX] * t_fall
+
+
+@kernel(inner=True)
+def dwell_fraction(S, P):
+    """The judge's clock: time in the band / dwell time, 0 out of the band."""
+    if S[S_INBAND] == 1.0:
+        return clip((S[S_T] - S[S_TIN]) / P[P_DWELL], 0.0, 1.0)
+    return 0.0
+
+
+@kernel(NONE(VEC, VEC, VEC, VEC32))
+def observe(S, P, E, obs):
+    """Write the float32 observation of state S into `obs` (slots OBS_*)."""
+    xt = S[S_XT]
+    obs[OBS_DX] = clip((S[S_X] - xt) / POS_SCALE, -5.0, 5.0)
+    obs[OBS_HEIGHT] = clip((S[S_Y] - P[P_H]) / HEIGHT_SCALE, -1.0, 10.0)
+    obs[OBS_VX] = clip(S[S_VX] / VEL_SCALE, -10.0, 10.0)
+    obs[OBS_VY] = clip(S[S_VY] / VEL_SCALE, -10.0, 10.0)
+    obs[OBS_SIN] = math.sin(S[S_TH])
+    obs[OBS_COS] = math.cos(S[S_TH])
+    obs[OBS_RATE] = clip(S[S_W] / RATE_SCALE, -10.0, 10.0)
+    mode = int(S[S_MODE])
+    for i in range(7):
+        obs[OBS_MODE + i] = 1.0 if i == mode else 0.0
+    obs[OBS_TIME] = clip(S[S_T] / E[E_T_TOTAL], 0.0, 1.0)
+    obs[OBS_DWELL] = dwell_fraction(S, P)
+    obs[OBS_REF] = clip((reference_point(S, P) - xt) / P[P_BAND], -20.0, 20.0)
+    obs[OBS_LANDING] = clip((landing_x(S, P) - xt) / POS_SCALE, -5.0, 5.0)
+    obs[OBS_TORQUE] = S[S_TORQUE] / max(abs(P[P_TMIN]), abs(P[P_TMAX]), 1e-300)

@@ -1,0 +1,81 @@
+"""Argument validators: one of each, for every public entry point.
+
+Each returns the value in the form the kernel wants (a float, a float64 array) or raises
+with a message that names the argument. Numpy scalars are welcome; booleans, strings and
+complex numbers are refused rather than converted.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+
+class ArgumentTypeError(TypeError, ValueError):
+    """An argument that is not a number where one is needed: a TypeError (it is one), and
+    a ValueError for callers that catch bad values of any kind."""
+
+
+def is_real(v) -> bool:
+    """A real number, numpy scalars included; booleans are not numbers here."""
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def finite_real(name: str, v) -> float:
+    """A finite real number as float; ArgumentTypeError for what is not a real number,
+    ValueError for inf/NaN."""
+    if not is_real(v):
+        raise ArgumentTypeError(f"{name} must be a real number, got {type(v).__name__} {v!r}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be finite, got {v!r}")
+    return v
+
+
+def positive_real(name: str, v) -> float:
+    """A positive finite real number as float (see finite_real)."""
+    v = finite_real(name, v)
+    if not v > 0:
+        raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+    return v
+
+
+def non_negative_real(name: str, v) -> float:
+    """A finite real number >= 0 as float; ValueError otherwise."""
+    if not (is_real(v) and math.isfinite(v) and v >= 0):
+        raise ValueError(f"{name} must be a non-negative number, got {v!r}")
+    return float(v)
+
+
+def check_torque(torque, what="torque") -> float:
+    """A finite torque [N m] as float, or ValueError naming the bad value. One-element
+    real arrays (what a policy's predict returns) are welcome."""
+    if isinstance(torque, np.ndarray) and torque.size == 1 and torque.dtype.kind in "iuf":
+        torque = torque.reshape(()).item()
+    if not is_real(torque):
+        raise ValueError(f"{what} must be a real number, got {type(torque).__name__} "
+                         f"{torque!r}")
+    value = float(torque)
+    if not math.isfinite(value):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return value
+
+
+def real_array(name: str, value) -> np.ndarray:
+    """A contiguous float64 array of `value`, refusing what is not real numbers (strings,
+    booleans, complex numbers, objects, ragged rows) with an error naming the argument."""
+    if isinstance(value, (list, tuple)) and value and all(
+            isinstance(row, (list, tuple, np.ndarray)) for row in value):
+        lengths = [len(row) for row in value]
+        for i, length in enumerate(lengths):
+            if length != lengths[0]:
+                raise ValueError(f"run {i}: {name} row has {length} entries, run 0 has "
+                                 f"{lengths[0]}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError):          # ragged deeper down
+        raise ValueError(f"{name} must be a rectangular array of real numbers") from None
+    if raw.dtype.kind not in "iuf":
+        raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
+    return np.ascontiguousarray(raw, dtype=np.float64)
