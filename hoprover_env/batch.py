@@ -39,7 +39,9 @@ import numba
 import numpy as np
 
 from . import core, rollout
+from .env_config import EnvConfig, randomized_params
 from .params import RoverParams
+from .rollout import SampledStates
 from .simulate import DEFAULT_RTOL, control_grid, make_options, make_state, simulate
 from .validate import positive_real, real_array
 
@@ -49,7 +51,7 @@ MAX_RECORD_BYTES = 4 * 10**9      # sample arrays of a recorded batch
 
 
 @dataclasses.dataclass
-class BatchRollout:
+class BatchRollout(SampledStates):
     """N runs. Sample arrays have shape (N, M), M the longest run's sample count; a run
     that broke early is padded with NaN (and '' in `state`) after its n_samples[i]."""
 
@@ -61,15 +63,6 @@ class BatchRollout:
     n_impacts: np.ndarray        # (N,)
     final: np.ndarray            # (N, 7) x, y, theta, vx, vy, omega, t at the end
     n_samples: np.ndarray        # (N,) samples recorded per run (0 without record)
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    theta: np.ndarray
-    vx: np.ndarray
-    vy: np.ndarray
-    omega: np.ndarray
-    sigma: np.ndarray
-    state: np.ndarray            # letters 'A'..'G'
     torque: np.ndarray
     torque_cmd: np.ndarray
     event_log: np.ndarray        # (N, L, 5): t, kind, mode before, mode after, value
@@ -105,7 +98,6 @@ def _run_params(params, randomize, seed, n) -> list:
         if params is not None and not isinstance(params, (RoverParams, Mapping)):
             raise ValueError("randomize draws each run's parameters from one base: give "
                              "params as one RoverParams (or None), not a sequence")
-        from .env_config import EnvConfig, randomized_params
         cfg = EnvConfig(params=params if params is not None else RoverParams(),
                         randomize=randomize)
         rng = np.random.default_rng(seed)

@@ -337,9 +337,11 @@ def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
 
 
 @dataclasses.dataclass
-class Rollout:
-    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
-    the controller saw, before its new torque acts) and at the end of the run."""
+class SampledStates:
+    """Sampled states of one run (1-D arrays) or of N runs (2-D, a row per run): time t
+    [s], c.m. position x, y [m], attitude theta [rad], velocities vx, vy [m/s] and omega
+    [rad/s], contact state letters 'A'..'G', slide direction sigma of the contact point
+    (+1/-1 in C, E, G, else 0)."""
 
     t: np.ndarray
     x: np.ndarray
@@ -348,7 +350,15 @@ class Rollout:
     vx: np.ndarray
     vy: np.ndarray
     omega: np.ndarray
-    state: np.ndarray            # letters 'A'..'G'
+    state: np.ndarray
+    sigma: np.ndarray
+
+
+@dataclasses.dataclass
+class Rollout(SampledStates):
+    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
+    the controller saw, before its new torque acts) and at the end of the run."""
+
     torque: np.ndarray           # applied torque from each sample on (clipped)
     torque_cmd: np.ndarray       # what the controller asked for
     events: list                 # (time, kind, state before, state after)
@@ -358,7 +368,6 @@ class Rollout:
     params: RoverParams
     impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
     n_events: int
-    sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
     min_corner_height: float     # lowest bottom-corner height after any event or interval
 
     @property

@@ -23,13 +23,13 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
+from . import ENVS, vector_env_class
 
 
 class HopRoverSB3VecEnv(VecEnv):
     def __init__(self, num_envs: int = 1, seed: int | None = None, threads: bool | None = None,
                  render_mode: str | None = None, env_id: str = "HopRover-v0",
                  **env_kwargs: Any):
-        from . import ENVS, vector_env_class
         cls = vector_env_class(env_id)
         env_kwargs = {**ENVS[env_id][2], **env_kwargs}
         self.venv = cls(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
