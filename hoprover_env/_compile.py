@@ -326,7 +326,7 @@ class _CompileNotice(event.Listener):
             return
         data = ev.data if isinstance(ev.data, dict) else {}
         func = getattr(data.get("dispatcher"), "py_func", None)
-        if getattr(func, "__module__", "").startswith("hoprover_env."):
+        if (getattr(func, "__module__", None) or "").startswith("hoprover_env."):
             type(self).shown = True
             print(MESSAGE, file=sys.stderr, flush=True)
 

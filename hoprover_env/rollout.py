@@ -232,15 +232,22 @@ def _fixed_address(dispatcher):
         return CONTROL_SIG
 
 
+def _compiled(func, signature, **options):
+    """func compiled for `signature` (or loaded from numba's cache), after the kernel
+    sources' check of this module's cache; nothing else compiles later."""
+    dispatcher = njit(**OPTIONS, **options)(func)
+    drop_stale_cache(dispatcher)        # cached code here embeds the core's
+    dispatcher.compile(signature)
+    dispatcher.disable_compile()
+    return dispatcher
+
+
 def kernel_one():
     """The one-run loop, compiled (or loaded from numba's cache) on first use."""
     global run_one, no_control
     if run_one is None:
-        no_control = _fixed_address(njit(CONTROL_SIG, **OPTIONS)(_no_control))
-        run_one = njit(**OPTIONS)(_run)
-        drop_stale_cache(run_one)       # its cached code embeds the core's
-        run_one.compile(_RUN_SIG)
-        run_one.disable_compile()
+        no_control = _fixed_address(_compiled(_no_control, CONTROL_SIG))
+        run_one = _compiled(_run, _RUN_SIG)
     return run_one
 
 
@@ -249,9 +256,7 @@ def kernel_many():
     global run_many
     if run_many is None:
         kernel_one()
-        run_many = njit(parallel=True, **OPTIONS)(_run_many)
-        run_many.compile(_RUN_MANY_SIG)
-        run_many.disable_compile()
+        run_many = _compiled(_run_many, _RUN_MANY_SIG, parallel=True)
     return run_many
 
 
