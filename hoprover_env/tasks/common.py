@@ -11,19 +11,20 @@ env's shared vectors (options O, task config E, reward parameters RW). Its modul
 writes it once as a template that calls ``ADVANCE`` (the integrator) and hands it to
 `build`, which makes, for each integrator, the step and the serial and threaded batch
 loops over it: one source for every task and integrator, compiled separately (numba
-fixes a callee at compile time), so that a default env compiles no Euler code.
+fixes a callee at compile time), so that a default env compiles no Euler code. A step
+ends with ``OBSERVE(S, P, E, obs)``, bound by `build` to the task's observation.
 """
 import math
 import types
 
 from numba import get_thread_id, prange, types as nt
 
-from .._compile import kernel, BOOL, F64, VEC, VEC32
+from .._compile import kernel, BOOL, F64, VEC
 from .. import core
 from ..core.layout import S_BROKEN, S_ERROR, S_T, S_TTRTP
 from .. import reward
 from .layout import E_T_TOTAL
-from .observation import observe
+from .observation import observe as default_observe
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 
@@ -45,18 +46,17 @@ def episode_ended(S, had_ttrtp):
         or S[S_ERROR] != 0.0
 
 
-@kernel(nt.Tuple((F64, BOOL, BOOL, BOOL))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64, VEC32),
+@kernel(nt.Tuple((F64, BOOL, BOOL, BOOL))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64),
         inner=True)
-def finish(S, P, E, RW, RM, phi0, had_ttrtp, elapsed, obs):
-    """Reward, outcome and observation after the rover moved for `elapsed` seconds from
-    a state of potential phi0. Returns (reward, terminated, truncated, success): success
-    or a break terminate, the episode's clock truncates."""
+def finish(S, P, E, RW, RM, phi0, had_ttrtp, elapsed):
+    """Reward and outcome after the rover moved for `elapsed` seconds from a state of
+    potential phi0. Returns (reward, terminated, truncated, success): success or a break
+    terminate, the episode's clock truncates."""
     success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
     broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
     r = reward.pay(S, P, RW, RM, phi0, success, broken, elapsed)
-    observe(S, P, E, obs)
     return r, terminated, truncated, success
 
 
@@ -108,11 +108,13 @@ def _bind(template, name: str, **names):
     return func
 
 
-def build(task: str, step_template) -> dict:
-    """{integrator: TaskKernels} for a task's step template (which calls ADVANCE)."""
+def build(task: str, step_template, observe=default_observe) -> dict:
+    """{integrator: TaskKernels} for a task's step template (which calls ADVANCE and
+    OBSERVE) and its observation function (tasks/observation.py `observe` by default)."""
     out = {}
     for integrator, advance in INTEGRATORS.items():
-        step = kernel(_bind(step_template, f"{task}_step_{integrator}", ADVANCE=advance))
+        step = kernel(_bind(step_template, f"{task}_step_{integrator}", ADVANCE=advance,
+                            OBSERVE=observe))
         out[integrator] = TaskKernels(
             step=step,
             batch=kernel(_bind(batch_serial, f"{task}_batch_{integrator}", STEP=step)),

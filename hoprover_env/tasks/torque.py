@@ -44,7 +44,8 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
     ADVANCE(S, P, O, action_to_torque(action, P, E),  # noqa: F821 (bound by build)
             min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]), ev, W)
     r, terminated, truncated, success = finish(S, P, E, RW, RM, phi0, had_ttrtp,
-                                               S[S_T] - t0, obs)
+                                               S[S_T] - t0)
+    OBSERVE(S, P, E, obs)  # noqa: F821 (bound by build)
     return r, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
 
 
@@ -52,4 +53,5 @@ KERNELS = build("torque", step)
 # Compiled by the parallel-compile helper on a cold cache (hoprover_env/_compile.py).
 HELPER_EXTRA = tuple(f"{module}:{name}" for module, name in (
     ("hoprover_env.tasks.common", "finish"), ("hoprover_env.reward", "begin"),
-    ("hoprover_env.tasks.torque", "action_to_torque")))
+    ("hoprover_env.tasks.torque", "action_to_torque"),
+    ("hoprover_env.tasks.observation", "observe")))
