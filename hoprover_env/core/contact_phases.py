@@ -8,7 +8,7 @@ from numba import njit
 
 from .._jitcache import drop_stale_cache
 from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
-from ..params import P_M, P_R, P_G, P_MUS, P_MUD, P_BAND
+from ..params import P_M, P_R, P_G, P_GC, P_GS, P_MUS, P_MUD, P_BAND
 from ._jit import INNER, guard_jit_only, njit_declared, _F, _I, _V
 from .layout import *  # noqa: F403 (the array layouts and tolerances)
 from .forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics
@@ -34,12 +34,14 @@ def _next_band_boundary(xp, sigma, xt, w, offset):
 
 @njit_declared(_I(_V, _V, _F), **INNER)
 def g_phase(S, P, t_stop):
-    """Slide on both corners: x(t) quadratic, decelerating at mu_d g to a stop.
+    """Slide on both corners: x(t) quadratic, x'' = -g sin(phi) - sigma mu_d g cos(phi).
 
+    The speed u = sigma vx falls at a = mu_d gc + sigma gs (on level ground mu_d g) to a
+    stop; a <= 0 (sliding down a slope steeper than atan(mu_d)) never stops.
     Events: the stop (G -> F) and the next band boundary of either corner.
     """
     sigma = S[S_SIGMA]
-    a = P[P_MUD] * P[P_G]
+    a = P[P_MUD] * P[P_GC] + sigma * P[P_GS]
     u = sigma * S[S_VX]                    # speed, > 0
     tau_end = t_stop - S[S_T]
     tau_stop = u / a if a > 0.0 else np.inf
@@ -84,7 +86,7 @@ def _rhs(P, k, sliding, sigma, T, u, out):
     out[0] = u[1]
     out[1] = thdd
     out[2] = u[3]
-    out[3] = fx / P[P_M]
+    out[3] = fx / P[P_M] - P[P_GS]
 
 
 @njit(**INNER)
