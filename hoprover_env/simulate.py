@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import secrets
 from typing import Callable, Sequence
 
 import numpy as np
@@ -61,9 +62,24 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
     return o
 
 
-def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
+def check_seed(seed, rough: bool = False):
+    """The seed of the rough-terrain draws: an integer in [0, 2^64), or None. None on
+    rough ground (`rough`) becomes a seed from fresh entropy, which the caller records
+    so that the run can be replayed; on smooth ground it stays None (nothing is drawn)."""
+    if seed is None:
+        return secrets.randbits(64) if rough else None
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) \
+            or not 0 <= int(seed) < 2**64:
+        raise ValueError(f"seed must be None or an integer in [0, 2**64), got "
+                         f"{type(seed).__name__} {seed!r}")
+    return int(seed)
+
+
+def make_state(params: RoverParams, target_x: float, initial_state=None, seed=None,
+               rover: int = 0) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
-    `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
+    `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state.
+    `seed` and `rover` key the rough-terrain draws (see `check_seed`)."""
     _parallel_compile.prepare()     # on a cold numba cache: compile on two cores
     target_x = finite_real("target_x", target_x)
     if initial_state is None:
@@ -85,6 +101,14 @@ def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.n
     if code != core.INIT_OK:
         raise ValueError(f"initial_state {tuple(st)} is not consistent with a contact "
                          f"state: {_INIT_ERRORS[code]}")
+    seed = check_seed(seed, params.roughness > 0.0)
+    if isinstance(rover, (bool, np.bool_)) or not isinstance(rover, numbers.Integral) \
+            or not 0 <= int(rover) < 2**53:
+        raise ValueError(f"rover must be an integer in [0, 2**53), got {rover!r}")
+    if seed is not None:
+        s[core.S_SEED_LO] = seed & 0xFFFFFFFF
+        s[core.S_SEED_HI] = seed >> 32
+    s[core.S_ROVER] = int(rover)
     return s
 
 
@@ -127,6 +151,7 @@ class Rollout:
     n_events: int
     sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
     min_corner_height: float     # lowest bottom-corner height after any event or interval
+    seed: int | None = None      # key of the rough-terrain draws (None: none were made)
 
     @property
     def success(self) -> bool:
@@ -177,19 +202,20 @@ class RoverSim:
     def __init__(self, params: RoverParams | None = None, target_x: float = 0.5,
                  initial_state=None, integrator: str = "event",
                  impact_law: str = "contest", rtol: float = DEFAULT_RTOL,
-                 euler_dt: float = 1e-3):
+                 euler_dt: float = 1e-3, seed=None, rover: int = 0):
         self.params = RoverParams() if params is None else params
         if not isinstance(self.params, RoverParams):
             raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
         self.p = self.params.as_array()
         self.o = make_options(integrator, impact_law, rtol, euler_dt)
-        self.s = make_state(self.params, target_x, initial_state)
+        self.seed = check_seed(seed, self.params.roughness > 0.0)   # recorded for replays
+        self.s = make_state(self.params, target_x, initial_state, self.seed, rover)
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
         self._w = np.zeros(core.N_WORK)
 
     def copy(self) -> "RoverSim":
         new = object.__new__(RoverSim)
-        new.params, new.p, new.o = self.params, self.p, self.o
+        new.params, new.p, new.o, new.seed = self.params, self.p, self.o, self.seed
         new.s = self.s.copy()
         new._ev = np.zeros_like(self._ev)
         new._w = np.zeros_like(self._w)
@@ -293,7 +319,7 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
              control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
              impact_law: str = "contest", params: RoverParams | None = None,
              initial_state=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
-             sample_dt: float | None = None) -> Rollout:
+             sample_dt: float | None = None, seed=None, rover: int = 0) -> Rollout:
     """Simulate one run to `t_end` (or until the rover breaks).
 
     Parameters mirror the contest: `control_dt` is the control period, `target_x` the
@@ -301,6 +327,9 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     fixed step `euler_dt`), `impact_law` 'contest' or 'dissipative', `rtol` the
     relative tolerance of the event integrator's DOP853 contact phases. `sample_dt`
     adds samples between control instants (for plots); the physics is unchanged.
+    `seed` (and `rover`, the run's index in a batch) key the rough-terrain draws; on
+    rough ground without a seed one is drawn from fresh entropy and `Rollout.seed` says
+    which.
     """
     params = RoverParams() if params is None else params
     if not isinstance(params, RoverParams):
@@ -309,7 +338,8 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     control_dt = positive_real("control_dt", control_dt)
     if sample_dt is not None:
         sample_dt = positive_real("sample_dt", sample_dt)
-    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt)
+    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt,
+                   seed, rover)
     s = sim.s
     if callable(controller):
         schedule = None
@@ -339,8 +369,10 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     pos_t = np.array([float(target_x), 0.0])
     if schedule is not None or rollout.is_compiled(controller):
         # the whole run in one kernel call, bit-identical to the Python loop below
-        return rollout.simulate_compiled(s, sim.p, sim.o, schedule, controller, control_dt,
+        roll = rollout.simulate_compiled(s, sim.p, sim.o, schedule, controller, control_dt,
                                          t_end, n_ctrl, sub, target_x, params)
+        roll.seed = sim.seed
+        return roll
     for k in range(n_ctrl):
         t_k = k * control_dt
         t_next = min((k + 1) * control_dt, t_end)
@@ -374,4 +406,4 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         ttrtp=None if math.isnan(ttrtp) else float(ttrtp), broken=bool(s[core.S_BROKEN]),
         target_x=float(target_x), params=params, impact_energy_ratios=np.array(ratios),
         n_events=int(s[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
-        min_corner_height=float(s[core.S_MIN_HEIGHT]))
+        min_corner_height=float(s[core.S_MIN_HEIGHT]), seed=sim.seed)

@@ -37,6 +37,7 @@ The package is split along the kernel's own sections, one module each:
 ``flight``         state A in closed form, touchdown location, the flight phase
 ``judge``          the event log and the judge
 ``transitions``    the instantaneous transitions between contact states (``settle``)
+``terrain``        rough-terrain bounces: the counter-based draw of each impact's tilt
 ``impacts``        the impact laws and the post-impact classification
 ``contact_phases`` state G in closed form, states B-E by DOP853 with located events
 ``phase_end``      what happens when a phase ends (either integrator)
@@ -54,6 +55,7 @@ from .layout import *  # noqa: F401,F403
 from .forces import *  # noqa: F401,F403
 from .flight import *  # noqa: F401,F403
 from .judge import *  # noqa: F401,F403
+from .terrain import *  # noqa: F401,F403
 from .transitions import *  # noqa: F401,F403
 from .impacts import *  # noqa: F401,F403
 from .contact_phases import *  # noqa: F401,F403

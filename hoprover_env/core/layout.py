@@ -27,7 +27,15 @@ S_STOP_ON = 21   # event kind that ends `advance` early (-1: none), for look-ahe
 S_STOPPED = 22   # set when that event happened in the last `advance`
 S_MIN_HEIGHT = 23  # diagnostics: lowest bottom-corner height seen after any event
 S_PHI = 24       # the RL reward's potential at the current state (NaN: not computed)
-N_STATE = 25
+# Rough-terrain bounces (docs/PHYSICS.md, "Terrain"): the key of the counter-based
+# generator that tilts each impact's normal is (seed, rover), the counter the impact
+# count S_NIMPACT. The 64-bit seed is kept as two exact 32-bit halves (a float64 holds
+# integers exactly only up to 2^53).
+S_SEED_LO = 25   # seed mod 2^32
+S_SEED_HI = 26   # seed // 2^32
+S_ROVER = 27     # rover index (run i of simulate_batch, env i of a vector env)
+S_NDRAW = 28     # tilts drawn so far (stays 0 with roughness 0: no draw is made)
+N_STATE = 29
 
 MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G = 0, 1, 2, 3, 4, 5, 6
 MODE_LETTERS = "ABCDEFG"
