@@ -80,7 +80,8 @@ class BatchRollout:
     event_log: np.ndarray        # (N, L, 5): t, kind, mode before, mode after, value
     n_logged: np.ndarray         # (N,) rows of event_log used per run
     _run: dict = dataclasses.field(repr=False, default_factory=dict)
-    seed: int | None = None      # key of the rough-terrain draws (run i: rover index i)
+    seed: int | None = None      # key of the rough-terrain draws, run i rover index i
+    #                              (None: smooth ground)
 
     @property
     def success(self) -> np.ndarray:
@@ -105,7 +106,7 @@ class BatchRollout:
         roll = rollout.build_rollout(buf.rows[i], buf.cmds[i], buf.applied[i], buf.log[i],
                                      buf.prog[i], r["S"][i], self.params[i],
                                      self.targets[i])
-        roll.seed = self.seed
+        roll.seed = self.seed if self.params[i].roughness > 0.0 else None
         return roll
 
 
@@ -243,7 +244,8 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
 
     seed = check_seed(seed)
     plist = _run_params(params, randomize, seed, n)
-    seed = check_seed(seed, any(p.roughness > 0.0 for p in plist))
+    rough = any(p.roughness > 0.0 for p in plist)
+    seed = check_seed(seed, rough)
     initial = _per_run_rows("initial_states", initial_states, n, 6)
     opts = make_options(integrator, impact_law, rtol, euler_dt)
     S = np.zeros((n, core.N_STATE))
@@ -295,7 +297,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
                     impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
                     sample_dt=sample_dt)))
-    result.seed = seed
+    result.seed = seed if rough else None
     return result
 
 

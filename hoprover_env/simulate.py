@@ -151,7 +151,7 @@ class Rollout:
     n_events: int
     sigma: np.ndarray            # slide direction of the contact point (C, E, G), else 0
     min_corner_height: float     # lowest bottom-corner height after any event or interval
-    seed: int | None = None      # key of the rough-terrain draws (None: none were made)
+    seed: int | None = None      # key of the rough-terrain draws (None: smooth ground)
 
     @property
     def success(self) -> bool:
@@ -208,8 +208,10 @@ class RoverSim:
             raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
         self.p = self.params.as_array()
         self.o = make_options(integrator, impact_law, rtol, euler_dt)
-        self.seed = check_seed(seed, self.params.roughness > 0.0)   # recorded for replays
-        self.s = make_state(self.params, target_x, initial_state, self.seed, rover)
+        rough = self.params.roughness > 0.0
+        seed = check_seed(seed, rough)
+        self.s = make_state(self.params, target_x, initial_state, seed, rover)
+        self.seed = seed if rough else None     # the key of the draws, for replays
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
         self._w = np.zeros(core.N_WORK)
 
