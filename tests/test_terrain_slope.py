@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from hoprover_env import RoverParams, RoverSim, simulate
+from hoprover_env import RoverParams, RoverSim, core, simulate
 from helpers import launch_then_hold
 from reference import Ref
 
@@ -192,6 +192,10 @@ def test_energy_never_grows_with_torque_zero_and_the_dissipative_law(chunk):
         roll = simulate(np.zeros(1), t_end=120.0, params=p, initial_state=st, seed=seed,
                         impact_law="dissipative", sample_dt=0.02)
         e = total_energy(roll)
+        s = np.zeros(core.N_STATE)
+        s[:6] = (roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1],
+                 roll.omega[-1])
+        assert core.total_energy(s, p.as_array()) == pytest.approx(e[-1], rel=1e-14)
         tol = p.mass * p.gravity * 1e-12
         assert np.all(np.diff(e) <= tol), (p, st, np.max(np.diff(e)))
         assert np.all(roll.impact_energy_ratios <= 1.0 + 1e-12)
