@@ -21,6 +21,10 @@ params         None (contest values), one RoverParams for all, or a sequence of 
 randomize      relative half-ranges {field: r} as in the environments: run i's parameters
                are the base `params` with each field scaled by U(1 - r, 1 + r), drawn in
                run order from numpy's default_rng(seed)
+seed           an integer in [0, 2^64) or None: seeds `randomize` and keys the
+               rough-terrain draws, run i with rover index i (so run i equals
+               simulate(..., seed=seed, rover=i) whatever the threads or batch size); on
+               rough ground None becomes a fresh seed, recorded in BatchRollout.seed
 initial_states None (upright rest), one (x, y, theta, vx, vy, omega), or (N, 6)
 controller_args (N, M) per-run parameters for a compiled controller: run i calls it with
                posT = (x_T, 0, controller_args[i, 0], ...) (the contest's posT[:2] first)
@@ -43,7 +47,7 @@ from .env_config import EnvConfig, randomized_params
 from .params import RoverParams
 from .rollout import SampledStates
 from .simulate import DEFAULT_RTOL, control_grid, make_options, make_state, simulate
-from .validate import positive_real, real_array
+from .validate import check_seed, positive_real, real_array
 
 
 MAX_STEPS = 10**9                 # control intervals x samples per run
@@ -68,6 +72,8 @@ class BatchRollout(SampledStates):
     event_log: np.ndarray        # (N, L, 5): t, kind, mode before, mode after, value
     n_logged: np.ndarray         # (N,) rows of event_log used per run
     _run: dict = dataclasses.field(repr=False, default_factory=dict)
+    seed: int | None = None      # key of the rough-terrain draws, run i rover index i
+    #                              (None: smooth ground)
 
     @property
     def success(self) -> np.ndarray:
@@ -86,11 +92,14 @@ class BatchRollout(SampledStates):
         if not r["record"]:
             return simulate(r["schedules"][i] if r["controller"] is None else r["controller"],
                             **r["kwargs"], target_x=float(self.targets[i]),
-                            params=self.params[i], initial_state=r["initial"][i])
+                            params=self.params[i], initial_state=r["initial"][i],
+                            seed=self.seed, rover=i)
         buf = r["buffers"]
-        return rollout.build_rollout(buf.rows[i], buf.cmds[i], buf.applied[i], buf.log[i],
+        roll = rollout.build_rollout(buf.rows[i], buf.cmds[i], buf.applied[i], buf.log[i],
                                      buf.prog[i], r["S"][i], self.params[i],
                                      self.targets[i])
+        roll.seed = self.seed if self.params[i].roughness > 0.0 else None
+        return roll
 
 
 def _run_params(params, randomize, seed, n) -> list:
@@ -199,14 +208,17 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
             raise ValueError(f"run {bad[0][0]}: controller_args element {bad[0][1]} is not "
                              "finite")
 
+    seed = check_seed(seed)
     plist = _run_params(params, randomize, seed, n)
+    rough = any(p.roughness > 0.0 for p in plist)
+    seed = check_seed(seed, rough)
     initial = _per_run_rows("initial_states", initial_states, n, 6)
     opts = make_options(integrator, impact_law, rtol, euler_dt)
     S = np.zeros((n, core.N_STATE))
     P = np.zeros((n, len(plist[0].as_array())))
     for i in range(n):
         try:
-            S[i] = make_state(plist[i], float(targets[i]), initial[i])
+            S[i] = make_state(plist[i], float(targets[i]), initial[i], seed, i)
         except ValueError as err:
             raise ValueError(f"run {i}: {err}") from None
         P[i] = plist[i].as_array()
@@ -245,12 +257,14 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         if not active.any():
             break
         buf.grow_log()
-    return _result(buf, S, targets, plist, record, dict(
+    result = _result(buf, S, targets, plist, record, dict(
         record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
         schedules=None if use_ctrl else sched, initial=initial,
         kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
                     impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
                     sample_dt=sample_dt)))
+    result.seed = seed if rough else None
+    return result
 
 
 _PAD_LETTERS = np.array(list(core.MODE_LETTERS) + [""])

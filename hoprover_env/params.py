@@ -17,7 +17,13 @@ import numpy as np
 # Layout of the flat parameter vector used by the jitted kernel.
 P_M, P_I, P_R, P_H, P_G, P_MUS, P_MUD, P_EX, P_EY, P_VXMIN, P_VYMIN, P_TMIN, P_TMAX, \
     P_BAND, P_DWELL = range(15)
-N_PARAMS = 15
+# Terrain (docs/MODEL.md section 11): the slope phi, the roughness s, and gravity's
+# components in the ground frame, g sin(phi) along the surface and g cos(phi) along its
+# normal, computed once here (at phi = 0 they are exactly 0 and g, so flat-ground
+# arithmetic is untouched: the kernel uses P_GC where it used P_G for the weight).
+P_SLOPE, P_ROUGH, P_GS, P_GC = range(15, 19)
+N_PARAMS = 19
+MAX_SLOPE = 0.5             # rad: |slope| accepted
 PAINLEVE_MARGIN = 1e-6      # smallest slide denominator accepted, relative to I + m l^2
 
 
@@ -46,6 +52,8 @@ class RoverParams:
     torque_max: float = 5e-4          # T_max [N m]
     band_half_width: float = 0.05     # judge: |x_P - x_T| <= this [m]
     dwell_time: float = 5.0           # judge: time the band must be held [s]
+    slope: float = 0.0                # phi: ground inclination, rising toward +x [rad]
+    roughness: float = 0.0            # s: std of the impact normal's tilt [rad]
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -77,6 +85,11 @@ class RoverParams:
         if self.v_ymin <= 0.0:
             # it is what ends a bounce sequence: with 0 a landing bounces forever (Zeno)
             raise ValueError(f"RoverParams.v_ymin must be positive, got {self.v_ymin!r}")
+        if abs(self.slope) > MAX_SLOPE:
+            raise ValueError(f"RoverParams.slope must lie in [-{MAX_SLOPE}, {MAX_SLOPE}] rad, "
+                             f"got {self.slope!r}")
+        if self.roughness < 0.0:
+            raise ValueError(f"RoverParams.roughness must be >= 0 rad, got {self.roughness!r}")
         if self.torque_min > self.torque_max:
             raise ValueError(f"RoverParams.torque_min ({self.torque_min}) exceeds "
                              f"torque_max ({self.torque_max})")
@@ -107,7 +120,8 @@ class RoverParams:
 
     @property
     def tipping_torque(self) -> float:
-        """|T| above which the rover at rest on both corners lifts one (m g r)."""
+        """|T| above which the rover at rest on both corners lifts one (m g r), on level
+        ground (on a slope the thresholds are (m g cos(phi) r +- m g sin(phi) h))."""
         return self.mass * self.gravity * self.half_width
 
     @property
@@ -151,5 +165,8 @@ class RoverParams:
         return np.array([self.mass, self.inertia, self.half_width, self.half_height,
                          self.gravity, self.mu_static, self.mu_dynamic, self.restitution_x,
                          self.restitution_y, self.v_xmin, self.v_ymin, self.torque_min,
-                         self.torque_max, self.band_half_width, self.dwell_time],
+                         self.torque_max, self.band_half_width, self.dwell_time,
+                         self.slope, self.roughness,
+                         self.gravity * math.sin(self.slope) + 0.0,   # -0.0 -> 0.0
+                         self.gravity * math.cos(self.slope)],
                         dtype=np.float64)

@@ -374,6 +374,7 @@ class Rollout(SampledStates):
     impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
     n_events: int
     min_corner_height: float     # lowest bottom-corner height after any event or interval
+    seed: int | None = None      # key of the rough-terrain draws (None: smooth ground)
 
     @property
     def success(self) -> bool:

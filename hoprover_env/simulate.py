@@ -27,7 +27,7 @@ import numpy as np
 from . import _compile, core
 from .params import MAX_MAGNITUDE, RoverParams
 from .rollout import Rollout, budget_error, run_rollout
-from .validate import check_torque, finite_real, positive_real
+from .validate import check_rover, check_seed, check_torque, finite_real, positive_real
 
 __all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "control_grid",
            "DEFAULT_RTOL"]
@@ -65,9 +65,11 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
     return o
 
 
-def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.ndarray:
+def make_state(params: RoverParams, target_x: float, initial_state=None, seed=None,
+               rover: int = 0) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
-    `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state."""
+    `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state.
+    `seed` and `rover` key the rough-terrain draws (see validate.check_seed)."""
     _compile.prepare()              # on a cold numba cache: compile on two cores
     target_x = finite_real("target_x", target_x)
     if initial_state is None:
@@ -89,6 +91,11 @@ def make_state(params: RoverParams, target_x: float, initial_state=None) -> np.n
     if code != core.INIT_OK:
         raise ValueError(f"initial_state {tuple(st)} is not consistent with a contact "
                          f"state: {_INIT_ERRORS[code]}")
+    seed = check_seed(seed, params.roughness > 0.0)
+    if seed is not None:
+        s[core.S_SEED_LO] = seed & 0xFFFFFFFF
+        s[core.S_SEED_HI] = seed >> 32
+    s[core.S_ROVER] = check_rover(rover)
     return s
 
 
@@ -103,19 +110,22 @@ class RoverSim:
     def __init__(self, params: RoverParams | None = None, target_x: float = 0.5,
                  initial_state=None, integrator: str = "event",
                  impact_law: str = "contest", rtol: float = DEFAULT_RTOL,
-                 euler_dt: float = 1e-3):
+                 euler_dt: float = 1e-3, seed=None, rover: int = 0):
         self.params = RoverParams() if params is None else params
         if not isinstance(self.params, RoverParams):
             raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
         self.p = self.params.as_array()
         self.o = make_options(integrator, impact_law, rtol, euler_dt)
-        self.s = make_state(self.params, target_x, initial_state)
+        rough = self.params.roughness > 0.0
+        seed = check_seed(seed, rough)
+        self.s = make_state(self.params, target_x, initial_state, seed, rover)
+        self.seed = seed if rough else None     # the key of the draws, for replays
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
         self._w = np.zeros(core.N_WORK)
 
     def copy(self) -> "RoverSim":
         new = object.__new__(RoverSim)
-        new.params, new.p, new.o = self.params, self.p, self.o
+        new.params, new.p, new.o, new.seed = self.params, self.p, self.o, self.seed
         new.s = self.s.copy()
         new._ev = np.zeros_like(self._ev)
         new._w = np.zeros_like(self._w)
@@ -199,7 +209,7 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
              control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
              impact_law: str = "contest", params: RoverParams | None = None,
              initial_state=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
-             sample_dt: float | None = None) -> Rollout:
+             sample_dt: float | None = None, seed=None, rover: int = 0) -> Rollout:
     """Simulate one run to `t_end` (or until the rover breaks).
 
     Parameters mirror the contest: `control_dt` is the control period, `target_x` the
@@ -207,6 +217,9 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     fixed step `euler_dt`), `impact_law` 'contest' or 'dissipative', `rtol` the
     relative tolerance of the event integrator's DOP853 contact phases. `sample_dt`
     adds samples between control instants (for plots); the physics is unchanged.
+    `seed` (and `rover`, the run's index in a batch) key the rough-terrain draws; on
+    rough ground without a seed one is drawn from fresh entropy and `Rollout.seed` says
+    which.
     """
     params = RoverParams() if params is None else params
     if not isinstance(params, RoverParams):
@@ -215,7 +228,8 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     control_dt = positive_real("control_dt", control_dt)
     if sample_dt is not None:
         sample_dt = positive_real("sample_dt", sample_dt)
-    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt)
+    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt,
+                   seed, rover)
     s = sim.s
     if callable(controller):
         schedule = None
@@ -240,5 +254,7 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         raise ValueError(f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
                          f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
                          "or the event integrator")
-    return run_rollout(s, sim.p, sim.o, schedule, controller, control_dt, t_end, n_ctrl, sub,
+    roll = run_rollout(s, sim.p, sim.o, schedule, controller, control_dt, t_end, n_ctrl, sub,
                        target_x, params)
+    roll.seed = sim.seed
+    return roll

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import secrets
 
 import numpy as np
 
@@ -79,3 +80,24 @@ def real_array(name: str, value) -> np.ndarray:
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
     return np.ascontiguousarray(raw, dtype=np.float64)
+
+
+def check_seed(seed, rough: bool = False):
+    """The seed of the rough-terrain draws: an integer in [0, 2^64), or None. None on
+    rough ground (`rough`) becomes a seed from fresh entropy, which the caller records
+    so that the run can be replayed; on smooth ground it stays None (nothing is drawn)."""
+    if seed is None:
+        return secrets.randbits(64) if rough else None
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) \
+            or not 0 <= int(seed) < 2**64:
+        raise ValueError(f"seed must be None or an integer in [0, 2**64), got "
+                         f"{type(seed).__name__} {seed!r}")
+    return int(seed)
+
+
+def check_rover(rover) -> int:
+    """A rover index (the run's place in a batch, the sub-env of a vector env)."""
+    if isinstance(rover, (bool, np.bool_)) or not isinstance(rover, numbers.Integral) \
+            or not 0 <= int(rover) < 2**53:
+        raise ValueError(f"rover must be an integer in [0, 2**53), got {rover!r}")
+    return int(rover)

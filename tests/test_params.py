@@ -13,7 +13,8 @@ def test_contest_defaults():
     assert p.corner_distance == pytest.approx(math.sqrt(0.05 ** 2 + 0.05 ** 2))
     assert p.alpha == pytest.approx(math.pi / 4)
     assert p.tipping_torque == pytest.approx(4.9e-6)
-    assert p.as_array().shape == (15,)
+    assert p.as_array().shape == (19,)
+    assert (p.slope, p.roughness) == (0.0, 0.0)
 
 
 @pytest.mark.parametrize("field, value, words", [
@@ -32,10 +33,30 @@ def test_contest_defaults():
     ("mass", float("nan"), "mass must be finite"),
     ("torque_max", float("inf"), "torque_max must be finite"),
     ("gravity", "9.8e-5", "gravity must be a real number"),
+    ("slope", 0.5000001, "slope must lie in"),
+    ("slope", -0.6, "slope must lie in"),
+    ("slope", float("nan"), "slope must be finite"),
+    ("roughness", -1e-3, "roughness must be >= 0"),
+    ("roughness", float("inf"), "roughness must be finite"),
+    ("roughness", float("nan"), "roughness must be finite"),
+    ("roughness", "0.1", "roughness must be a real number"),
 ])
 def test_invalid_field_is_named(field, value, words):
     with pytest.raises(ValueError, match=words.replace("[", r"\[").replace("]", r"\]")):
         RoverParams(**{field: value})
+
+
+def test_terrain_slots_of_the_kernel_vector():
+    from hoprover_env.params import P_GC, P_GS, P_ROUGH, P_SLOPE
+    flat = RoverParams().as_array()
+    assert flat[P_GC] == 9.8e-5 and flat[P_GS] == 0.0 and not np.signbit(flat[P_GS])
+    assert not np.signbit(RoverParams(slope=-0.0).as_array()[P_GS])
+    p = RoverParams(slope=-0.3, roughness=0.05)
+    a = p.as_array()
+    assert (a[P_SLOPE], a[P_ROUGH]) == (-0.3, 0.05)
+    assert a[P_GS] == pytest.approx(9.8e-5 * math.sin(-0.3), rel=1e-15)
+    assert a[P_GC] == pytest.approx(9.8e-5 * math.cos(-0.3), rel=1e-15)
+    assert RoverParams(slope=0.5).slope == 0.5 and RoverParams(slope=-0.5).slope == -0.5
 
 
 def test_torque_limits_order():

@@ -34,6 +34,7 @@ One module per section of the kernel (docs/ARCHITECTURE.md has the whole map):
 ``flight``         state A in closed form, touchdown location, the flight phase
 ``judge``          the event log and the judge
 ``transitions``    the instantaneous transitions between contact states (``settle``)
+``terrain``        rough-terrain bounces: the counter-based draw of each impact's tilt
 ``impacts``        the impact laws and the post-impact classification
 ``contact_phases`` state G in closed form, states B-E by DOP853 with located events
 ``phase_end``      what happens when a phase ends (either integrator)
@@ -48,28 +49,30 @@ The names below are the core's public surface: callers write ``core.settle``,
 from .layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TORQUE, S_XT,
                      S_BROKEN, S_INBAND, S_TIN, S_TTRTP, S_HSTEP, S_NEVENTS, S_NIMPACT,
                      S_NGAIN, S_MAXGAIN, S_ERROR, S_STOP_ON, S_STOPPED, S_MIN_HEIGHT,
-                     N_STATE, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
-                     MODE_LETTERS, O_INTEGRATOR, O_LAW, O_RTOL, O_EULER_DT, N_OPTIONS,
-                     INTEGRATOR_EVENT, INTEGRATOR_EULER, LAW_CONTEST, LAW_DISSIPATIVE,
-                     EV_LIFTOFF, EV_SLIP, EV_STICK, EV_REVERSE, EV_IMPACT, EV_RESUME,
-                     EV_TIP, EV_STOP, EV_BAND_IN, EV_BAND_OUT, EV_BROKEN, EV_TTRTP,
-                     EVENT_NAMES, EV_COLS, MAX_EVENTS, N_WORK, W_IMP, W_FLT, W_RK, W_WORK,
-                     H_TOL, V_TOL, A_TOL, F_TOL, CA_TOL, H_IMPACT, MAX_CA_ITER,
-                     FLIGHT_WINDOW_MAX, RK_SAFETY, RK_MIN_FACTOR, ERR_BUDGET, ERR_TORQUE,
-                     ERR_STEP, ERR_WORK, MAX_RK_STEPS, MAX_WORK, MAX_PHASES, RK_MAX_FACTOR,
-                     TWO_PI, PH_NONE, PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN,
-                     PH_BAND, PH_STOP)
+                     S_SEED_LO, S_SEED_HI, S_ROVER, S_NDRAW, N_STATE, MODE_A, MODE_B,
+                     MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, MODE_LETTERS, O_INTEGRATOR,
+                     O_LAW, O_RTOL, O_EULER_DT, N_OPTIONS, INTEGRATOR_EVENT,
+                     INTEGRATOR_EULER, LAW_CONTEST, LAW_DISSIPATIVE, EV_LIFTOFF, EV_SLIP,
+                     EV_STICK, EV_REVERSE, EV_IMPACT, EV_RESUME, EV_TIP, EV_STOP,
+                     EV_BAND_IN, EV_BAND_OUT, EV_BROKEN, EV_TTRTP, EVENT_NAMES, EV_COLS,
+                     MAX_EVENTS, N_WORK, W_IMP, W_FLT, W_RK, W_WORK, H_TOL, V_TOL, A_TOL,
+                     F_TOL, CA_TOL, H_IMPACT, MAX_CA_ITER, FLIGHT_WINDOW_MAX, RK_SAFETY,
+                     RK_MIN_FACTOR, ERR_BUDGET, ERR_TORQUE, ERR_STEP, ERR_WORK,
+                     MAX_RK_STEPS, MAX_WORK, MAX_PHASES, RK_MAX_FACTOR, TWO_PI, PH_NONE,
+                     PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN, PH_BAND, PH_STOP)
 from .forces import (corner_body, corner_offset_cs, corner_offset, wrap_angle,
-                     kinetic_energy, contact_corner, pivot_dynamics, slide_dynamics,
-                     double_contact_forces, contact_forces, set_single_contact, pin_corner,
-                     turn_flat_about, set_double_contact)
-from .flight import (flight_at, flight_rise, resting_corner_driven_down, flight_phase)
-from .judge import (log_event, in_band, judge_check, judge_set, judge_update)
-from .transitions import (settle)
+                     kinetic_energy, total_energy, contact_corner, pivot_dynamics,
+                     slide_dynamics, double_contact_forces, contact_forces,
+                     set_single_contact, pin_corner, turn_flat_about, set_double_contact)
+from .flight import flight_at, flight_rise, resting_corner_driven_down, flight_phase
+from .judge import log_event, in_band, judge_check, judge_set, judge_update
+from .transitions import settle
+from .terrain import (philox4x64, truncated_normal, impact_tilt, TRUNCATION, MAX_ATTEMPTS)
 from .impacts import (contest_impulses, frictionless_impulses, resolve_impact,
-                      impact_event)
-from .contact_phases import (g_phase, contact_phase)
-from .phase_end import (track_min_height, after_phase)
-from .euler import (event_budget, advance_euler)
-from .integrator import (advance, advance_event, init_state, INIT_OK, INIT_PENETRATION,
-                         INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT)
+                      resolve_impact_tilted, impact_event)
+from .contact_phases import g_phase, contact_phase
+from .phase_end import track_min_height, after_phase
+from .euler import event_budget, advance_euler
+from .integrator import (advance_event_loop, advance, advance_event, init_state,
+                         INIT_GROUND_TOL, INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN,
+                         INIT_MOVING_DOWN, INIT_NOT_FLAT)

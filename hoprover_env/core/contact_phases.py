@@ -7,7 +7,7 @@ import numpy as np
 
 from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
 from .._compile import kernel, F64, I64, VEC
-from ..params import P_M, P_R, P_G, P_MUS, P_MUD, P_BAND
+from ..params import P_M, P_R, P_G, P_GC, P_GS, P_MUS, P_MUD, P_BAND
 from .layout import (ERR_STEP, ERR_WORK, F_TOL, H_TOL, MAX_RK_STEPS, MAX_WORK, MODE_C,
                      MODE_E, O_RTOL, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
                      PH_STICK, PH_STOP, PH_TOUCH, RK_MAX_FACTOR, RK_MIN_FACTOR, RK_SAFETY,
@@ -33,12 +33,14 @@ def _next_band_boundary(xp, sigma, xt, w, offset):
 
 @kernel(I64(VEC, VEC, F64), inner=True)
 def g_phase(S, P, t_stop):
-    """Slide on both corners: x(t) quadratic, decelerating at mu_d g to a stop.
+    """Slide on both corners: x(t) quadratic, x'' = -g sin(phi) - sigma mu_d g cos(phi).
 
+    The speed u = sigma vx falls at a = mu_d gc + sigma gs (on level ground mu_d g) to a
+    stop; a <= 0 (sliding down a slope steeper than atan(mu_d)) never stops.
     Events: the stop (G -> F) and the next band boundary of either corner.
     """
     sigma = S[S_SIGMA]
-    a = P[P_MUD] * P[P_G]
+    a = P[P_MUD] * P[P_GC] + sigma * P[P_GS]
     u = sigma * S[S_VX]                    # speed, > 0
     tau_end = t_stop - S[S_T]
     tau_stop = u / a if a > 0.0 else np.inf
@@ -83,7 +85,7 @@ def _rhs(P, k, sliding, sigma, T, u, out):
     out[0] = u[1]
     out[1] = thdd
     out[2] = u[3]
-    out[3] = fx / P[P_M]
+    out[3] = fx / P[P_M] - P[P_GS]
 
 
 @kernel(inner=True)

@@ -3,7 +3,7 @@ section 10), over the same forces, transitions and impact law."""
 
 
 from .._compile import kernel
-from ..params import P_M, P_I, P_G, P_MUD
+from ..params import P_M, P_I, P_GC, P_GS, P_MUD
 from .layout import (H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
                      MODE_E, MODE_F, MODE_G, O_EULER_DT, O_INTEGRATOR, PH_BROKEN, PH_NONE,
                      PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_ERROR, S_MODE, S_SIGMA,
@@ -38,7 +38,7 @@ def _euler_contact_step(S, P, dt):
     else:
         thdd, fx, _, dx, _ = slide_dynamics(P, k, S[S_SIGMA], T, th, w)
         S[S_X] += S[S_VX] * dt
-        S[S_VX] += fx / P[P_M] * dt
+        S[S_VX] += (fx / P[P_M] - P[P_GS]) * dt
         th += w * dt
         w += thdd * dt
         dx, dy = corner_offset(P, k, th)
@@ -99,7 +99,8 @@ def advance_euler(S, P, O, t_stop, ev, n, W):
     dt0 = O[O_EULER_DT]
     n_start = n
     budget = event_budget(O, t_stop - S[S_T])
-    g = P[P_G]
+    g = P[P_GC]
+    gs = P[P_GS]
     while S[S_BROKEN] == 0.0 and S[S_STOPPED] == 0.0:
         remaining = t_stop - S[S_T]
         if remaining <= 1e-9 * dt0:
@@ -114,12 +115,14 @@ def advance_euler(S, P, O, t_stop, ev, n, W):
             S[S_X] += S[S_VX] * dt
             S[S_Y] += S[S_VY] * dt
             S[S_TH] += S[S_W] * dt
+            S[S_VX] -= gs * dt
             S[S_VY] -= g * dt
             S[S_W] += S[S_TORQUE] / P[P_I] * dt
         elif mode == MODE_G:
             sigma = S[S_SIGMA]
             S[S_X] += S[S_VX] * dt
             S[S_VX] -= sigma * P[P_MUD] * g * dt
+            S[S_VX] -= gs * dt
         elif mode != MODE_F:
             _euler_contact_step(S, P, dt)
         S[S_T] = t_stop if dt == remaining else S[S_T] + dt

@@ -6,7 +6,7 @@ import math
 import numpy as np
 
 from .._compile import kernel, F64, I64, BOOL, VEC, I64x2
-from ..params import P_I, P_R, P_H, P_G
+from ..params import P_I, P_R, P_H, P_GC, P_GS
 from .layout import (A_TOL, CA_TOL, ERR_STEP, ERR_WORK, FLIGHT_WINDOW_MAX, H_IMPACT, H_TOL,
                      MAX_CA_ITER, MAX_WORK, PH_BROKEN, PH_NONE, PH_TOUCH, S_ERROR, S_T,
                      S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL, W_FLT, W_WORK)
@@ -18,13 +18,15 @@ from .forces import corner_body, corner_offset, corner_offset_cs
 # ----------------------------------------------------------------------------------
 @kernel(inner=True)
 def flight_at(S, P, tau):
-    """State after a flight of duration tau under the held torque."""
-    g = P[P_G]
+    """State after a flight of duration tau under the held torque: a parabola with both
+    components of gravity in the ground frame, g (-sin phi, -cos phi)."""
+    g = P[P_GC]
+    gs = P[P_GS]
     beta = S[S_TORQUE] / P[P_I]
-    x = S[S_X] + S[S_VX] * tau
+    x = S[S_X] + S[S_VX] * tau - 0.5 * gs * tau * tau
     y = S[S_Y] + S[S_VY] * tau - 0.5 * g * tau * tau
     th = S[S_TH] + S[S_W] * tau + 0.5 * beta * tau * tau
-    return x, y, th, S[S_VX], S[S_VY] - g * tau, S[S_W] + beta * tau
+    return x, y, th, S[S_VX] - gs * tau, S[S_VY] - g * tau, S[S_W] + beta * tau
 
 
 @kernel(F64(VEC, VEC, I64, F64), inner=True)
@@ -39,7 +41,7 @@ def flight_rise(S, P, k, tau):
     sh = math.sin(0.5 * dth)
     d_sin = 2.0 * math.cos(mid) * sh
     d_cos = -2.0 * math.sin(mid) * sh
-    return S[S_VY] * tau - 0.5 * P[P_G] * tau * tau - bx * d_sin + by * d_cos
+    return S[S_VY] * tau - 0.5 * P[P_GC] * tau * tau - bx * d_sin + by * d_cos
 
 
 @kernel(F64(VEC, VEC, I64, F64, F64, F64), inner=True)
@@ -63,13 +65,13 @@ def resting_corner_driven_down(S, P, k):
     """A corner on the ground at rest vertically, in flight: is it pressed down?
 
     Decided by the flight dynamics (docs/MODEL.md section 5): the sign of the corner's
-    vertical acceleration h'' = -g - beta dx - w^2 dy, or when that vanishes (a lift-off
+    vertical acceleration h'' = -g cos(phi) - beta dx - w^2 dy, or when that vanishes (a lift-off
     instant) of its jerk h''' = -3 beta w dy + w^3 dx.
     """
     beta = S[S_TORQUE] / P[P_I]
     w = S[S_W]
     dx, dy = corner_offset(P, k, S[S_TH])
-    acc = -P[P_G] - beta * dx - w * w * dy
+    acc = -P[P_GC] - beta * dx - w * w * dy
     if acc < -A_TOL:
         return True
     if acc > A_TOL:
@@ -145,7 +147,7 @@ def flight_phase(S, P, t_stop, W):
     tau_end = t_stop - S[S_T]
     if tau_end <= 0.0:
         return PH_NONE, -1
-    g = P[P_G]
+    g = P[P_GC]         # corner heights feel only gravity's normal component
     beta = S[S_TORQUE] / P[P_I]
     ell = math.hypot(P[P_R], P[P_H])
     w0 = S[S_W]

@@ -7,7 +7,7 @@ import math
 from numba import types as nt
 
 from .._compile import kernel, F64, I64, VEC, F64x2, F64x5
-from ..params import P_M, P_I, P_R, P_H, P_G, P_MUD, P_VXMIN
+from ..params import P_M, P_I, P_R, P_H, P_G, P_GC, P_GS, P_MUD, P_VXMIN
 from .layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_F, MODE_G, S_MODE, S_SIGMA, S_TH,
                      S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, TWO_PI)
 
@@ -48,6 +48,13 @@ def kinetic_energy(S, P):
     return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2
 
 
+@kernel
+def total_energy(S, P):
+    """Kinetic plus potential energy along the tilted gravity, m g (x sin phi + y cos phi)."""
+    return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2 \
+        + P[P_M] * (P[P_GS] * S[S_X] + P[P_GC] * S[S_Y])
+
+
 @kernel(I64(I64), inner=True)
 def contact_corner(mode):
     """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
@@ -61,16 +68,19 @@ def contact_corner(mode):
 def pivot_dynamics(P, k, T, th, w):
     """Pivot on corner k (state B for A, D for B).
 
-    The corner is fixed: c.m. acceleration a = -thdd (dy, -dx) + w^2 (dx, dy), so
-    thdd = (T - m g dx) / (I + m l^2), f = m a + (0, m g).
+    The corner is fixed: c.m. acceleration a = -thdd (dy, -dx) + w^2 (dx, dy), and
+    f = m a + m (gs, gc) with gravity g (-sin phi, -cos phi) in the ground frame, so
+    thdd = (T - m gc dx + m gs dy) / (I + m l^2): the along-surface weight enters the
+    moment through the friction force that holds the corner.
     Returns (thdd, fx, fy, dx, dy).
     """
     m = P[P_M]
-    g = P[P_G]
+    gc = P[P_GC]
+    gs = P[P_GS]
     dx, dy = corner_offset(P, k, th)
-    thdd = (T - m * g * dx) / (P[P_I] + m * (dx * dx + dy * dy))
-    fx = m * (-thdd * dy + w * w * dx)
-    fy = m * (thdd * dx + w * w * dy + g)
+    thdd = (T - m * gc * dx + m * gs * dy) / (P[P_I] + m * (dx * dx + dy * dy))
+    fx = m * (-thdd * dy + w * w * dx + gs)
+    fy = m * (thdd * dx + w * w * dy + gc)
     return thdd, fx, fy, dx, dy
 
 
@@ -80,11 +90,13 @@ def slide_dynamics(P, k, sigma, T, th, w):
 
     Only the normal constraint holds; friction f_x = -sigma mu_d f_y.
     D = I + m dx (dx + sigma mu_d dy) (> 0 outside the Painleve regime),
-    thdd = [T - m (dx + sigma mu_d dy)(w^2 dy + g)] / D, f_y = m (thdd dx + w^2 dy + g).
+    thdd = [T - m (dx + sigma mu_d dy)(w^2 dy + gc)] / D, f_y = m (thdd dx + w^2 dy + gc),
+    with gc = g cos(phi) the weight normal to the ground. The along-surface part
+    -g sin(phi) has no moment here: it only accelerates the c.m. (x'' = fx / m - gs).
     Returns (thdd, fx, fy, dx, dy).
     """
     m = P[P_M]
-    g = P[P_G]
+    g = P[P_GC]
     dx, dy = corner_offset(P, k, th)
     q = dx + sigma * P[P_MUD] * dy
     thdd = (T - m * q * (w * w * dy + g)) / (P[P_I] + m * dx * q)
@@ -97,15 +109,26 @@ def slide_dynamics(P, k, sigma, T, th, w):
 def double_contact_forces(P, sigma, T):
     """States F (sigma = 0) and G: both corners on the ground, theta = 0, omega = 0.
 
-    f_Ay + f_By = m g and, from the moment balance, f_Ay - f_By = (T + sigma mu_d m g h) / r.
+    f_Ay + f_By = m gc and, from the moment balance,
+    f_Ay - f_By = (T - h (f_Ax + f_Bx)) / r: in G the friction is -sigma mu_d m gc; in F
+    static friction holds the along-surface weight, f_Ax + f_Bx = m gs.
+    Decision: F's split of that friction between the corners is indeterminate (rigid
+    body); it is reported in proportion to the normal forces, the split that loads both
+    corners' friction cones equally (so F holds, |gs| <= mu_s gc, iff each corner is
+    inside its cone).
     Returns (fAx, fAy, fBx, fBy).
     """
     m = P[P_M]
-    g = P[P_G]
+    g = P[P_GC]
+    gs = P[P_GS]
     diff = (T + sigma * P[P_MUD] * m * g * P[P_H]) / P[P_R]
+    ratio = -sigma * P[P_MUD]
+    if sigma == 0.0 and gs != 0.0:
+        diff = (T - m * gs * P[P_H]) / P[P_R]
+        ratio = gs / g
     fay = 0.5 * (m * g + diff)
     fby = 0.5 * (m * g - diff)
-    return -sigma * P[P_MUD] * fay, fay, -sigma * P[P_MUD] * fby, fby
+    return ratio * fay, fay, ratio * fby, fby
 
 
 @kernel

@@ -1,6 +1,8 @@
 """Impacts (docs/MODEL.md section 6): the contest law, the frictionless fallback and
 the post-impact classification."""
 
+import math
+
 
 from .._compile import kernel, I64, VEC, MAT
 from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
@@ -10,6 +12,7 @@ from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, MODE_B, MODE_
 from .forces import (pin_corner, set_double_contact, set_single_contact, turn_flat_about,
                      corner_offset, kinetic_energy, wrap_angle)
 from .judge import log_event
+from .terrain import impact_tilt
 
 
 # ----------------------------------------------------------------------------------
@@ -132,8 +135,37 @@ def _apply_impulses(S, P, dxs, dys, lx, ly):
 def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
 
+    On rough terrain (roughness > 0) the law acts on a surface tilted by a random angle
+    (`impact_tilt`); with roughness 0 no draw is made and the tilt is exactly 0.
     Returns the kinetic energy ratio (after / before) of the impact, after the
     post-impact classification. See docs/MODEL.md section 6 and docs/PHYSICS.md.
+    """
+    return resolve_impact_tilted(S, P, law, W, impact_tilt(S, P))
+
+
+@kernel(inner=True)
+def _rotate_velocity(S, c, s):
+    """The c.m. velocity in a frame turned by the angle whose cosine, sine are c, s."""
+    vx = S[S_VX]
+    vy = S[S_VY]
+    S[S_VX] = c * vx + s * vy
+    S[S_VY] = -s * vx + c * vy
+
+
+@kernel
+def resolve_impact_tilted(S, P, law, W, psi):
+    """`resolve_impact` with the local surface tilted by psi (rad) from the mean plane.
+
+    The law of docs/MODEL.md section 6 (contest or dissipative, with its fallbacks) is
+    applied in the tilted frame: offsets and velocities turned by -psi, the taking-part
+    test and the targets (e_x along, -e_y normal to the facet) in that frame, the
+    impulses turned back. Rotations commute with the point-velocity and moment formulas,
+    so the flat code runs unchanged on the turned vectors. Which corners are on the
+    ground is decided on the mean plane, and contact afterwards is on the mean plane.
+    Decision: if the tilted law leaves a grounded corner moving into the mean plane, a
+    second, plastic and frictionless impact on the mean plane follows (the
+    complementarity of `frictionless_impulses` with target 0): each such corner ends at
+    rest normal to the plane, no impulse pulls, and it never adds energy.
     """
     S[S_TH] = wrap_angle(S[S_TH])
     th = S[S_TH]
@@ -150,11 +182,20 @@ def resolve_impact(S, P, law, W):
     ly = W[o + 20:o + 22]
     for j in range(22):
         W[o + j] = 0.0
+    tilted = psi != 0.0
+    ct = 1.0
+    st = 0.0
+    if tilted:
+        ct = math.cos(psi)
+        st = math.sin(psi)
+        _rotate_velocity(S, ct, st)
     for k in range(2):
         dx, dy = corner_offset(P, k, th)
+        on[k] = 1.0 if S[S_Y] + dy <= H_IMPACT else 0.0
+        if tilted:
+            dx, dy = ct * dx + st * dy, -st * dx + ct * dy
         dxs[k] = dx
         dys[k] = dy
-        on[k] = 1.0 if S[S_Y] + dy <= H_IMPACT else 0.0
         vpx[k] = S[S_VX] + S[S_W] * dy
         vpy[k] = S[S_VY] - S[S_W] * dx
         part[k] = 1.0 if (on[k] != 0.0 and vpy[k] <= V_TOL) else 0.0
@@ -205,6 +246,17 @@ def resolve_impact(S, P, law, W):
                 tgt_y[1] = 0.0
                 frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
                 _apply_impulses(S, P, dxs, dys, lx, ly)
+    if tilted:
+        _rotate_velocity(S, ct, -st)
+        for k in range(2):
+            dxs[k], dys[k] = corner_offset(P, k, th)
+            vpy[k] = S[S_VY] - S[S_W] * dxs[k]
+            tgt_y[k] = 0.0
+        if (on[0] != 0.0 and vpy[0] < -V_TOL) or (on[1] != 0.0 and vpy[1] < -V_TOL):
+            frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
+            lx[0] = 0.0
+            lx[1] = 0.0
+            _apply_impulses(S, P, dxs, dys, lx, ly)
     # Post-impact classification: a grounded corner slower than v_ymin is in contact.
     c0 = on[0] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
     c1 = on[1] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]

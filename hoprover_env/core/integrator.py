@@ -10,8 +10,8 @@ from ..params import P_TMIN, P_TMAX, P_DWELL
 from .layout import (ERR_BUDGET, ERR_STEP, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
                      MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, N_STATE,
                      N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN, S_ERROR, S_INBAND,
-                     S_MIN_HEIGHT, S_MODE, S_SIGMA, S_STOPPED, S_STOP_ON, S_T, S_TH,
-                     S_TIN, S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
+                     S_MIN_HEIGHT, S_MODE, S_SIGMA, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN,
+                     S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
 from .forces import (pin_corner, set_double_contact, set_single_contact, corner_offset,
                      wrap_angle)
 from .flight import flight_phase

@@ -26,7 +26,15 @@ S_ERROR = 20     # 0 = fine; 1 = event budget of one advance exhausted; 2 = bad 
 S_STOP_ON = 21   # event kind that ends `advance` early (-1: none), for look-ahead tools
 S_STOPPED = 22   # set when that event happened in the last `advance`
 S_MIN_HEIGHT = 23  # diagnostics: lowest bottom-corner height seen after any event
-N_STATE = 24
+# Rough-terrain bounces (docs/PHYSICS.md, "Terrain"): the key of the counter-based
+# generator that tilts each impact's normal is (seed, rover), the counter the impact
+# count S_NIMPACT. The 64-bit seed is kept as two exact 32-bit halves (a float64 holds
+# integers exactly only up to 2^53).
+S_SEED_LO = 24   # seed mod 2^32
+S_SEED_HI = 25   # seed // 2^32
+S_ROVER = 26     # rover index (run i of simulate_batch, env i of a vector env)
+S_NDRAW = 27     # tilts drawn so far (stays 0 with roughness 0: no draw is made)
+N_STATE = 28
 
 MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G = 0, 1, 2, 3, 4, 5, 6
 MODE_LETTERS = "ABCDEFG"

@@ -3,7 +3,7 @@
 import math
 
 from .._compile import kernel, F64, I64, VEC, MAT
-from ..params import P_M, P_G, P_MUS
+from ..params import P_M, P_G, P_GC, P_GS, P_MUS
 from .layout import (A_TOL, EV_LIFTOFF, EV_RESUME, EV_REVERSE, EV_SLIP, EV_STICK, EV_TIP,
                      F_TOL, H_TOL, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
                      S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_Y, V_TOL)
@@ -26,7 +26,7 @@ def _consistent_slide_direction(S, P, k, T):
     w = S[S_W]
     for sigma in (1.0, -1.0):
         thdd, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, S[S_TH], w)
-        apx = fx / m + thdd * dy - w * w * dx
+        apx = fx / m - P[P_GS] + thdd * dy - w * w * dx
         if fy >= -ftol and sigma * apx > 0.0:
             return sigma
     return 0.0
@@ -63,6 +63,15 @@ def settle(S, P, ev, n):
                     new = MODE_C if k == 0 else MODE_E
                 S[S_MODE] = new
                 n = log_event(S, ev, n, t, EV_TIP, mode, new, 0.0)
+                continue
+            gs = P[P_GS]
+            if mode == MODE_F and abs(gs) > P[P_MUS] * P[P_GC] + F_TOL * g:
+                # Static friction cannot hold the along-surface weight. Decision: the
+                # split between the corners is indeterminate, so the totals decide:
+                # F holds while |m g sin(phi)| <= mu_s (f_Ay + f_By) = mu_s m g cos(phi).
+                S[S_MODE] = MODE_G
+                S[S_SIGMA] = -1.0 if gs > 0.0 else 1.0      # down the slope
+                n = log_event(S, ev, n, t, EV_SLIP, mode, MODE_G, 0.0)
                 continue
             return n
         if mode == MODE_B or mode == MODE_D:
@@ -110,7 +119,7 @@ def settle(S, P, ev, n):
                     continue
                 return n
             # The contact point is (momentarily) at rest: does it keep sliding?
-            apx = fx / m + thdd * dy - w * w * dx
+            apx = fx / m - P[P_GS] + thdd * dy - w * w * dx
             if sigma * apx > A_TOL:
                 return n                    # it accelerates in sigma: the slide goes on
             _, fxp, fyp, _, _ = pivot_dynamics(P, k, T, S[S_TH], w)
