@@ -16,6 +16,16 @@ from hoprover_env import RoverParams
 
 DEFAULT = RoverParams()
 T_MAX = DEFAULT.torque_max
+LAWS = ("contest", "dissipative")
+LANDING_TIMES = (1.0, 100.0)        # control dt and horizon of the landing families [s]
+
+
+def variants(family, params, state, kind, ctrl, sched, rand, control_dt, t_end, label="",
+             initial=None, integrators=("event", "euler")) -> list:
+    """The runs of one set-up (a RunSpec's fields) under each integrator and impact law."""
+    return [RunSpec(family, integrator, law, params, state.copy(), kind, ctrl, sched, rand,
+                    control_dt, t_end, label=label, initial=initial)
+            for integrator in integrators for law in LAWS]
 
 
 def family_long_horizon(rng, quick):
@@ -28,15 +38,11 @@ def family_long_horizon(rng, quick):
     for hold, name in ((True, HOPPER_HOLD), (False, HOPPER_FREE)):
         for rep in range(seeds):
             rand = rng.random(4096)
-            for integrator in ("event", "euler"):
-                if integrator == "euler" and rep > 0:
-                    continue                # Euler: one seed (1e8 steps a run)
-                for law in ("contest", "dissipative"):
-                    specs.append(RunSpec("1 long horizon", integrator, law, DEFAULT,
-                                         state_from(DEFAULT, upright(DEFAULT)), CTRL_HOPPER,
-                                         controller_params(hold=hold), np.zeros(1), rand,
-                                         0.1, t_end, label=f"{name}, seed {rep}",
-                                         initial=upright(DEFAULT)))
+            # Euler: one seed (1e8 steps a run)
+            specs += variants("1 long horizon", DEFAULT, state_from(DEFAULT, upright(DEFAULT)),
+                              CTRL_HOPPER, controller_params(hold=hold), np.zeros(1), rand,
+                              0.1, t_end, f"{name}, seed {rep}", upright(DEFAULT),
+                              ("event", "euler") if rep == 0 else ("event",))
     return specs
 
 
@@ -52,14 +58,10 @@ def family_extreme_torques(rng, quick):
                      "random-sign +-Tmax": T_MAX * rng.choice([-1.0, 1.0], n),
                      "uniform random": T_MAX * rng.uniform(-1, 1, n)}
         for name, sched in schedules.items():
-            for integrator in ("event", "euler"):
-                for law in ("contest", "dissipative"):
-                    specs.append(RunSpec("2 extreme torques", integrator, law, DEFAULT,
-                                         state_from(DEFAULT, upright(DEFAULT)), CTRL_SCHEDULE,
-                                         controller_params(hold=False), sched,
-                                         np.zeros(1), dt, t_end,
-                                         label=f"{name}, control dt {dt:g} s",
-                                         initial=upright(DEFAULT)))
+            specs += variants("2 extreme torques", DEFAULT,
+                              state_from(DEFAULT, upright(DEFAULT)), CTRL_SCHEDULE,
+                              controller_params(hold=False), sched, np.zeros(1), dt, t_end,
+                              label=f"{name}, control dt {dt:g} s", initial=upright(DEFAULT))
     return specs
 
 
@@ -77,13 +79,10 @@ def family_press_bounces(rng, quick):
                                  press_time=rng.uniform(2.0, 60.0),
                                  press_height=10 ** rng.uniform(-5, -2))
         rand = rng.random(4096)
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("3 pressed bounces", integrator, law, DEFAULT,
-                                     state_from(DEFAULT, upright(DEFAULT)), CTRL_HOPPER, ctrl,
-                                     np.zeros(1), rand, dt, t_end,
-                                     label=f"pressing hopper, control dt {dt:g} s",
-                                     initial=upright(DEFAULT)))
+        specs += variants("3 pressed bounces", DEFAULT, state_from(DEFAULT, upright(DEFAULT)),
+                          CTRL_HOPPER, ctrl, np.zeros(1), rand, dt, t_end,
+                          label=f"pressing hopper, control dt {dt:g} s",
+                          initial=upright(DEFAULT))
     n_drop = 8 if quick else 60
     for rep in range(n_drop):
         p = DEFAULT
@@ -99,13 +98,9 @@ def family_press_bounces(rng, quick):
         sign = 1.0 if dx > 0 else -1.0
         sched = np.zeros(int(math.ceil(60.0 / dt)) + 1)
         sched[:press_steps] = sign * T_MAX * rng.uniform(0.3, 1.0)
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("3 pressed bounces", integrator, law, p,
-                                     state_from(p, initial), CTRL_SCHEDULE,
-                                     controller_params(hold=False), sched, np.zeros(1),
-                                     dt, 60.0, label="drop on a corner, pressed",
-                                     initial=initial))
+        specs += variants("3 pressed bounces", p, state_from(p, initial), CTRL_SCHEDULE,
+                          controller_params(hold=False), sched, np.zeros(1), dt, 60.0,
+                          label="drop on a corner, pressed", initial=initial)
     return specs
 
 
@@ -137,10 +132,8 @@ def family_grazing(rng, quick):
     m/s: states set at the touchdown instant (height 0 or a few 1e-13 m), or at the
     apex of a tiny fall (1e-16..1e-9 m above the ground), tilted and turning slowly."""
     n = 40 if quick else 400
-    specs = []
-    dt, t_end = 1.0, 100.0
+    specs, p, (dt, t_end) = [], DEFAULT, LANDING_TIMES
     for rep in range(n):
-        p = DEFAULT
         th = rng.choice([-1, 1]) * 10 ** rng.uniform(-4, -0.3)
         k = 0 if th > 0 else 1
         dx, dy = offset(p, k, th)
@@ -157,12 +150,9 @@ def family_grazing(rng, quick):
             label = f"apex {height:.1e} m above the ground"
         state = flight_state_at(p, 0.0, height - dy, th, vx, vy, w)
         sched, after = _after_landing_schedule(rng, int(t_end / dt), 1)
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("4a grazing landings", integrator, law, p, state.copy(),
-                                     CTRL_SCHEDULE, controller_params(hold=False), sched,
-                                     np.zeros(1), dt, t_end,
-                                     label=f"{label}, then {after} torques"))
+        specs += variants("4a grazing landings", p, state, CTRL_SCHEDULE,
+                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
+                          label=f"{label}, then {after} torques")
     return specs
 
 
@@ -171,10 +161,8 @@ def family_near_flat(rng, quick):
     corners arrive within 1e-15..1e-7 m of each other, around the 1e-9 m switch between
     one simultaneous and two sequential impacts."""
     n = 40 if quick else 400
-    specs = []
-    dt, t_end = 1.0, 100.0
+    specs, p, (dt, t_end) = [], DEFAULT, LANDING_TIMES
     for rep in range(n):
-        p = DEFAULT
         th = rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -6)
         w = rng.choice([0.0, 1.0]) * rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -8)
         vx = rng.choice([0.0, 1.0]) * rng.uniform(-3e-3, 3e-3)
@@ -186,13 +174,11 @@ def family_near_flat(rng, quick):
         # no torque until a control instant after the landing: it would tilt the rover
         landed = int(_fall_time(p, h0, vy) / dt) + 1
         sched, after = _after_landing_schedule(rng, int(t_end / dt), landed)
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("4b near-flat landings", integrator, law, p,
-                                     state_from(p, initial), CTRL_SCHEDULE,
-                                     controller_params(hold=False), sched, np.zeros(1), dt,
-                                     t_end, label=f"theta {th:.1e}, omega {w:.1e}, vy {vy:.1e}, "
-                                     f"vx {vx:.1e}, then {after} torques", initial=initial))
+        specs += variants("4b near-flat landings", p, state_from(p, initial), CTRL_SCHEDULE,
+                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
+                          label=f"theta {th:.1e}, omega {w:.1e}, vy {vy:.1e}, vx {vx:.1e}, "
+                          f"then {after} torques",
+                          initial=initial)
     return specs
 
 
@@ -201,10 +187,8 @@ def family_flat(rng, quick):
     with horizontal speeds from 0 to 3e-3 m/s; from a height or set at the instant of
     touchdown."""
     n = 30 if quick else 300
-    specs = []
-    dt, t_end = 1.0, 100.0
+    specs, p, (dt, t_end) = [], DEFAULT, LANDING_TIMES
     for rep in range(n):
-        p = DEFAULT
         vy = -10 ** rng.uniform(-8, -2)
         vx = rng.choice([0.0, 1.0]) * rng.choice([-1, 1]) * 10 ** rng.uniform(-7, -2.5)
         h0 = 0.0 if rep % 3 == 0 else 10 ** rng.uniform(-9, -3)
@@ -216,13 +200,10 @@ def family_flat(rng, quick):
             state, label = state_from(p, initial), "falling from a height"
         landed = int(_fall_time(p, h0, vy) / dt) + 1     # no torque before the landing
         sched, after = _after_landing_schedule(rng, int(t_end / dt), landed)
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("5 flat landings", integrator, law, p, state.copy(),
-                                     CTRL_SCHEDULE, controller_params(hold=False), sched,
-                                     np.zeros(1), dt, t_end,
-                                     label=f"{label}, vy {vy:.1e}, vx {vx:.1e}, then {after}",
-                                     initial=initial))
+        specs += variants("5 flat landings", p, state, CTRL_SCHEDULE,
+                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
+                          label=f"{label}, vy {vy:.1e}, vx {vx:.1e}, then {after}",
+                          initial=initial)
     return specs
 
 
@@ -281,12 +262,9 @@ def family_random_params(rng, quick):
                 f"h {p.half_height:.3g}, g {p.gravity:.3g}, mu_s {p.mu_static:.3g}, "
                 f"mu_d {p.mu_dynamic:.3g}, e_x {p.restitution_x:.3g}, "
                 f"e_y {p.restitution_y:.3g}")
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("6 edge parameters", integrator, law, p,
-                                     state_from(p, upright(p)), kind,
-                                     controller_params(), sched,
-                                     rand, dt, t_end, label=desc, initial=upright(p)))
+        specs += variants("6 edge parameters", p, state_from(p, upright(p)), kind,
+                          controller_params(), sched, rand, dt, t_end, label=desc,
+                          initial=upright(p))
     family_random_params.skipped = skipped      # reported in the section's text
     return specs
 
@@ -306,13 +284,10 @@ def family_control_periods(rng, quick):
         rand = rng.random(4096)
         sched = T_MAX * rng.uniform(-1, 1, 4096)
         for kind, label in ((CTRL_HOPPER, "hopper"), (CTRL_SCHEDULE, "random torques")):
-            for integrator in ("event", "euler"):
-                for law in ("contest", "dissipative"):
-                    specs.append(RunSpec("7 control periods", integrator, law, DEFAULT,
-                                         state_from(DEFAULT, upright(DEFAULT)), kind,
-                                         controller_params(), sched, rand, dt, t_end,
-                                         label=f"{label}, control dt {dt:g} s",
-                                         initial=upright(DEFAULT)))
+            specs += variants("7 control periods", DEFAULT,
+                              state_from(DEFAULT, upright(DEFAULT)), kind, controller_params(),
+                              sched, rand, dt, t_end, label=f"{label}, control dt {dt:g} s",
+                              initial=upright(DEFAULT))
     return specs
 
 
@@ -348,12 +323,9 @@ def family_found_cases(rng, quick):
          4.157780733212458)]
     specs = []
     for label, p, initial, torque, dt, t_end in cases:
-        for integrator in ("event", "euler"):
-            for law in ("contest", "dissipative"):
-                specs.append(RunSpec("8 found cases", integrator, law, p, state_from(p, initial),
-                                     CTRL_SCHEDULE, controller_params(hold=False),
-                                     np.full(1, torque), np.zeros(1), dt, t_end,
-                                     label=label, initial=initial))
+        specs += variants("8 found cases", p, state_from(p, initial), CTRL_SCHEDULE,
+                          controller_params(hold=False), np.full(1, torque), np.zeros(1), dt,
+                          t_end, label=label, initial=initial)
     return specs
 
 
