@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from hoprover_env import RoverParams, core
+from hoprover_env.controllers import attitude_hold
 from hoprover_env.core import MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G
 from hoprover_env.params import P_H, P_I, P_TMAX
 from hoprover_env.simulate import make_options, make_state
@@ -111,14 +112,15 @@ def control_torque(kind, x, y, th, vx, vy, w, mode, t, step, P, C, sched, rand, 
     CTRL_SCHEDULE: sched[step % len(sched)], or with C_HOLD the attitude PD in flight.
     CTRL_HOPPER: rest in F for a random time, launch with a random torque held until
     lift-off (or a timeout), hold the attitude in flight with the PD law
-    -I (kp wrap(theta) + kd omega) (without C_HOLD: no torque in flight, so it keeps
-    the launch spin and lands at any attitude), land with zero torque -- or, with C_PRESS > 0, with
-    a torque pressing the bouncing corner down for C_PRESS_TIME after the first touch
-    (and in flight while the lowest corner is below C_PRESS_HEIGHT) -- and rest again.
+    -I (kp wrap(theta) + kd omega) (hoprover_env.controllers.attitude_hold; without
+    C_HOLD: no torque in flight, so it keeps the launch spin and lands at any attitude),
+    land with zero torque -- or, with C_PRESS > 0, with a torque pressing the bouncing
+    corner down for C_PRESS_TIME after the first touch (and in flight while the lowest
+    corner is below C_PRESS_HEIGHT) -- and rest again.
     """
     hold = 0.0
     if C[C_HOLD] != 0.0:
-        hold = -P[P_I] * (C[C_KP] * core.wrap_angle(th) + C[C_KD] * w)
+        hold = attitude_hold(th, w, P[P_I], C[C_KP], C[C_KD])
     if kind == CTRL_SCHEDULE:
         if C[C_HOLD] != 0.0 and mode == MODE_A:
             return hold
