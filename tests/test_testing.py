@@ -13,7 +13,7 @@ from helpers import launch_then_hold
 
 def hop():
     roll = simulate(launch_then_hold(3e-4), t_end=200.0, control_dt=0.1, target_x=0.3)
-    assert set("ABF") <= set(roll.state)          # launch pivot, flight, rest
+    assert set("ACF") <= set(roll.state)          # rest, launch slide, flight
     return roll
 
 
@@ -34,7 +34,7 @@ def test_a_simulated_hop_is_consistent():
 def test_spoiled_samples_are_flagged_where_they_are():
     roll = hop()
     letters = list(roll.state)
-    for letter, change in (("B", {"y": 1e-8}),          # the pivot corner off the ground
+    for letter, change in (("C", {"y": 1e-8}),          # the contact corner off the ground
                            ("F", {"theta": 1e-15}),     # at rest but tilted
                            ("A", {"y": -1.0})):         # flying under the ground
         i = letters.index(letter)
