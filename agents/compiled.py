@@ -3,9 +3,9 @@
 `simulate(controller)` and `simulate_batch(controller)` run a numba-compiled controller
 with the contest signature inside the compiled loop (hoprover_env/rollout.py documents
 the signature: the state arrives as an integer code 0..6 for A..G). A numba function
-keeps no memory between calls, so these controllers decide from the state and the time:
+keeps no memory between calls, so these controllers decide from the state and the time
+(the PD attitude hold they fly with is hoprover_env.controllers.attitude_hold):
 
-* `attitude_hold` -- the scripted hopper's PD attitude law (agents/scripted.py `hold`).
 * `planned_hops` -- a hop plan: launch torques held over time windows while on the
   ground, the PD hold in flight, zero otherwise. Its parameters arrive in posT[2:]
   (`simulate_batch(..., controller_args=...)`), so one compiled function runs a whole
@@ -16,21 +16,14 @@ d, torque T): while not in flight and s <= t < s + d, the torque is T.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
+
+from hoprover_env.controllers import attitude_hold
 
 FLIGHT = 0                   # state code of state A
 PLAN_HEAD = 3                # inertia, kp, kd
 PLAN_HOP = 3                 # start, duration, torque
-
-
-@njit(cache=True, error_model="numpy")
-def attitude_hold(the, omg, inertia, kp, kd):
-    """PD attitude hold: theta -> 0 (wrapped to (-pi, pi]), omega -> 0."""
-    th = (the + math.pi) % (2 * math.pi) - math.pi
-    return -inertia * (kp * th + kd * omg)
 
 
 @njit(cache=True, error_model="numpy")

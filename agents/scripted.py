@@ -33,6 +33,7 @@ import math
 import numpy as np
 
 from hoprover_env import RoverParams, RoverSim
+from hoprover_env.controllers import attitude_hold
 
 
 class ScriptedHopper:
@@ -60,9 +61,9 @@ class ScriptedHopper:
 
     # ---- the control law ------------------------------------------------------------
     def hold(self, the, omg):
-        """PD attitude hold: theta -> 0 (wrapped), omega -> 0."""
-        th = (the + math.pi) % (2 * math.pi) - math.pi
-        return -self.params.inertia * (self.kp * th + self.kd * omg)
+        """PD attitude hold (hoprover_env.controllers.attitude_hold) with this hopper's
+        gains."""
+        return attitude_hold(float(the), float(omg), self.params.inertia, self.kp, self.kd)
 
     def __call__(self, pos, vel, the, omg, posT, t, smt, state):
         if state == "A":

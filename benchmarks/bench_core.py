@@ -17,7 +17,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
 
@@ -26,6 +25,7 @@ from numba import njit
 import numba
 
 from agents.compiled import hop_plan, plan_torque
+from benchmarks.report import best_of
 from benchmarks.scenarios import HopSequence, hop_schedule
 from hoprover_env import RoverParams, core, simulate, simulate_batch
 from hoprover_env.simulate import make_options, make_state
@@ -57,15 +57,6 @@ def kernel_replay(sched, control_dt, integrator="event", euler_dt=1e-3):
     return s
 
 
-def best_time(fn, repeat):
-    best, out = np.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
-
-
 def closed_loop_schedules(control_dt=0.1, t_end=600.0):
     """Torque schedules recorded from closed-loop HopSequence runs (three torque cycles)."""
     out = []
@@ -86,7 +77,7 @@ def schedule_table(scheds, t_end, repeat):
         simulate(scheds[0][:10], t_end=1.0, control_dt=0.1, **kw)     # load the kernel
         walls, events = [], 0
         for sched in scheds:
-            wall, roll = best_time(lambda: simulate(sched, t_end=t_end, control_dt=0.1,
+            wall, roll = best_of(lambda: simulate(sched, t_end=t_end, control_dt=0.1,
                                                     target_x=0.0, **kw), repeat)
             walls.append(wall)
             events += roll.n_events
@@ -115,7 +106,7 @@ def compiled_controller_table(t_end, repeat):
     print("\ncontroller (a hop plan: launch windows, PD attitude hold in flight; event):")
     print(f"{'controller':<28}{'ms/episode':>12}{'x compiled':>12}{'TTRTP':>10}")
     for name, ctrl in (("numba-compiled, in kernel", compiled), ("Python twin", python_twin)):
-        wall, roll = best_time(lambda: simulate(ctrl, t_end=t_end, control_dt=0.1,
+        wall, roll = best_of(lambda: simulate(ctrl, t_end=t_end, control_dt=0.1,
                                                 target_x=0.5), repeat)
         res[name] = (wall, roll)
     base = res["numba-compiled, in kernel"][0]
@@ -141,13 +132,13 @@ def batch_table(scheds, t_end, n_runs, repeat):
         return simulate_batch(sched, targets, t_end=t_end, control_dt=0.1, record=False)
 
     before = numba.get_num_threads()
-    rows = [("Python loop over simulate", best_time(loop, repeat)[0])]
+    rows = [("Python loop over simulate", best_of(loop, repeat)[0])]
     try:
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
             batch()                                        # compile / warm
             rows.append((f"simulate_batch, {threads} thread{'s' * (threads > 1)}",
-                         best_time(batch, repeat)[0]))
+                         best_of(batch, repeat)[0]))
     finally:
         numba.set_num_threads(before)
     print(f"\nbatch: {n_runs} episodes of {t_end:g} s at control_dt 0.1 (event):")
@@ -191,7 +182,7 @@ def main(argv=None):
             ctrl.reset()
             return simulate(ctrl, t_end=args.t_end, control_dt=0.1, target_x=0.0, **kw)
 
-        wall, roll = best_time(run, args.repeat)
+        wall, roll = best_of(run, args.repeat)
         base = base or wall
         hops = sum(1 for e in roll.events if e[1] == "liftoff")
         print(f"{name:<16}{wall:>10.4f}{wall / base:>10.1f}{roll.n_events:>8}{hops:>6}"
@@ -210,7 +201,7 @@ def main(argv=None):
     print(f"{'integrator':<16}{'wall s':>10}{'x event':>10}{'final x':>10}")
     base = None
     for name, kw in RUNS:
-        wall, s = best_time(lambda: kernel_replay(sched, 0.1, kw.get("integrator", "event"),
+        wall, s = best_of(lambda: kernel_replay(sched, 0.1, kw.get("integrator", "event"),
                                                   kw.get("euler_dt", 1e-3)), args.repeat)
         base = base or wall
         print(f"{name:<16}{wall:>10.5f}{wall / base:>10.1f}{s[core.S_X]:>10.4f}")

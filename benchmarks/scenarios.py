@@ -1,14 +1,10 @@
 """Scripted scenarios shared by the benchmarks (deterministic, contest signature)."""
-import math
-
 import numpy as np
 
 from hoprover_env import RoverParams
+from hoprover_env.controllers import attitude_hold
 
-
-def attitude_hold(the, omg, inertia=0.0017, kp=0.1, kd=0.8):
-    th = (the + math.pi) % (2 * math.pi) - math.pi
-    return -inertia * (kd * omg + kp * th)
+HOLD_KP, HOLD_KD = 0.1, 0.8         # the PD attitude hold's gains in flight
 
 
 class HopSequence:
@@ -30,7 +26,7 @@ class HopSequence:
     def __call__(self, pos, vel, the, omg, posT, t, smt, state):
         if state == "A":
             self.phase = "fly"
-            return attitude_hold(the, omg, self.inertia)
+            return attitude_hold(float(the), float(omg), self.inertia, HOLD_KP, HOLD_KD)
         if self.phase == "fly":                      # landed: bouncing, sliding
             if state == "F":
                 self.phase, self.t_mark = "rest", t

@@ -119,17 +119,18 @@ def test_threads_and_record_do_not_change_results():
 
 def test_event_logs_grow_per_batch():
     # a stress case with thousands of Euler events in one run, next to quiet runs
-    from test_rollout import stress
-    spec = next(s for s in stress.family_found_cases(np.random.default_rng(0), True)
+    from agents import stress_families
+    from agents.stress import TARGET_X
+    spec = next(s for s in stress_families.family_found_cases(np.random.default_rng(0), True)
                 if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
     init = np.array([spec.initial, (0, 0.05, 0, 0, 0, 0), spec.initial])
     sched = np.array([[spec.sched[0]], [0.0], [0.5 * spec.sched[0]]])
     kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, integrator="euler",
               impact_law=spec.law)
-    b = simulate_batch(sched, np.full(3, stress.TARGET_X), initial_states=init, **kw)
+    b = simulate_batch(sched, np.full(3, TARGET_X), initial_states=init, **kw)
     assert b.n_logged[0] > 1000 and b.event_log.shape[1] >= b.n_logged.max()
     for i in range(3):
-        assert_identical(b.rollout(i), simulate(sched[i], target_x=stress.TARGET_X,
+        assert_identical(b.rollout(i), simulate(sched[i], target_x=TARGET_X,
                                                 initial_state=init[i], **kw))
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from hoprover_env import RoverParams, simulate
 from hoprover_env import params
-from helpers import kinematic_violations
+from hoprover_env.testing import kinematic_violations
 
 
 def test_near_flat_impact_leaves_no_corner_under_the_ground():

@@ -11,8 +11,10 @@ import numba
 import numpy as np
 import pytest
 
-import benchmarks.bench_stress as stress
+from agents import stress_families as families
+from agents.stress import CTRL_SCHEDULE, TARGET_X
 from hoprover_env import RoverParams, rollout, simulate
+from hoprover_env.controllers import attitude_hold
 
 
 def replay(schedule):
@@ -42,10 +44,11 @@ def stress_schedule_specs(max_per_family=6):
     """Scheduled runs of the stress benchmark that `simulate` can start (make_state-able)."""
     rng = np.random.default_rng(11)
     specs = []
-    for family in (stress.family_extreme_torques, stress.family_near_flat,
-                   stress.family_flat, stress.family_random_params, stress.family_found_cases):
+    for family in (families.family_extreme_torques, families.family_near_flat,
+                   families.family_flat, families.family_random_params,
+                   families.family_found_cases):
         got = [s for s in family(rng, True)
-               if s.kind == stress.CTRL_SCHEDULE and s.initial is not None]
+               if s.kind == CTRL_SCHEDULE and s.initial is not None]
         step = max(1, len(got) // max_per_family)
         specs += got[::step][:max_per_family]
     return specs
@@ -58,7 +61,7 @@ SPECS = stress_schedule_specs()
                                              for s in SPECS])
 def test_compiled_loop_equals_python_loop_on_stress_schedules(spec):
     t_end = min(spec.t_end, 400 * spec.control_dt)        # keep the Python side short
-    kw = dict(t_end=t_end, control_dt=spec.control_dt, target_x=stress.TARGET_X,
+    kw = dict(t_end=t_end, control_dt=spec.control_dt, target_x=TARGET_X,
               integrator=spec.integrator, impact_law=spec.law, params=spec.params,
               initial_state=spec.initial, euler_dt=spec.euler_dt)
     fast = simulate(spec.sched, **kw)
@@ -81,9 +84,9 @@ def test_compiled_loop_equals_python_loop_variants(kw):
 def test_event_log_grows_past_its_first_size():
     # Euler bounces of a corner pressed down (a stress benchmark case) log an event every
     # other step: the log starts at 256 rows and the run resumes after each enlargement
-    spec = next(s for s in stress.family_found_cases(np.random.default_rng(0), True)
+    spec = next(s for s in families.family_found_cases(np.random.default_rng(0), True)
                 if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
-    kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, target_x=stress.TARGET_X,
+    kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, target_x=TARGET_X,
               integrator="euler", impact_law=spec.law, initial_state=spec.initial)
     fast = simulate(np.full(1, spec.sched[0]), **kw)
     assert len(fast.events) > 1000
@@ -101,8 +104,7 @@ def test_broken_run_stops_like_the_python_loop():
 @numba.njit
 def hold_then_launch(pos, vel, the, omg, posT, t, smt, state_code):
     if state_code == 0:                        # flight: PD attitude hold
-        th = (the + math.pi) % (2 * math.pi) - math.pi
-        return -0.0017 * (0.15 * th + 0.9 * omg)
+        return attitude_hold(the, omg, 0.0017, 0.15, 0.9)
     if t < 8.0:
         return 3e-4 if posT[0] > pos[0] else -3e-4
     return 0.0

@@ -7,7 +7,8 @@ import numpy as np
 from hypothesis import given, strategies as st
 
 from hoprover_env import simulate
-from helpers import attitude_hold, kinematic_violations
+from helpers import attitude_hold
+from hoprover_env.testing import kinematic_violations
 from test_stress import scenario
 
 

@@ -16,13 +16,14 @@ first time a corner reaches the ground.
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
-RTOL, ATOL = 1e-13, 1e-16
+RTOL, ATOL = 1e-13, 1e-16      # scipy DOP853's tolerances (scipy: a test dependency)
 
 
 class Ref:
+    """The reference solver (module docstring); parameters as RoverParams' fields."""
+
+    RTOL, ATOL = RTOL, ATOL
     def __init__(self, m=1.0, I=0.0017, r=0.05, h=0.05, g=9.8e-5, mus=0.6, mud=0.5,
                  slope=0.0):
         self.m, self.I, self.r, self.h, self.g, self.mus, self.mud = m, I, r, h, g, mus, mud
@@ -57,6 +58,7 @@ class Ref:
 
     def launch(self, T, t_max=200.0):
         """Follow F -> B/C -> ... -> lift-off. Returns (t, state6, modes)."""
+        from scipy.integrate import solve_ivp
         m, r = self.m, self.r
         assert T > m * (self.gc * r + self.gs * self.h), \
             "below the tipping torque the rover stays in F"
@@ -144,6 +146,8 @@ class Ref:
         """Flight from the state st = (x, y, theta, vx, vy, omega) at t0 under the torque
         T, to the first time a corner comes down to the ground (a corner starting on it,
         as at a lift-off, counts once it has risen 1e-9 m). Returns (t, state, corner)."""
+        from scipy.integrate import solve_ivp
+        from scipy.optimize import brentq
         gs, gc, beta = self.gs, self.gc, T / self.I
 
         def rhs(_t, y):
