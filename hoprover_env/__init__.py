@@ -15,7 +15,8 @@ from .batch import BatchRollout, simulate_batch
 
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",
-           "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv", "ENVS",
+           "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv",
+           "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "ENVS",
            "vector_env_class"]
 __version__ = "0.1.0"
 
@@ -27,6 +28,8 @@ ENVS = {
                            "hoprover_env.vector_env:HopRoverVectorEnv", {"target_x": 0.5}),
     "HopRoverHop-v0": ("hoprover_env.hop_env:HopRoverHopEnv",
                        "hoprover_env.hop_env:HopRoverHopVectorEnv", {}),
+    "HopRoverTerrain-v0": ("hoprover_env.terrain_env:HopRoverTerrainEnv",
+                           "hoprover_env.terrain_env:HopRoverTerrainVectorEnv", {}),
 }
 for _id, (_entry, _vector_entry, _kwargs) in ENVS.items():
     if _id not in registry:
@@ -53,4 +56,7 @@ def __getattr__(name):          # the envs import gymnasium spaces etc. only whe
     if name in ("HopRoverHopEnv", "HopRoverHopVectorEnv"):
         from . import hop_env
         return getattr(hop_env, name)
+    if name in ("HopRoverTerrainEnv", "HopRoverTerrainVectorEnv"):
+        from . import terrain_env
+        return getattr(terrain_env, name)
     raise AttributeError(name)

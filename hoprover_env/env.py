@@ -100,6 +100,8 @@ None, no NaN, no string), so any RL library's buffer can store it:
 | `target_x` | float64 | the target [m] |
 | `broken` | bool | a top corner hit the ground |
 | `n_events` | int64 | events located during the step |
+| `slope` | float64 | the ground's inclination this episode [rad] |
+| `terrain_seed` | int64 | the seed of this episode's rough-terrain bumps (replay it with `simulate(..., seed=)`); -1 on smooth ground |
 
 `info_level="full"` adds `t` (s), `rover_state` (x, y, theta, vx, vy, omega),
 `contact_forces` (fAx, fAy, fBx, fBy; single env) and the reward's terms
@@ -152,10 +154,10 @@ from gymnasium import spaces
 from . import _compile, core, reward
 from .env_config import EnvConfig, sample_episode
 from .tasks import torque
-from .tasks.observation import OBS_DIM, OBS_HIGH, OBS_LOW, observe
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
 TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
+NO_TERRAIN_SEED = -1         # info["terrain_seed"] on smooth ground (nothing is drawn)
 
 
 def check_actions(action, shape, what="action") -> np.ndarray:
@@ -180,7 +182,8 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 class HopRoverEnv(gym.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     config_class = EnvConfig
-    task = torque               # its KERNELS[integrator].step advances one env
+    task = torque               # its KERNELS[integrator].step advances one env, its
+    #                             observe writes the observation (bounds OBS_LOW/HIGH)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
         self.config = self.config_class.from_kwargs(**kwargs)
@@ -189,14 +192,16 @@ class HopRoverEnv(gym.Env):
                              f"got {render_mode!r}")
         self.render_mode = render_mode
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.observation_space = spaces.Box(OBS_LOW, OBS_HIGH, dtype=np.float32)
+        self.observation_space = spaces.Box(self.task.OBS_LOW, self.task.OBS_HIGH,
+                                            dtype=np.float32)
         self._o = self.config.options_vector()
         _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
         self._step_kernel = self.task.KERNELS[self.config.integrator].step
         self._e = self.config.task_vector()
         self._rw = self.config.reward_vector()
         self._rm = reward.new_memory()
-        self._obs = np.zeros(OBS_DIM, dtype=np.float32)
+        self._obs = np.zeros(len(self.task.OBS_LOW), dtype=np.float32)
+        self.terrain_seed = None
         self._w = np.zeros(core.N_WORK)
         self._s = None
         self._p = None
@@ -209,10 +214,10 @@ class HopRoverEnv(gym.Env):
     # ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
-        self.target_x, self.params, self._s, self._p = sample_episode(
+        self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
             self.config, self.np_random, options)
         self._rm[:] = reward.new_memory()
-        observe(self._s, self._p, self._e, self._obs)
+        self.task.observe(self._s, self._p, self._e, self._obs)
         self._trace = []
         self._done = False
         if self.render_mode is not None:
@@ -250,7 +255,10 @@ class HopRoverEnv(gym.Env):
         reached = ttrtp == ttrtp                      # not NaN
         info = {"is_success": reached, "ttrtp": ttrtp if reached else TTRTP_NOT_REACHED,
                 "state": int(s[core.S_MODE]), "target_x": float(self.target_x),
-                "broken": bool(s[core.S_BROKEN] != 0.0), "n_events": int(n_events)}
+                "broken": bool(s[core.S_BROKEN] != 0.0), "n_events": int(n_events),
+                "slope": float(self.params.slope),
+                "terrain_seed": NO_TERRAIN_SEED if self.terrain_seed is None
+                else self.terrain_seed}
         if self.config.info_level == "full":
             info["t"] = float(s[core.S_T])
             info["rover_state"] = s[:6].copy()

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from .params import RoverParams
+from .params import MAX_SLOPE, RoverParams
 from .reward import RewardConfig
 from .simulate import DEFAULT_RTOL, make_options, make_state
 from .tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_HOLD_KD,
@@ -118,6 +118,11 @@ class EnvConfig(RewardConfig):
         e[E_ACTION_SCALE] = self.action_scale
         return e
 
+    def draw_terrain(self, rng: np.random.Generator) -> dict:
+        """The terrain of a new episode ({} here: the ground `params` says; a terrain task
+        draws its slope)."""
+        return {}
+
     @property
     def max_steps(self) -> int:
         """Control steps in a full episode."""
@@ -178,22 +183,62 @@ def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
 
 def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
                    options: Mapping[str, Any] | None = None):
-    """Target and parameters of a new episode, and its initial kernel state and
-    parameter vectors. `options` may fix 'target_x' and 'initial_state'."""
+    """Target, parameters and rough-terrain seed of a new episode, and its initial kernel
+    state and parameter vectors: (target, params, S, P, terrain_seed). `options` may fix
+    'target_x', 'initial_state', 'slope' [rad] and 'roughness' [rad].
+
+    The draws come from `rng` in a fixed order whatever the options say (target, the
+    randomised parameters, the slope of a terrain task), so seeded streams stay aligned;
+    on rough ground the seed of the bumps is the next draw (none on smooth ground, so a
+    flat env's stream is the one it always was)."""
     options = dict(options or {})
-    bad = sorted(set(options) - {"target_x", "initial_state"})
+    bad = sorted(set(options) - set(RESET_OPTIONS))
     if bad:
-        raise ValueError(f"unknown reset option(s) {bad}; valid: ['initial_state', 'target_x']")
-    # draw in a fixed order whatever the options say, so seeded streams stay aligned
+        raise ValueError(f"unknown reset option(s) {bad}; valid: {sorted(RESET_OPTIONS)}")
     lo, hi = cfg.target_range
     drawn = float(rng.uniform(lo, hi))
     params = randomized_params(cfg, rng)
+    terrain = cfg.draw_terrain(rng)
+    for key in ("slope", "roughness"):
+        if key in options:
+            terrain[key] = finite_real(f"options[{key!r}]", options[key])
+    if terrain and any(getattr(params, k) != v for k, v in terrain.items()):
+        params = dataclasses.replace(params, **terrain)
     if "target_x" in options:
         target = float(options["target_x"])
         if not math.isfinite(target):
             raise ValueError(f"options['target_x'] must be finite, got {options['target_x']!r}")
     else:
         target = cfg.target_x if cfg.target_x is not None else drawn
-    state = make_state(params, target, options.get("initial_state"))
-    return target, params, state, params.as_array()
+    seed = int(rng.integers(2**63)) if params.roughness > 0.0 else None
+    state = make_state(params, target, options.get("initial_state"), seed=seed)
+    return target, params, state, params.as_array(), seed
 
+
+RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness")
+
+
+@dataclasses.dataclass(frozen=True)
+class TerrainEnvConfig(EnvConfig):
+    """Arguments of HopRoverTerrainEnv: those of HopRoverEnv plus the terrain each episode
+    draws (see the table in terrain_env.py)."""
+
+    slope_range: tuple = (-0.2, 0.2)
+    roughness: float = 0.05
+
+    def __post_init__(self):
+        super().__post_init__()
+        rng = self.slope_range
+        if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
+                and all(is_real(v) and abs(v) <= MAX_SLOPE for v in rng) and rng[0] <= rng[1]):
+            raise ValueError(f"slope_range must be (low, high) [rad] with low <= high, both "
+                             f"in [-{MAX_SLOPE}, {MAX_SLOPE}]; got {self.slope_range!r}")
+        object.__setattr__(self, "slope_range", (float(rng[0]), float(rng[1])))
+        if not (is_real(self.roughness) and math.isfinite(self.roughness)
+                and self.roughness >= 0):
+            raise ValueError(f"roughness must be a finite number >= 0 [rad], got "
+                             f"{self.roughness!r}")
+
+    def draw_terrain(self, rng: np.random.Generator) -> dict:
+        return {"slope": float(rng.uniform(*self.slope_range)),
+                "roughness": float(self.roughness)}

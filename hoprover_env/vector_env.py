@@ -26,11 +26,10 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _compile, core, reward
-from .env import TTRTP_NOT_REACHED, check_actions
+from .env import NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_actions
 from .env_config import EnvConfig, sample_episode
-from .params import N_PARAMS
+from .params import N_PARAMS, P_SLOPE
 from .tasks import torque
-from .tasks.observation import OBS_DIM, OBS_HIGH, OBS_LOW, observe
 
 THREAD_THRESHOLD = 64
 
@@ -72,7 +71,8 @@ class HopRoverVectorEnv(VectorEnv):
         self._kernel = kernels.batch_threaded if self.threads else kernels.batch
 
         self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.single_observation_space = spaces.Box(OBS_LOW, OBS_HIGH, dtype=np.float32)
+        self.single_observation_space = spaces.Box(self.task.OBS_LOW, self.task.OBS_HIGH,
+                                                   dtype=np.float32)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
@@ -83,7 +83,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._rm = reward.new_memory(n)
         self.S = np.zeros((n, core.N_STATE))
         self.P = np.zeros((n, N_PARAMS))
-        self._obs = np.zeros((n, OBS_DIM), dtype=np.float32)
+        self._obs = np.zeros((n, len(self.task.OBS_LOW)), dtype=np.float32)
         self._rew = np.zeros(n)
         self._term = np.zeros(n, dtype=np.bool_)
         self._trunc = np.zeros(n, dtype=np.bool_)
@@ -95,6 +95,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._log = np.zeros((0, core.EV_COLS))
         self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
         self.targets = np.zeros(n)
+        self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
         self.params = [self.config.params] * n
         self._rngs: list = [None] * n
         self._traces: list = [[] for _ in range(n)] if render_mode else []
@@ -103,14 +104,15 @@ class HopRoverVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------------------
     def _reset_one(self, i: int, options=None):
-        target, params, s, p = sample_episode(self.config, self._rngs[i], options)
+        target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
+        self.terrain_seeds[i] = NO_TERRAIN_SEED if seed is None else seed
         self.S[i] = s
         self.P[i] = p
         self.targets[i] = target
         self.params[i] = params
         self._steps[i] = 0
         self._rm[i] = reward.new_memory()
-        observe(self.S[i], self.P[i], self._e, self._obs[i])
+        self.task.observe(self.S[i], self.P[i], self._e, self._obs[i])
         if self.render_mode:
             self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
 
@@ -130,11 +132,12 @@ class HopRoverVectorEnv(VectorEnv):
         if mask.shape != (n,):
             raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
         per_env = {}
-        if "target_x" in options:
-            per_env["target_x"] = np.broadcast_to(np.asarray(options.pop("target_x"), float), (n,))
+        for key in ("target_x", "slope", "roughness"):     # a value, or one per sub-env
+            if key in options:
+                per_env[key] = np.broadcast_to(np.asarray(options.pop(key), float), (n,))
         if options:
             raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
-                             "['reset_mask', 'target_x']")
+                             "['reset_mask', 'roughness', 'slope', 'target_x']")
         for i in np.flatnonzero(mask):
             if seeds[i] is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
@@ -203,7 +206,8 @@ class HopRoverVectorEnv(VectorEnv):
         info = {"is_success": reached, "ttrtp": ttrtp,
                 "state": self.S[:, core.S_MODE].astype(np.int64),
                 "target_x": self.targets.copy(), "broken": self.S[:, core.S_BROKEN] != 0.0,
-                "n_events": nev.astype(np.int64)}
+                "n_events": nev.astype(np.int64),
+                "slope": self.P[:, P_SLOPE].copy(), "terrain_seed": self.terrain_seeds.copy()}
         if self.config.info_level == "full":
             info["t"] = self.S[:, core.S_T].copy()
             info["rover_state"] = self.S[:, :6].copy()

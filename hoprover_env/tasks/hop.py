@@ -22,7 +22,7 @@ from .. import reward
 from .common import build, episode_ended, finish
 from .layout import (E_CONTROL_DT, E_HOLD_KD, E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN,
                      E_T_TOTAL)
-from .observation import clip
+from .observation import OBS_HIGH, OBS_LOW, clip, observe
 
 # A hop that never ends (it cannot: every state decays to rest or flies ballistically)
 # would still stop here, in the kernel's error state, which ends the episode.
@@ -96,3 +96,5 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
 
 
 KERNELS = build("hop", step)
+# what an env reads of a task: its kernels, its observation and the observation's bounds
+__all__ = ["KERNELS", "observe", "OBS_LOW", "OBS_HIGH", "hop_torque", "step"]

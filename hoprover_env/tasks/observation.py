@@ -13,7 +13,7 @@ from .._compile import kernel, NONE, VEC, VEC32
 from ..core import corner_offset_cs
 from ..core.layout import (MODE_A, MODE_B, MODE_C, MODE_F, MODE_G, S_INBAND, S_MODE, S_T,
                            S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W, S_X, S_XT, S_Y)
-from ..params import P_BAND, P_DWELL, P_G, P_H, P_R, P_TMAX, P_TMIN
+from ..params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TMAX, P_TMIN
 from .layout import E_T_TOTAL
 
 OBS_DX = 0           # (x - x_T) / POS_SCALE
@@ -71,14 +71,16 @@ def reference_point(S, P):
 @kernel(inner=True)
 def landing_x(S, P):
     """Where the c.m. will come down to rest height in a ballistic flight (the current x
-    when not flying) [m]: a closed form any contest controller could compute."""
+    when not flying) [m], along the ground: a closed form any contest controller could
+    compute. On a slope gravity has the components (-g sin phi, -g cos phi) in the ground
+    frame (on level ground P_GS is +0.0 and P_GC is g: the flat arithmetic, unchanged)."""
     if int(S[S_MODE]) != MODE_A:
         return S[S_X]
-    g = P[P_G]
+    gc = P[P_GC]
     vy = S[S_VY]
     drop = max(S[S_Y] - P[P_H], 0.0)
-    t_fall = (vy + math.sqrt(vy * vy + 2.0 * g * drop)) / g
-    return S[S_X] + S[S_VX] * t_fall
+    t_fall = (vy + math.sqrt(vy * vy + 2.0 * gc * drop)) / gc
+    return S[S_X] + S[S_VX] * t_fall - 0.5 * P[P_GS] * t_fall * t_fall
 
 
 @kernel(inner=True)

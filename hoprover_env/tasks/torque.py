@@ -13,7 +13,7 @@ from ..params import P_TMAX, P_TMIN
 from .. import reward
 from .common import build, finish
 from .layout import ACTION_CUBIC, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_T_TOTAL
-from .observation import clip
+from .observation import OBS_HIGH, OBS_LOW, clip, observe
 
 
 @kernel(F64(F64, VEC, VEC))
@@ -55,3 +55,5 @@ HELPER_EXTRA = tuple(f"{module}:{name}" for module, name in (
     ("hoprover_env.tasks.common", "finish"), ("hoprover_env.reward", "begin"),
     ("hoprover_env.tasks.torque", "action_to_torque"),
     ("hoprover_env.tasks.observation", "observe")))
+# what an env reads of a task: its kernels, its observation and the observation's bounds
+__all__ = ["KERNELS", "observe", "OBS_LOW", "OBS_HIGH", "action_to_torque", "step"]
