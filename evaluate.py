@@ -5,6 +5,8 @@
     python evaluate.py --targets 0.5,-0.8 --plot figs --video hop.gif
     python evaluate.py --controller my_entry.py:Control  # a 2015 contest entry, unchanged
     python evaluate.py --episodes 100000 --batch 1000 --ray   # episodes as Ray tasks
+    python evaluate.py --policy terrain --policy scripted --env HopRoverTerrain-v0
+    python evaluate.py --slope 0.2 --roughness 0.1       # every policy on one incline
 
 Prints one table (success rate, median and 90th-percentile TTRTP, broken count, mean
 wall time per episode) with one row per policy, all on the same targets. --json/--csv
@@ -25,6 +27,28 @@ import numpy as np
 from agents.evaluation import run_episodes, seeded_targets, summarize
 from agents.files import atomic_write, write_json
 from agents.policies import load_controller, load_policy
+from hoprover_env import ENVS
+
+TERRAIN_SLOPES = (-0.2, 0.2)     # HopRoverTerrain-v0's default slope_range [rad]
+TERRAIN_ROUGHNESS = 0.05         # and roughness [rad]
+
+
+def terrain_conditions(args, n: int) -> dict:
+    """The ground of each episode ({} for the contest's flat, smooth ground): slopes
+    fixed by --slope or, with --env HopRoverTerrain-v0, held-out draws (seeded by --seed
+    on their own stream, so the targets are those of the flat evaluation), and the
+    roughness (--roughness, or the terrain task's default)."""
+    ground = {}
+    terrain = args.env == "HopRoverTerrain-v0"
+    if args.slope is not None:
+        ground["slope"] = np.full(n, args.slope)
+    elif terrain:
+        ground["slope"] = np.random.default_rng([args.seed, 1]).uniform(*TERRAIN_SLOPES, n)
+    if args.roughness is not None:
+        ground["roughness"] = np.full(n, args.roughness)
+    elif terrain:
+        ground["roughness"] = np.full(n, TERRAIN_ROUGHNESS)
+    return ground
 
 
 def parse_args(argv=None):
@@ -52,6 +76,15 @@ def parse_args(argv=None):
     ap.add_argument("--plot-episode", type=int, default=None,
                     help="which target to plot/film (default: the first one that needs a hop)")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    ap.add_argument("--env", type=str, default=None, choices=sorted(ENVS),
+                    help="the task a controller (scripted, --controller) acts in; "
+                         "HopRoverTerrain-v0 also draws one held-out slope per episode "
+                         f"from U{TERRAIN_SLOPES} rad (seeded by --seed) and sets the "
+                         f"roughness to {TERRAIN_ROUGHNESS} rad, for every policy")
+    ap.add_argument("--slope", type=float, default=None,
+                    help="one ground slope [rad] for every episode and policy")
+    ap.add_argument("--roughness", type=float, default=None,
+                    help="rough-terrain bounces [rad] for every episode and policy")
     ap.add_argument("--batch", type=int, default=256,
                     help="episodes run side by side in one vector env (default 256)")
     ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
@@ -135,6 +168,11 @@ def _main(argv=None) -> int:
     except (FileNotFoundError, ValueError, AttributeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    ground = terrain_conditions(args, len(targets))
+    if args.env is not None:
+        for pol in policies:              # controllers act in the task asked for
+            if not hasattr(pol, "env_id"):
+                pol.env_id = args.env
     names = [p.name for p in policies]
     for pol, spec in zip(policies, specs):
         # two run directories both hold best_model.zip: name those rows by what was asked for
@@ -142,6 +180,10 @@ def _main(argv=None) -> int:
             pol.name = spec.rstrip("/\\")
 
     rows, all_results = [], []
+    if args.ray is not None and ground:
+        print("error: --ray evaluates on the contest's flat ground; run --env/--slope/"
+              "--roughness locally", file=sys.stderr)
+        return 2
     if args.ray is not None:
         jobs = [("policy", s, p.name) for s, p in zip(specs, policies)]
         jobs += [("controller", c, p.name) for c, p in zip(args.controller,
@@ -167,15 +209,24 @@ def _main(argv=None) -> int:
             bar = tqdm(total=len(targets), desc=pol.name, unit="ep", leave=False)
         progress = (lambda k, b=bar: b.update(k - b.n)) if bar else None
         t0 = time.perf_counter()
-        results = run_episodes(pol, targets, batch=args.batch, progress=progress)
+        try:
+            results = run_episodes(pol, targets, batch=args.batch, progress=progress,
+                                   terrain=ground)
+        except ValueError as exc:         # a bad --slope / --roughness, named by the env
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
         if bar:
             bar.close()
         rows.append((pol.name, summarize(results)))
         all_results.extend(results)
         print(f"  {pol.name}: {len(results)} episodes in {time.perf_counter() - t0:.1f} s",
               file=sys.stderr)
-    print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}); "
-          "TTRTP over the successful episodes\n")
+    where = "" if not ground else (
+        f"; slope {args.slope} rad" if args.slope is not None else
+        f"; slopes U{TERRAIN_SLOPES} rad" if "slope" in ground else "") + (
+        f", roughness {ground['roughness'][0]} rad" if "roughness" in ground else "")
+    print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}"
+          f"{where}); TTRTP over the successful episodes\n")
     print(format_table(rows))
 
     if args.json:

@@ -40,9 +40,12 @@ def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.
 
 
 def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
-                 progress=None, first_episode: int = 0) -> list[EpisodeResult]:
+                 progress=None, first_episode: int = 0,
+                 terrain: dict | None = None) -> list[EpisodeResult]:
     """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
     env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
+    `terrain` fixes each episode's ground: {"slope": per-episode slopes [rad],
+    "roughness": per-episode roughness [rad]} (reset options of every hoprover env).
     `progress` is called with the number of finished episodes. `first_episode` numbers
     the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
     start at multiples of `batch`, so each batch is the one a local run has)."""
@@ -50,19 +53,22 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     kwargs.pop("target_x", None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
+    terrain = {k: np.broadcast_to(np.asarray(v, dtype=float), targets.shape)
+               for k, v in (terrain or {}).items()}
     for start in range(0, len(targets), batch):
         chunk = targets[start:start + batch]
+        ground = {k: v[start:start + batch] for k, v in terrain.items()}
         results.extend(_run_batch(policy, chunk, first_episode + start, kwargs, progress,
-                                  len(results)))
+                                  len(results), ground))
     return results
 
 
-def _run_batch(policy, targets, offset, kwargs, progress, done_before):
+def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
     n = len(targets)
     # a policy of the hop-level task acts once per hop, in that task's vector env
     venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
         n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-    obs, _ = venv.reset(seed=0, options={"target_x": targets})
+    obs, _ = venv.reset(seed=0, options={"target_x": targets, **ground})
     if isinstance(policy, RandomPolicy):
         policy.reset(n, offset)
     else:

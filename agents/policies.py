@@ -31,8 +31,10 @@ from hoprover_env.params import RoverParams
 BUNDLED_DIR = Path(__file__).resolve().parent.parent / "hoprover_env" / "policies"
 BUNDLED_NAME = "ppo_hoprover"
 # the bundled models by name: cloned (+ PPO), PPO from scratch, PPO from scratch on the
-# hop-level task; each file's .json says how it was trained
-BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop"}
+# hop-level task, PPO from scratch on the terrain task; each file's .json says how it
+# was trained
+BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop",
+           "terrain": "ppo_terrain"}
 ALGOS = ("ppo", "sac", "td3")
 
 
@@ -81,6 +83,8 @@ class ControllerPolicy:
         for i, ctrl in enumerate(self.controllers):
             s = venv.S[i]
             p = venv.params[i]
+            if hasattr(ctrl, "use_params"):      # a planner: this episode's ground
+                ctrl.use_params(p)
             torque = ctrl(s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]),
                           float(s[core.S_W]), np.array([venv.targets[i], 0.0]),
                           float(s[core.S_T]), smt, core.MODE_LETTERS[int(s[core.S_MODE])])
@@ -193,7 +197,7 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
-    """'bundled', 'scratch', 'hop', 'scripted', 'random', a model path or run dir, or
+    """'bundled', 'scratch', 'hop', 'terrain', 'scripted', 'random', a model path or run dir, or
     'module.py:Control'."""
     if spec in BUNDLED:
         path = BUNDLED_DIR / f"{BUNDLED[spec]}.zip"
@@ -210,5 +214,5 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, scripted, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, scripted, random, a model "
                      ".zip or run directory, or module.py:Control")

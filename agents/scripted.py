@@ -9,6 +9,10 @@ through the environments (see `agents.policies`), or in the 2015 contest runner:
 
 Strategy, the one a strong entrant would use:
 
+On a slope the plan uses the slope it is given (`use_params`): the look-ahead simulates
+the same incline, so the hop's along-slope deceleration and the uphill/downhill
+asymmetry are in the prediction.
+
 1. **At rest (F)**, if a bottom corner is not already in the band, *plan a hop*: for a
    constant launch torque T (its sign sets the direction) the core predicts the whole
    hop -- pivot or slide, lift-off, the flight under this controller's own attitude
@@ -28,6 +32,7 @@ family cannot reach precisely (bounce patterns make the resting point jump with 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -42,16 +47,29 @@ class ScriptedHopper:
     def __init__(self, params: RoverParams | None = None, control_dt: float = 0.5,
                  kp: float = 0.15, kd: float = 0.9, grid: int = 16, refine: int = 12,
                  integrator: str = "event", impact_law: str = "contest"):
-        self.params = params or RoverParams()
         self.control_dt = control_dt
         self.kp, self.kd = kp, kd
         self.grid, self.refine = grid, refine
         self.integrator, self.impact_law = integrator, impact_law
-        p = self.params
-        # the weakest launch that still leaves the ground in reasonable time, the strongest
-        self.t_lo = p.tipping_torque * 1.12
-        self.t_hi = min(abs(p.torque_min), abs(p.torque_max))
+        self.params = None
+        self.use_params(params or RoverParams())
         self.reset()
+
+    def use_params(self, params: RoverParams) -> None:
+        """Plan with these parameters from now on (the environments hand each episode's
+        own, slope included). The look-ahead runs on the mean plane: rough-terrain bumps
+        are not known in advance, so the plan is for smooth ground of the same slope."""
+        plan_params = params if params.roughness == 0.0 else \
+            dataclasses.replace(params, roughness=0.0)
+        if plan_params == self.params:
+            return
+        self.params = p = plan_params
+        # the weakest launch that still leaves the ground in reasonable time (on a slope
+        # the harder of the two tipping directions: m g (cos phi r + |sin phi| h)), and
+        # the strongest
+        self.t_lo = p.mass * p.gravity * (math.cos(p.slope) * p.half_width
+                                          + abs(math.sin(p.slope)) * p.half_height) * 1.12
+        self.t_hi = min(abs(p.torque_min), abs(p.torque_max))
 
     def reset(self):
         self.phase = "rest"
