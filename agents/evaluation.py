@@ -81,11 +81,12 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before):
             fin = info["final_info"]
             now = time.perf_counter() - t_start
             for i in np.flatnonzero(ended):
-                ttrtp = float(fin["ttrtp"][i])
+                success = bool(fin["is_success"][i])
                 out[i] = EpisodeResult(
                     policy=getattr(policy, "name", "policy"), episode=offset + int(i),
-                    target_x=float(targets[i]), success=bool(fin["is_success"][i]),
-                    ttrtp=None if math.isnan(ttrtp) else ttrtp, broken=bool(fin["broken"][i]),
+                    target_x=float(targets[i]), success=success,
+                    ttrtp=float(fin["ttrtp"][i]) if success else None,
+                    broken=bool(fin["broken"][i]),
                     steps=int(steps[i]), sim_time=float(fin["t"][i]) if "t" in fin else
                     float(steps[i] * venv.config.control_dt),
                     final_x=float(venv_final_x(info, i)), wall_time=now)

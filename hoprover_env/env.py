@@ -89,10 +89,23 @@ parameters are re-drawn each episode from the env's own generator.
 
 ## Info
 
-`is_success` (bool), `ttrtp` (float, None until reached; NaN in the vector env's array),
-`state` (letter), `target_x`,
-`broken`, `n_events` (events located during the step). `info_level="full"` adds the c.m.
-state and the contact forces.
+Every value is a number or a boolean of fixed type and shape from the first step (the
+vector env: arrays of it), so that TorchRL's specs and Tianshou's buffers can store them:
+
+| Key | Type | Meaning |
+|-----|------|---------|
+| `is_success` | bool | the judge's TTRTP is reached |
+| `ttrtp` | float64 | the judge's TTRTP [s]; -1.0 until reached |
+| `state` | int64 | contact state: 0 A, 1 B, 2 C, 3 D, 4 E, 5 F, 6 G (`STATE_LETTERS[code]`) |
+| `target_x` | float64 | the target [m] |
+| `broken` | bool | a top corner touched the ground |
+| `n_events` | int64 | events located during the step |
+
+The states are those of the contest guide (docs/MODEL.md section 4): A flight, B/C
+pivot/slide on corner A, D/E pivot/slide on corner B, F at rest, G sliding flat.
+`hoprover_env.env_config.STATE_LETTERS` maps a code to its letter.
+`info_level="full"` adds `t` (float64, s), `rover_state` (float64, (6,): the c.m. state)
+and `contact_forces` (float64, (4,)).
 
 ## Arguments
 
@@ -133,7 +146,7 @@ import numpy as np
 from gymnasium import spaces
 
 from . import _parallel_compile, core, rl_kernel
-from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+from .env_config import EnvConfig, STATE_LETTERS, TTRTP_NOT_REACHED, sample_episode
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
 
@@ -166,7 +179,8 @@ class HopRoverEnv(gym.Env):
     step_kernel_any_integrator = staticmethod(rl_kernel.env_step_any_integrator)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
-        self.config = self.config_class.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(
+            f"{type(self).__name__}.__init__", **kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, "
                              f"got {render_mode!r}")
@@ -229,10 +243,11 @@ class HopRoverEnv(gym.Env):
         s = self._s
         ttrtp = float(s[core.S_TTRTP])
         reached = ttrtp == ttrtp                      # not NaN
-        info = {"is_success": reached, "ttrtp": ttrtp if reached else None,
-                "state": core.MODE_LETTERS[int(s[core.S_MODE])],
+        # numbers only, fixed types from the first step: TorchRL and Tianshou store infos
+        info = {"is_success": reached, "ttrtp": ttrtp if reached else TTRTP_NOT_REACHED,
+                "state": int(s[core.S_MODE]),
                 "target_x": self.target_x, "broken": bool(s[core.S_BROKEN] != 0.0),
-                "n_events": n_events}
+                "n_events": int(n_events)}
         if self.config.info_level == "full":
             info["t"] = float(s[core.S_T])
             info["rover_state"] = s[:6].copy()

@@ -118,11 +118,16 @@ class EnvConfig:
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
 
     @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> "EnvConfig":
+    def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":
+        """The config of these keyword arguments; `owner` names the caller in errors."""
         names = {f.name for f in dataclasses.fields(cls)}
-        bad = sorted(set(kwargs) - names)
+        bad = [k for k in kwargs if k not in names]
         if bad:
-            raise TypeError(f"unknown environment argument(s) {bad}; valid: {sorted(names)}")
+            # Python's own wording: TorchRL's GymEnv probes with frameskip=1 and drops it
+            # only on "unexpected keyword argument 'frameskip'"
+            also = f" (and {bad[1:]})" if len(bad) > 1 else ""
+            raise TypeError(f"{owner or cls.__name__}() got an unexpected keyword argument "
+                            f"{bad[0]!r}{also}; valid environment arguments: {sorted(names)}")
         return cls(**kwargs)
 
     def options_vector(self) -> np.ndarray:
@@ -227,3 +232,6 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
 
 
 STATE_LETTERS = np.array(list(core.MODE_LETTERS))
+# info["ttrtp"] before the judge's TTRTP is reached: a number (not None or NaN, which
+# TorchRL's specs and Tianshou's buffer checks refuse) that no real TTRTP can take
+TTRTP_NOT_REACHED = -1.0

@@ -34,5 +34,5 @@ class HopRoverMetrics(RLlibCallback):
         success = bool(info.get("is_success", False))
         metrics_logger.log_value("hoprover_success", float(success))
         metrics_logger.log_value("hoprover_broken", float(info.get("broken", False)))
-        if success and info.get("ttrtp") is not None:
+        if success:
             metrics_logger.log_value("hoprover_ttrtp", float(info["ttrtp"]))

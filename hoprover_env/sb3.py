@@ -9,7 +9,8 @@ no subprocesses and no per-env Python objects.
 
 It follows SB3's VecEnv contract: same-step reset, `terminal_observation` and
 `TimeLimit.truncated` in the info of an env that ended, `is_success` (read by SB3's
-success-rate logging and EvalCallback) and the judge's `ttrtp`. Environment arguments
+success-rate logging and EvalCallback) and the judge's `ttrtp` (-1.0 if not reached;
+the info table in env.py). Environment arguments
 are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does;
 `env_id` picks the task (HopRover-v0, HopRoverContest-v0 or the hop-level HopRoverHop-v0).
 """
@@ -75,14 +76,13 @@ class HopRoverSB3VecEnv(VecEnv):
         if dones.any():
             fin, final_obs = infos["final_info"], infos["final_obs"]
             for i in np.flatnonzero(dones):
-                ttrtp = float(fin["ttrtp"][i])
                 out[i] = {"terminal_observation": final_obs[i],
                           "TimeLimit.truncated": bool(trunc[i] and not term[i]),
                           "is_success": bool(fin["is_success"][i]),
-                          "ttrtp": None if np.isnan(ttrtp) else ttrtp,
+                          "ttrtp": float(fin["ttrtp"][i]),
                           "broken": bool(fin["broken"][i]),
                           "target_x": float(fin["target_x"][i]),
-                          "state": str(fin["state"][i])}
+                          "state": int(fin["state"][i])}
         return obs, rew.astype(np.float32), dones, out
 
     def close(self) -> None:

@@ -12,7 +12,8 @@ Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, th
 default, or SameStep), `max_episode_steps` (an extra step limit per episode) and
 `threads` (None: threaded from 64 sub-envs on; True/False to force). Infos follow
 Gymnasium's dict-of-arrays convention (each key with its `_key` mask); with SameStep,
-`final_obs` and `final_info` carry the ended episodes' last observation and info.
+`final_obs` and `final_info` carry the ended episodes' last observation and info. The
+info values and their types are those of HopRoverEnv (the table in env.py), as arrays.
 """
 from __future__ import annotations
 
@@ -27,7 +28,7 @@ from gymnasium.vector.utils import batch_space
 
 from . import _parallel_compile, core, rl_kernel
 from .env import check_actions
-from .env_config import EnvConfig, STATE_LETTERS, sample_episode
+from .env_config import EnvConfig, STATE_LETTERS, TTRTP_NOT_REACHED, sample_episode
 from .params import N_PARAMS
 
 THREAD_THRESHOLD = 64
@@ -48,7 +49,8 @@ class HopRoverVectorEnv(VectorEnv):
         if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.config = self.config_class.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(
+            f"{type(self).__name__}.__init__", **kwargs)
         _parallel_compile.prepare(rl_kernel.HELPER_EXTRA)  # cold cache: compile on 2 cores
         self.num_envs = int(num_envs)
         try:
@@ -196,9 +198,10 @@ class HopRoverVectorEnv(VectorEnv):
     def _infos(self, nev, mask=None) -> dict:
         n = self.num_envs
         mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
-        ttrtp = self.S[:, core.S_TTRTP].copy()
-        info = {"is_success": ~np.isnan(ttrtp), "ttrtp": ttrtp,
-                "state": STATE_LETTERS[self.S[:, core.S_MODE].astype(np.int64)],
+        ttrtp = self.S[:, core.S_TTRTP]
+        reached = ~np.isnan(ttrtp)
+        info = {"is_success": reached, "ttrtp": np.where(reached, ttrtp, TTRTP_NOT_REACHED),
+                "state": self.S[:, core.S_MODE].astype(np.int64),
                 "target_x": self.targets.copy(), "broken": self.S[:, core.S_BROKEN] != 0.0,
                 "n_events": nev.copy()}
         if self.config.info_level == "full":
@@ -224,6 +227,6 @@ class HopRoverVectorEnv(VectorEnv):
         return tuple(frames)
 
     def close_extras(self, **kwargs):
-        for r in self._renderers:
+        for r in getattr(self, "_renderers", ()):    # None if __init__ refused its arguments
             r.close()
         self._renderers = []

@@ -176,7 +176,7 @@ def test_hop_lands_near_where_the_torque_sends_it_and_in_band_succeeds():
     for a in (-0.6, 0.3, 0.6):
         env.reset(seed=0, options={"target_x": 5.0})
         obs, r, te, tr, info = env.step(np.array([a], np.float32))
-        assert info["state"] == "F" and not te
+        assert info["state"] == hoprover_env.core.MODE_F and not te
         x.append(info["rover_state"][0])
     assert x[0] < -0.1 and 0.0 < x[1] < x[2]            # direction and length follow |a|
 
