@@ -69,6 +69,8 @@ of a step in one jitted call, threaded over the cores from 64 sub-envs on.
 """
 from __future__ import annotations
 
+from gymnasium.vector import VectorEnv
+
 from . import hop_kernel
 from .env import HopRoverEnv
 from .env_config import HopEnvConfig
@@ -81,7 +83,9 @@ class HopRoverHopEnv(HopRoverEnv):
     step_kernel_any_integrator = step_kernel
 
 
-class HopRoverHopVectorEnv(HopRoverVectorEnv):
+# VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
+# its class's direct bases
+class HopRoverHopVectorEnv(HopRoverVectorEnv, VectorEnv):
     config_class = HopEnvConfig
     kernels = (hop_kernel.batch_hop_step, hop_kernel.batch_hop_step_threaded)
     kernels_any_integrator = kernels
