@@ -72,14 +72,18 @@ class Value(DeterministicMixin, Model):
         return self.net(inputs["observations"]), {}
 
 
-def train(steps: int, num_envs: int = 64, rollout: int = 32, seed: int = 0,
-          progress: bool = True) -> Policy:
+def build(env) -> dict:
+    spaces = (env.observation_space, env.state_space, env.action_space, env.device)
+    return {"policy": Policy(*spaces), "value": Value(*spaces)}
+
+
+def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 512,
+          seed: int = 0, progress: bool = True) -> Policy:
     set_seed(seed)
     env = wrap_env(gym.make_vec(ENV_ID, num_envs=num_envs, autoreset_mode="SameStep",
                                 threads=False, **ENV_KWARGS))
-    spaces = (env.observation_space, env.state_space, env.action_space, env.device)
-    models = {"policy": Policy(*spaces), "value": Value(*spaces)}
-    cfg = PPO_CFG(rollouts=rollout, learning_epochs=10, mini_batches=num_envs * rollout // 512,
+    models = build(env)
+    cfg = PPO_CFG(rollouts=rollout, learning_epochs=10, mini_batches=max(1, num_envs * rollout // minibatch),
                   discount_factor=0.98, gae_lambda=0.95, learning_rate=3e-4,
                   grad_norm_clip=0.5, ratio_clip=0.2, value_clip=0.0, entropy_loss_scale=0.0,
                   value_loss_scale=0.5)

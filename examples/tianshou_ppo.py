@@ -69,8 +69,9 @@ def build(env, lr: float = 3e-4):
     return algorithm, actor
 
 
-def train(steps: int, num_envs: int = 64, collect: int = 2048, seed: int = 0,
-          venv_class=DummyVectorEnv, progress: bool = True):
+def train(steps: int, num_envs: int = 64, collect: int = 2048, minibatch: int = 512,
+          seed: int = 0, venv_class=DummyVectorEnv, progress: bool = True):
+    """The trained actor and the buffer of the last collection."""
     torch.manual_seed(seed)
     envs = venv_class([lambda: gym.make(ENV_ID, **ENV_KWARGS) for _ in range(num_envs)])
     envs.seed(seed)
@@ -82,9 +83,9 @@ def train(steps: int, num_envs: int = 64, collect: int = 2048, seed: int = 0,
         training_collector=collector, test_collector=None,
         max_epochs=epochs, epoch_num_steps=steps // epochs,
         collection_step_num_env_steps=collect, update_step_num_repetitions=10,
-        batch_size=512, show_progress=progress))
+        batch_size=minibatch, show_progress=progress))
     envs.close()
-    return actor
+    return actor, collector.buffer
 
 
 def judge(actor, episodes: int, seed: int = 2015) -> dict:
@@ -109,7 +110,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
     t0 = time.perf_counter()
-    actor = train(args.steps, seed=args.seed)
+    actor, _ = train(args.steps, seed=args.seed)
     wall = time.perf_counter() - t0
     res = judge(actor, args.eval_episodes)
     print(f"Tianshou PPO, {args.steps} steps in {wall:.0f} s: success "

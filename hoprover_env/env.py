@@ -89,8 +89,8 @@ parameters are re-drawn each episode from the env's own generator.
 
 ## Info
 
-Every value is a number or a boolean of fixed type and shape from the first step (the
-vector env: arrays of it), so that TorchRL's specs and Tianshou's buffers can store them:
+Every value is a numpy scalar (the vector env: an array) of fixed dtype and shape from the
+first step, so that TorchRL's specs and Tianshou's buffers can store them:
 
 | Key | Type | Meaning |
 |-----|------|---------|
@@ -243,13 +243,14 @@ class HopRoverEnv(gym.Env):
         s = self._s
         ttrtp = float(s[core.S_TTRTP])
         reached = ttrtp == ttrtp                      # not NaN
-        # numbers only, fixed types from the first step: TorchRL and Tianshou store infos
-        info = {"is_success": reached, "ttrtp": ttrtp if reached else TTRTP_NOT_REACHED,
-                "state": int(s[core.S_MODE]),
-                "target_x": self.target_x, "broken": bool(s[core.S_BROKEN] != 0.0),
-                "n_events": int(n_events)}
+        # numpy scalars of fixed dtype from the first step: TorchRL's info reader wants a
+        # .dtype, and it and Tianshou's buffer refuse None and NaN
+        info = {"is_success": np.bool_(reached),
+                "ttrtp": np.float64(ttrtp if reached else TTRTP_NOT_REACHED),
+                "state": np.int64(s[core.S_MODE]), "target_x": np.float64(self.target_x),
+                "broken": np.bool_(s[core.S_BROKEN] != 0.0), "n_events": np.int64(n_events)}
         if self.config.info_level == "full":
-            info["t"] = float(s[core.S_T])
+            info["t"] = np.float64(s[core.S_T])
             info["rover_state"] = s[:6].copy()
             info["contact_forces"] = np.array(core.contact_forces(s, self._p))
         return info
