@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from functools import partial
 from pathlib import Path
 
 import gymnasium as gym
@@ -73,7 +74,10 @@ def train(steps: int, num_envs: int = 64, collect: int = 2048, minibatch: int = 
           seed: int = 0, venv_class=DummyVectorEnv, progress: bool = True):
     """The trained actor and the buffer of the last collection."""
     torch.manual_seed(seed)
-    envs = venv_class([lambda: gym.make(ENV_ID, **ENV_KWARGS) for _ in range(num_envs)])
+    # "module:id": a worker process (SubprocVectorEnv) imports hoprover_env, which
+    # registers the ids; a partial of gym.make pickles by reference
+    make = partial(gym.make, f"hoprover_env:{ENV_ID}", **ENV_KWARGS)
+    envs = venv_class([make] * num_envs)
     envs.seed(seed)
     algorithm, actor = build(gym.make(ENV_ID, **ENV_KWARGS))
     collector = Collector[CollectStats](algorithm, envs, VectorReplayBuffer(collect, num_envs),
