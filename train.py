@@ -8,8 +8,10 @@ The run directory gets: config.yaml (the resolved config), TensorBoard logs (tb/
 evaluations.csv (the contest judge on a fixed target set every evaluation.freq steps),
 best_model.zip (+ _vecnormalize.pkl, .json), final_model.zip, and checkpoints/last.*
 (model, VecNormalize statistics, replay buffer for SAC/TD3, progress), all written
-atomically. --resume continues from the last checkpoint to the requested total; Ctrl-C
-saves a checkpoint before exiting.
+atomically. A checkpoint is taken every checkpoint.freq steps and every
+checkpoint.seconds of wall time (default 300 s, --checkpoint-seconds), so a killed run
+loses at most that. --resume continues from the last checkpoint to the requested total;
+Ctrl-C saves a checkpoint before exiting.
 """
 from __future__ import annotations
 
@@ -42,10 +44,15 @@ def parse_args(argv=None):
                                  epilog=__doc__.split("\n", 2)[2])
     ap.add_argument("--algo", choices=["ppo", "sac", "td3"], default=None)
     ap.add_argument("--config", type=str, default=None, help="YAML config (configs/*.yaml)")
-    ap.add_argument("--env", type=str, default=None, help="HopRover-v0 or HopRoverContest-v0")
+    from hoprover_env import ENVS
+    ap.add_argument("--env", type=str, default=None,
+                    help=f"environment id: {', '.join(ENVS)} (default: the config's env_id)")
     ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--n-envs", type=int, default=None, help="sub-envs of the batched env")
+    ap.add_argument("--checkpoint-seconds", type=float, default=None,
+                    help="wall-clock seconds between checkpoints (config checkpoint.seconds, "
+                         "default 300)")
     ap.add_argument("--out", type=str, required=True, help="run directory")
     ap.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     ap.add_argument("--device", type=str, default="cpu")
@@ -324,6 +331,7 @@ class Trainer:
         trainer = self
         total = self.cfg["timesteps"]
         ev_freq, ck_freq = self.cfg["evaluation"]["freq"], self.cfg["checkpoint"]["freq"]
+        ck_seconds = self.cfg["checkpoint"].get("seconds", 300.0)
 
         class Hooks(BaseCallback):
             def _on_rollout_start(self):
@@ -334,6 +342,7 @@ class Trainer:
             def _on_training_start(self):
                 self.next_eval = (self.num_timesteps // ev_freq + 1) * ev_freq
                 self.next_ckpt = (self.num_timesteps // ck_freq + 1) * ck_freq
+                self.ckpt_due = time.monotonic() + ck_seconds
                 self.bar = None
                 if trainer.progress:
                     from tqdm import tqdm
@@ -346,8 +355,11 @@ class Trainer:
                 if self.num_timesteps >= self.next_eval:
                     self.next_eval += ev_freq
                     trainer.evaluate()
-                if self.num_timesteps >= self.next_ckpt:
-                    self.next_ckpt += ck_freq
+                if self.num_timesteps >= self.next_ckpt or time.monotonic() >= self.ckpt_due:
+                    if self.num_timesteps >= self.next_ckpt:
+                        self.next_ckpt += ck_freq
+                    # a wall-clock deadline too: a kill -9 loses minutes, not 500 k steps
+                    self.ckpt_due = time.monotonic() + ck_seconds
                     trainer.checkpoint()
                 return True
 
@@ -405,7 +417,8 @@ def main(argv=None) -> int:
     try:
         cfg = load_config(config, {"algo": args.algo, "env_id": args.env,
                                    "timesteps": args.timesteps, "seed": args.seed,
-                                   "n_envs": args.n_envs})
+                                   "n_envs": args.n_envs},
+                          {"checkpoint": {"seconds": args.checkpoint_seconds}})
     except (ConfigError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -91,7 +91,8 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
                 out[i] = EpisodeResult(
                     policy=getattr(policy, "name", "policy"), episode=offset + int(i),
                     target_x=float(targets[i]), success=success,
-                    ttrtp=float(fin["ttrtp"][i]) if success else None, broken=bool(fin["broken"][i]),
+                    ttrtp=float(fin["ttrtp"][i]) if success else None,
+                    broken=bool(fin["broken"][i]),
                     steps=int(steps[i]), sim_time=float(fin["t"][i]) if "t" in fin else
                     float(steps[i] * venv.config.control_dt),
                     final_x=float(venv_final_x(info, i)), wall_time=now)

@@ -9,6 +9,8 @@ from a `HopRoverVectorEnv` and actions in [-1, 1]^(N, 1). Kinds:
   ``Control(pos, vel, the, omg, posT, t, smt, state) -> torque``, one instance per
   sub-env, fed from the exact simulator state (no delay, as in the contest).
 * ``RandomPolicy`` -- uniform random actions (a floor to compare against).
+* ``ArrayPolicy`` -- any function from an observation batch to an action batch, e.g. a
+  network trained with TorchRL, Tianshou or skrl (examples/).
 
 `load_policy` turns a name ("bundled", "scripted", "random", a model path or
 "module.py:Control") into one of these.
@@ -93,6 +95,24 @@ class ControllerPolicy:
                 raise ValueError(f"{self.name}: the controller returned torque {torque!r}")
             out[i, 0] = torque_to_action(torque, p, venv.config)
         return out
+
+
+class ArrayPolicy:
+    """`fn(obs) -> actions`, obs a float32 array (N, 19), actions anything of N values
+    (numpy or torch): a policy trained by any library, judged like the others."""
+
+    def __init__(self, fn: Callable, name: str = "policy", env_id: str = "HopRover-v0",
+                 env_kwargs: dict | None = None):
+        self.fn, self.name, self.env_id = fn, name, env_id
+        self.env_kwargs = dict(env_kwargs or {})
+
+    def reset(self, n: int) -> None:
+        pass
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        out = self.fn(obs)
+        out = out.detach().cpu().numpy() if hasattr(out, "detach") else out
+        return np.clip(np.asarray(out, dtype=np.float64).reshape(len(obs), 1), -1.0, 1.0)
 
 
 class RandomPolicy:

@@ -13,7 +13,7 @@ A config has these sections (every key is checked; a typo is an error that names
     hyperparams: {...}              # keyword arguments of PPO / SAC / TD3
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     evaluation: {freq, episodes, seed}
-    checkpoint: {freq}
+    checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time
 """
 from __future__ import annotations
 
@@ -37,14 +37,14 @@ POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_e
 PRETRAIN_KEYS = {"expert", "episodes", "epochs", "batch_size", "learning_rate", "seed",
                  "value_epochs", "log_std", "noise", "dagger_rounds", "dagger_episodes"}
 EVAL_KEYS = {"freq", "episodes", "seed"}
-CHECKPOINT_KEYS = {"freq"}
+CHECKPOINT_KEYS = {"freq", "seconds"}
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
                "gelu": "GELU", "silu": "SiLU"}
 DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed": 0,
             "env": {}, "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
             "policy": {}, "hyperparams": {}, "pretrain": None,
             "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
-            "checkpoint": {"freq": 200_000}}
+            "checkpoint": {"freq": 200_000, "seconds": 300.0}}
 
 
 class ConfigError(ValueError):
@@ -66,8 +66,11 @@ def _check_keys(section: str, given: dict, valid: set):
         raise ConfigError(f"unknown config key '{section}.{bad[0]}' (valid: {sorted(valid)})")
 
 
-def load_config(path: str | Path | None, overrides: dict | None = None) -> dict:
-    """Read, fill in defaults, apply command-line overrides, and validate a config."""
+def load_config(path: str | Path | None, overrides: dict | None = None,
+                section_overrides: dict | None = None) -> dict:
+    """Read, fill in defaults, apply command-line overrides (top-level keys, and keys of
+    sections: {"checkpoint": {"seconds": 60}}; None leaves a value as it is), and
+    validate a config."""
     raw: dict = {}
     if path is not None:
         path = Path(path)
@@ -94,6 +97,10 @@ def load_config(path: str | Path | None, overrides: dict | None = None) -> dict:
     for key, value in (overrides or {}).items():
         if value is not None:
             cfg[key] = value
+    for section, values in (section_overrides or {}).items():
+        for key, value in values.items():
+            if value is not None:
+                cfg[section] = {**cfg[section], key: value}
     validate(cfg)
     return cfg
 
@@ -185,7 +192,7 @@ PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy
                   "log_std": REAL, "noise": NONNEG_REAL, "dagger_rounds": NONNEG_INT,
                   "dagger_episodes": POS_INT}
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
-CHECKPOINT_TYPES = {"freq": POS_INT}
+CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
 # the common keyword arguments of PPO / SAC / TD3 (which ones an algorithm takes is checked
 # against its constructor's signature in validate)
 HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_INT,

@@ -89,8 +89,9 @@ parameters are re-drawn each episode from the env's own generator.
 
 ## Info
 
-Every value is a number or a boolean of fixed dtype and shape from the first step (no
-None, no NaN, no string), so any RL library's buffer can store it:
+Every value is a numpy scalar (the vector env: an array) of fixed dtype and shape
+from the first step (no None, no NaN, no string), so that any RL library's buffer can
+store it (TorchRL's info reader wants a `.dtype`; TorchRL and Tianshou refuse None and NaN):
 
 | Key | Type | Meaning |
 |---|---|---|
@@ -186,7 +187,8 @@ class HopRoverEnv(gym.Env):
     #                             observe writes the observation (bounds OBS_LOW/HIGH)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
-        self.config = self.config_class.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(
+            f"{type(self).__name__}.__init__", **kwargs)
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, "
                              f"got {render_mode!r}")
@@ -253,14 +255,17 @@ class HopRoverEnv(gym.Env):
         s = self._s
         ttrtp = float(s[core.S_TTRTP])
         reached = ttrtp == ttrtp                      # not NaN
-        info = {"is_success": reached, "ttrtp": ttrtp if reached else TTRTP_NOT_REACHED,
-                "state": int(s[core.S_MODE]), "target_x": float(self.target_x),
-                "broken": bool(s[core.S_BROKEN] != 0.0), "n_events": int(n_events),
-                "slope": float(self.params.slope),
-                "terrain_seed": NO_TERRAIN_SEED if self.terrain_seed is None
-                else self.terrain_seed}
+        # numpy scalars of fixed dtype from the first step: TorchRL's info reader wants a
+        # .dtype, and it and Tianshou's buffer refuse None and NaN
+        info = {"is_success": np.bool_(reached),
+                "ttrtp": np.float64(ttrtp if reached else TTRTP_NOT_REACHED),
+                "state": np.int64(s[core.S_MODE]), "target_x": np.float64(self.target_x),
+                "broken": np.bool_(s[core.S_BROKEN] != 0.0), "n_events": np.int64(n_events),
+                "slope": np.float64(self.params.slope),
+                "terrain_seed": np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
+                                         else self.terrain_seed)}
         if self.config.info_level == "full":
-            info["t"] = float(s[core.S_T])
+            info["t"] = np.float64(s[core.S_T])
             info["rover_state"] = s[:6].copy()
             info["contact_forces"] = np.array(core.contact_forces(s, self._p))
             info.update(reward.terms_info(self._rm))

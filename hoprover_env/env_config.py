@@ -95,15 +95,16 @@ class EnvConfig(RewardConfig):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
 
     @classmethod
-    def from_kwargs(cls, **kwargs: Any) -> "EnvConfig":
+    def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":
+        """The config of these keyword arguments; `owner` names the caller in errors."""
         names = {f.name for f in dataclasses.fields(cls)}
-        bad = sorted(set(kwargs) - names)
+        bad = [k for k in kwargs if k not in names]
         if bad:
-            # Python's own wording, which wrappers probe for (TorchRL drops frameskip=1
-            # when it reads it), then what is valid
-            raise TypeError(f"{cls.__name__}() got an unexpected keyword argument "
-                            f"{bad[0]!r} (unknown environment argument(s) {bad}); valid: "
-                            f"{sorted(names)}")
+            # Python's own wording: TorchRL's GymEnv probes with frameskip=1 and drops it
+            # only on "unexpected keyword argument 'frameskip'"
+            also = f" (and {bad[1:]})" if len(bad) > 1 else ""
+            raise TypeError(f"{owner or cls.__name__}() got an unexpected keyword argument "
+                            f"{bad[0]!r}{also}; valid environment arguments: {sorted(names)}")
         return cls(**kwargs)
 
     def options_vector(self) -> np.ndarray:

@@ -69,6 +69,8 @@ of a step in one jitted call, threaded over the cores from 64 sub-envs on.
 """
 from __future__ import annotations
 
+from gymnasium.vector import VectorEnv
+
 from .env import HopRoverEnv
 from .env_config import HopEnvConfig
 from .tasks import hop
@@ -80,6 +82,8 @@ class HopRoverHopEnv(HopRoverEnv):
     task = hop
 
 
-class HopRoverHopVectorEnv(HopRoverVectorEnv):
+# VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
+# its class's direct bases
+class HopRoverHopVectorEnv(HopRoverVectorEnv, VectorEnv):
     config_class = HopEnvConfig
     task = hop

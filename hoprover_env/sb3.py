@@ -9,7 +9,8 @@ no subprocesses and no per-env Python objects.
 
 It follows SB3's VecEnv contract: same-step reset, `terminal_observation` and
 `TimeLimit.truncated` in the info of an env that ended, `is_success` (read by SB3's
-success-rate logging and EvalCallback) and the judge's `ttrtp`. Environment arguments
+success-rate logging and EvalCallback) and the judge's `ttrtp` (-1.0 if not reached;
+the info table in env.py). Environment arguments
 are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does;
 `env_id` picks the task (HopRover-v0, HopRoverContest-v0 or the hop-level HopRoverHop-v0).
 """

@@ -56,6 +56,8 @@ sub-env i equals a `HopRoverTerrainEnv` seeded with s + i, bumps included.
 """
 from __future__ import annotations
 
+from gymnasium.vector import VectorEnv
+
 from .env import HopRoverEnv
 from .env_config import TerrainEnvConfig
 from .tasks import terrain
@@ -67,6 +69,8 @@ class HopRoverTerrainEnv(HopRoverEnv):
     task = terrain
 
 
-class HopRoverTerrainVectorEnv(HopRoverVectorEnv):
+# VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
+# its class's direct bases
+class HopRoverTerrainVectorEnv(HopRoverVectorEnv, VectorEnv):
     config_class = TerrainEnvConfig
     task = terrain

@@ -12,7 +12,8 @@ Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, th
 default, or SameStep), `max_episode_steps` (an extra step limit per episode) and
 `threads` (None: threaded from 64 sub-envs on; True/False to force). Infos follow
 Gymnasium's dict-of-arrays convention (each key with its `_key` mask); with SameStep,
-`final_obs` and `final_info` carry the ended episodes' last observation and info.
+`final_obs` and `final_info` carry the ended episodes' last observation and info. The
+info values and their types are those of HopRoverEnv (the table in env.py), as arrays.
 """
 from __future__ import annotations
 
@@ -46,7 +47,8 @@ class HopRoverVectorEnv(VectorEnv):
         if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.config = self.config_class.from_kwargs(**kwargs)
+        self.config = self.config_class.from_kwargs(
+            f"{type(self).__name__}.__init__", **kwargs)
         _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
         self.num_envs = int(num_envs)
         try:
@@ -232,6 +234,6 @@ class HopRoverVectorEnv(VectorEnv):
         return tuple(frames)
 
     def close_extras(self, **kwargs):
-        for r in self._renderers:
+        for r in getattr(self, "_renderers", ()):    # None if __init__ refused its arguments
             r.close()
         self._renderers = []

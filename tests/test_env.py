@@ -159,8 +159,12 @@ def test_reset_options_and_errors():
     assert info["target_x"] == -0.7
     with pytest.raises(ValueError, match="unknown reset option"):
         env.reset(options={"tarrget_x": 1.0})
-    with pytest.raises(TypeError, match="unknown environment argument"):
+    # Python's own wording (TorchRL's GymEnv relies on it), then the valid names
+    with pytest.raises(TypeError, match=r"got an unexpected keyword argument 'contol_dt'; "
+                                        r"valid environment arguments: \[.*'control_dt'"):
         HopRoverEnv(contol_dt=0.1)
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
+        gym.make_vec("HopRover-v0", num_envs=2, frameskip=1)
     with pytest.raises(ValueError, match="control_dt must be a positive (finite )?number"):
         HopRoverEnv(control_dt=-1.0)
 
@@ -195,9 +199,43 @@ def test_observations_stay_in_bounds_and_types_are_strict():
         obs, r, te, tr, info = env.step(np.array([a], np.float32))
         assert env.observation_space.contains(obs)
         assert type(r) is float and type(te) is bool and type(tr) is bool
-        assert type(info["is_success"]) is bool and type(info["broken"]) is bool
+        assert type(info["is_success"]) is np.bool_ and type(info["broken"]) is np.bool_
         if te or tr:
             obs, _ = env.reset()
+
+
+INFO_TYPES = {"is_success": np.bool_, "ttrtp": np.float64, "state": np.int64,
+              "target_x": np.float64, "broken": np.bool_, "n_events": np.int64,
+              "slope": np.float64, "terrain_seed": np.int64}
+
+
+@pytest.mark.parametrize("env_id", ["HopRover-v0", "HopRoverHop-v0", "HopRoverTerrain-v0"])
+def test_info_values_are_numbers_of_fixed_type(env_id):
+    """No None, NaN or string in info, single or vector: TorchRL's specs and Tianshou's
+    buffer checks store every value. TTRTP is -1 until reached, the state a code 0..6."""
+    env = gym.make(env_id, control_dt=2.0)
+    _, first = env.reset(seed=0, options={"target_x": 0.0})
+    assert first["ttrtp"] == -1.0 and not first["is_success"]
+    for _ in range(10):
+        _, _, te, _, info = env.step(np.zeros(1, np.float32))
+        assert info.keys() == first.keys()
+        for key, value in info.items():
+            assert type(value) is INFO_TYPES[key] and np.isfinite(value), key
+        assert 0 <= info["state"] <= 6
+        if te:
+            break
+    assert info["is_success"] and info["ttrtp"] == 5.0
+    envs = gym.make_vec(env_id, num_envs=2, autoreset_mode="SameStep", control_dt=2.0)
+    _, info = envs.reset(seed=0, options={"target_x": np.array([0.0, 3.0])})
+    for _ in range(10):
+        _, _, te, _, step_info = envs.step(np.zeros((2, 1)))
+        if te[0]:
+            break
+    for got in (info, step_info, step_info["final_info"]):
+        for key, dtype in INFO_TYPES.items():
+            assert got[key].dtype == dtype and got[key].shape == (2,), key
+    assert te[0] and step_info["final_info"]["ttrtp"][0] == 5.0
+    assert step_info["ttrtp"][1] == -1.0 and not step_info["is_success"][1]
 
 
 def test_idle_at_target_succeeds_at_five_seconds_with_bonus():

@@ -1,6 +1,12 @@
 """train.py and evaluate.py end to end, in-process (the kernels are already compiled)."""
 import csv
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -95,6 +101,39 @@ def test_bad_config_keys_are_named(tmp_path, capsys, bad, words):
 def test_missing_config_file(tmp_path, capsys):
     assert train.main(["--config", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "r")]) == 2
     assert "config file not found" in capsys.readouterr().err
+
+
+def test_killed_run_resumes_from_its_wall_clock_checkpoint(tmp_path, capsys):
+    """kill -9 gives no chance to save: what survives is the last checkpoint, taken here
+    by the wall clock (checkpoint.seconds) long before checkpoint.freq steps."""
+    out = tmp_path / "run"
+    never = 10_000_000
+    cfg = write_cfg(tmp_path, {**TINY, "pretrain": None, "timesteps": never,
+                               "evaluation": {"freq": never, "episodes": 2, "seed": 1},
+                               "checkpoint": {"freq": never}})
+    root = Path(train.__file__).resolve().parent
+    proc = subprocess.Popen([sys.executable, str(root / "train.py"), "--config", cfg, "--out",
+                             str(out), "--no-progress", "--checkpoint-seconds", "1"],
+                            cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    meta_path = out / "checkpoints" / "last.json"
+    try:
+        deadline = time.monotonic() + 300
+        while not (meta_path.exists() and json.loads(meta_path.read_text())["timesteps"] > 0):
+            assert proc.poll() is None, "train.py ended before its first timed checkpoint"
+            assert time.monotonic() < deadline, "no timed checkpoint within 300 s"
+            time.sleep(0.2)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    saved = json.loads(meta_path.read_text())["timesteps"]     # checkpoints are atomic
+    assert 0 < saved < never
+    capsys.readouterr()
+    assert train.main(["--config", cfg, "--out", str(out), "--timesteps", str(saved + 512),
+                       "--resume", "--no-progress"]) == 0
+    assert f"at {saved} steps" in capsys.readouterr().err
+    assert strict_json(meta_path)["timesteps"] >= saved + 512
 
 
 def test_resume_without_checkpoint(tmp_path):
