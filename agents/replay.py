@@ -101,7 +101,9 @@ def _applied(action: float, params) -> float:
 
 
 def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20) -> None:
-    """A GIF (Pillow) or MP4 (imageio-ffmpeg) of a recording."""
+    """Write the recording `rec` as a GIF (Pillow) or MP4 (imageio-ffmpeg) at `path`:
+    at most `max_frames` frames spread over the run, shown at `fps` frames per second.
+    Raises RuntimeError for an MP4 without imageio-ffmpeg."""
     import imageio.v2 as imageio
     from hoprover_env.rendering import Renderer
     roll = rec.rollout
