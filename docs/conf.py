@@ -54,7 +54,7 @@ default_role = "py:obj"
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
 autodoc_inherit_docstrings = False       # gymnasium's / SB3's docstrings are not ours
-autodoc_default_options = {"members": False, "show-inheritance": True}
+autodoc_default_options = {"show-inheritance": True}
 autosummary_generate = False
 
 html_theme = "furo"
