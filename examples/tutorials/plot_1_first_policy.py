@@ -1,6 +1,6 @@
 """
-A first policy in about a minute: hop-level PPO
-===============================================
+A first policy in a few minutes: hop-level PPO
+==============================================
 
 On ``HopRoverHop-v0`` one action is one hop: the sign is the direction, the size the
 launch torque (on a log scale), and a built-in attitude hold flies the hop. That puts

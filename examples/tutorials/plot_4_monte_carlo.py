@@ -53,8 +53,7 @@ print(f"run 7: batch x {batch.final[7, 0]:.15f}, simulate x {again.x[-1]:.15f}")
 # %%
 # Where the rovers stop
 # ---------------------
-# The spread of the rest position, and what drives it: each parameter's draw against
-# the rest position (rank correlation in the titles).
+# The spread of the rest position over the runs that did not break:
 ok = ~batch.broken
 x_rest = batch.final[ok, 0]
 fig, ax = plt.subplots(figsize=(7, 3.3))
@@ -64,6 +63,9 @@ ax.axvspan(0.6 - 0.1, 0.6 + 0.1, color="g", alpha=0.15, label="c.m. within r + w
 ax.set(xlabel="rest position of the c.m. [m]", ylabel="runs")
 ax.legend(fontsize=8)
 fig.tight_layout()
+
+# %%
+# Each parameter's relative draw against the rest position, with the rank correlation:
 
 
 def rank(a):
