@@ -15,7 +15,16 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from agents.scripted import ScriptedHopper
-from hoprover_env import Rollout, core, hop_kernel, simulate, vector_env_class
+from hoprover_env import Rollout, core, simulate, vector_env_class
+
+
+def _launch_torque(action: float, venv) -> float:
+    """The launch torque [N m] the hop-level env `venv` flies for `action` (its own map)."""
+    if hasattr(venv.config, "task_vector"):          # hoprover_env/tasks/ (issue 19)
+        from hoprover_env.tasks.hop import hop_torque
+        return float(hop_torque(action, venv.P[0], venv.config.task_vector()))
+    from hoprover_env.hop_kernel import hop_torque   # the layout before it
+    return float(hop_torque(action, venv.P[0], venv.config.reward_vector()))
 
 
 @dataclasses.dataclass
@@ -54,8 +63,7 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
     while True:
         action = policy.act(obs, venv)
         if hops:
-            torques.append(float(hop_kernel.hop_torque(float(action[0, 0]), venv.P[0],
-                                                       venv.config.reward_vector())))
+            torques.append(_launch_torque(float(action[0, 0]), venv))
         obs, _, term, trunc, info = venv.step(action)
         if not hops:
             torques.append(float(venv.S[0, core.S_TORQUE]) if not (term[0] or trunc[0])
