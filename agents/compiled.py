@@ -47,7 +47,10 @@ def planned_hops(pos, vel, the, omg, posT, t, smt, state_code):
 
 
 def hop_plan(args) -> "njit function":
-    """A compiled contest controller with the plan `args` built in (for `simulate`)."""
+    """A compiled contest controller with the plan `args` built in (for `simulate`):
+    (inertia [kg m^2], kp [1/s^2], kd [1/s]) then (start [s], duration [s], torque
+    [N m]) per hop. Raises ValueError for a plan of the wrong length or with
+    non-finite values."""
     plan = np.asarray(args, dtype=np.float64)
     if plan.ndim != 1 or (plan.size - PLAN_HEAD) % PLAN_HOP or not np.all(np.isfinite(plan)):
         raise ValueError(f"a hop plan is (inertia, kp, kd) then (start, duration, torque) "

@@ -19,6 +19,11 @@ from hoprover_env import vector_env_class
 
 @dataclasses.dataclass
 class EpisodeResult:
+    """One evaluated episode: the policy's name, the episode's index, its target [m],
+    success, the judge's TTRTP [s] (None without success), whether the rover broke, the
+    env steps, the simulated time [s], the final c.m. x [m] and the wall time [s] (a
+    batch's mean)."""
+
     policy: str
     episode: int
     target_x: float
@@ -31,6 +36,7 @@ class EpisodeResult:
     wall_time: float
 
     def as_dict(self) -> dict:
+        """The fields as a dict (a row of evaluate.py's JSON and CSV)."""
         return dataclasses.asdict(self)
 
 
@@ -48,7 +54,10 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     "roughness": per-episode roughness [rad]} (reset options of every hoprover env).
     `progress` is called with the number of finished episodes. `first_episode` numbers
     the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
-    start at multiples of `batch`, so each batch is the one a local run has)."""
+    start at multiples of `batch`, so each batch is the one a local run has).
+
+    Returns one `EpisodeResult` per target [m], in order. Raises ValueError for bad env
+    arguments, as the env does."""
     kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
     kwargs.pop("target_x", None)
     targets = np.asarray(targets, dtype=float)
@@ -112,6 +121,9 @@ def venv_final_x(info, i) -> float:
 
 
 def summarize(results: list[EpisodeResult]) -> dict:
+    """The README's columns over `results`: episodes, success_rate (0..1), median_ttrtp
+    and p90_ttrtp [s] over the successful episodes (NaN if none), broken (count) and
+    wall_per_episode [s]."""
     n = len(results)
     tt = np.array([r.ttrtp for r in results if r.success])
     return {

@@ -11,7 +11,10 @@ import numpy as np  # noqa: E402
 
 
 def nine_figures(rec, out_dir: str) -> list[str]:
-    """position, attitude, velocity, rate, corner A, corner B, state, forces, torque."""
+    """The contest sample program's nine figures of the recording `rec`
+    (`agents.replay.record_episode`) as PNG files in `out_dir` (created if missing):
+    position, attitude, velocity, rate, corner A, corner B, state, forces, torque.
+    Returns the nine paths, in that order (file names 1_position.png ... 9_torque.png)."""
     os.makedirs(out_dir, exist_ok=True)
     r = rec.rollout
     t = r.t

@@ -41,7 +41,13 @@ ALGOS = ("ppo", "sac", "td3")
 
 
 class SB3Policy:
-    """A trained SB3 model plus its observation normalisation."""
+    """A trained SB3 model plus its observation normalisation, acting deterministically.
+
+    Parameters: `model` (PPO, SAC or TD3); `obs_rms` the VecNormalize running statistics
+    (None: observations unnormalised); `clip_obs` and `epsilon` as VecNormalize's; `name`
+    for tables; `env_kwargs` the env arguments it was trained with (e.g. control_dt
+    [s]); `env_id` the task it acts in (HopRoverHop-v0: one action per hop).
+    """
 
     def __init__(self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8,
                  name: str = "sb3", env_kwargs: dict | None = None,
@@ -53,21 +59,28 @@ class SB3Policy:
         self.env_id = env_id             # the task it acts in (HopRoverHop-v0: one hop a step)
 
     def reset(self, n: int) -> None:
-        pass
+        """Start `n` episodes (the model keeps no per-episode state)."""
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
+        """`obs` (N, 19) as the model saw them in training: standardised and clipped."""
         if self.obs_rms is None:
             return obs
         return np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
                        -self.clip_obs, self.clip_obs).astype(np.float32)
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        """Deterministic actions (N, 1) for the observations `obs` (N, 19)."""
         action, _ = self.model.predict(self.normalize(obs), deterministic=True)
         return np.asarray(action, dtype=np.float64).reshape(len(obs), 1)
 
 
 class ControllerPolicy:
-    """Contest controllers, one per sub-env, driven from the simulator state."""
+    """Contest controllers, one per sub-env, driven from the simulator state.
+
+    `factory()` makes one controller ``Control(pos, vel, the, omg, posT, t, smt, state)
+    -> torque [N m]`` per episode; it sees the exact state (no delay, as in the
+    contest). `env_kwargs` set the env (e.g. control_dt [s]).
+    """
 
     def __init__(self, factory: Callable[[], Callable], name: str = "controller",
                  env_kwargs: dict | None = None):
@@ -77,9 +90,12 @@ class ControllerPolicy:
         self.controllers: list = []
 
     def reset(self, n: int) -> None:
+        """A fresh controller for each of `n` episodes."""
         self.controllers = [self.factory() for _ in range(n)]
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        """Each controller's torque for its sub-env of `venv` (a HopRoverVectorEnv), as
+        actions (N, 1). Raises ValueError if a controller returns a non-finite torque."""
         out = np.zeros((len(obs), 1))
         smt = venv.config.episode_time
         for i, ctrl in enumerate(self.controllers):
@@ -116,6 +132,9 @@ class ArrayPolicy:
 
 
 class RandomPolicy:
+    """Uniform random actions in [-1, 1]: a floor to compare against. `seed` (int)
+    makes the draws reproducible per batch of episodes."""
+
     def __init__(self, seed: int = 0):
         self.name = "random"
         self.env_kwargs = {}
@@ -123,11 +142,13 @@ class RandomPolicy:
         self.rng = np.random.default_rng(seed)
 
     def reset(self, n: int, first_episode: int = 0) -> None:
+        """Start `n` episodes; the first is episode `first_episode` of the evaluation."""
         # a stream per batch of episodes, keyed by its first episode: the same draws
         # whichever process evaluates that batch (evaluate.py --ray)
         self.rng = np.random.default_rng([self.seed, first_episode])
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        """Uniform random actions (N, 1)."""
         return self.rng.uniform(-1.0, 1.0, (len(obs), 1))
 
 
@@ -156,7 +177,11 @@ def _algo_class(algo: str):
 
 def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
     """A model saved by train.py: a .zip (with its metadata JSON and VecNormalize pickle
-    beside it), or a run directory (its best model)."""
+    beside it), or a run directory (its best model), as an `SB3Policy` named `name`
+    (default: the file's or directory's name).
+
+    Raises FileNotFoundError if the file (or a run directory's model) is missing, and
+    ValueError if a bare .zip is not a PPO, SAC or TD3 model."""
     path = Path(path)
     if path.is_dir():
         # every run directory holds a best_model.zip: the directory is what names the run
@@ -199,7 +224,10 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
 
 def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
     """'path/to/module.py:Control' -> a ControllerPolicy calling that function (or, if it
-    is a class, one new instance per episode)."""
+    is a class, one new instance per episode) every `control_dt` [s].
+
+    Raises ValueError without a ':', FileNotFoundError for a missing module and
+    AttributeError if the module has no such name."""
     if ":" not in spec:
         raise ValueError(f"--controller wants 'module.py:Function', got {spec!r}")
     file, attr = spec.rsplit(":", 1)
@@ -217,8 +245,14 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
-    """'bundled', 'scratch', 'hop', 'terrain', 'scripted', 'random', a model path or run dir, or
-    'module.py:Control'."""
+    """A policy by name: 'bundled', 'scratch', 'hop', 'terrain' (the bundled models), 'scripted'
+    (agents.scripted.ScriptedHopper every `control_dt` [s]), 'random' (seeded with
+    `seed`), a model .zip or run directory (`load_sb3`), or 'module.py:Control'
+    (`load_controller`).
+
+    Returns an SB3Policy, ControllerPolicy or RandomPolicy: ``act(obs, venv)`` on a
+    batch. Raises ValueError for an unknown name and FileNotFoundError for a missing file.
+    """
     if spec in BUNDLED:
         path = BUNDLED_DIR / f"{BUNDLED[spec]}.zip"
         if not path.exists():

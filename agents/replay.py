@@ -2,7 +2,10 @@
 
 The policy runs in the environment as usual; its applied torques are then replayed
 through `hoprover_env.simulate` with extra samples between control instants
-(`sample_dt`), which gives the same physics at plotting resolution.
+(`sample_dt`), which gives the same physics at plotting resolution. A policy of the
+hop-level task (`HopRoverHop-v0`, one action per hop) runs in that task's env; its hops
+are replayed by the scripted hopper's launch / attitude-hold / settle controller
+(`agents.scripted.ScriptedHopper`) fed with the launch torques the policy chose.
 """
 from __future__ import annotations
 
@@ -11,12 +14,25 @@ import dataclasses
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from hoprover_env import Rollout, core, simulate
-from hoprover_env.vector_env import HopRoverVectorEnv
+from agents.scripted import ScriptedHopper
+from hoprover_env import Rollout, core, simulate, vector_env_class
+
+
+def _launch_torque(action: float, venv) -> float:
+    """The launch torque [N m] the hop-level env `venv` flies for `action` (its own map)."""
+    if hasattr(venv.config, "task_vector"):          # hoprover_env/tasks/ (issue 19)
+        from hoprover_env.tasks.hop import hop_torque
+        return float(hop_torque(action, venv.P[0], venv.config.task_vector()))
+    from hoprover_env.hop_kernel import hop_torque   # the layout before it
+    return float(hop_torque(action, venv.P[0], venv.config.reward_vector()))
 
 
 @dataclasses.dataclass
 class Recording:
+    """One recorded episode: the policy's name, the target [m], the env judge's TTRTP
+    [s] (None if not reached), whether the rover broke, the control period [s] and the
+    dense replay (`hoprover_env.Rollout`)."""
+
     policy: str
     target_x: float
     ttrtp: float | None
@@ -27,25 +43,44 @@ class Recording:
 
 def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
                    sample_dt: float = 0.1) -> Recording:
+    """Run `policy` (see `agents.policies`) for one episode towards `target_x` [m] in the
+    vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
+    samples every `sample_dt` [s] (at most one control period).
+
+    `env_kwargs` configure the env; the policy's own `env_kwargs` take precedence.
+    Returns a `Recording`; its TTRTP is the judge's of the env that ran the episode.
+    Raises ValueError for bad env arguments (as the env does).
+    """
     kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
-    venv = HopRoverVectorEnv(1, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    kwargs.pop("target_x", None)
+    env_id = getattr(policy, "env_id", "HopRover-v0")
+    venv = vector_env_class(env_id)(1, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    hops = env_id == "HopRoverHop-v0"      # one action = one hop's launch torque
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target_x])})
     policy.reset(1)
     params = venv.params[0]
     torques = []
     while True:
         action = policy.act(obs, venv)
+        if hops:
+            torques.append(_launch_torque(float(action[0, 0]), venv))
         obs, _, term, trunc, info = venv.step(action)
-        torques.append(float(venv.S[0, core.S_TORQUE]) if not (term[0] or trunc[0])
-                       else _applied(action[0, 0], params))
+        if not hops:
+            torques.append(float(venv.S[0, core.S_TORQUE]) if not (term[0] or trunc[0])
+                           else _applied(action[0, 0], params))
         if term[0] or trunc[0]:
             success = bool(info["final_info"]["is_success"][0])
             ttrtp = float(info["final_info"]["ttrtp"][0]) if success else None
             t_end = ttrtp if success else len(torques) * venv.config.control_dt
             break
     dt = venv.config.control_dt
-    t_end = min(max(t_end, dt), len(torques) * dt)
-    roll = simulate(np.array(torques), t_end=t_end, control_dt=dt, target_x=target_x,
+    if hops:
+        controller = _HopReplay(torques, params, dt, venv.config)
+        t_end = ttrtp if ttrtp is not None else venv.config.episode_time
+    else:
+        controller = np.array(torques)
+        t_end = min(max(t_end, dt), len(torques) * dt)
+    roll = simulate(controller, t_end=t_end, control_dt=dt, target_x=target_x,
                     integrator=venv.config.integrator, impact_law=venv.config.impact_law,
                     params=params, sample_dt=min(sample_dt, dt))
     # the replay stops at the TTRTP itself, where its own judge may not yet have closed the
@@ -55,13 +90,28 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
                      dt, roll)
 
 
+class _HopReplay(ScriptedHopper):
+    """The hop-level task's hops as a contest controller: the scripted hopper's launch,
+    attitude hold and settling, with the recorded launch torques instead of its plans."""
+
+    def __init__(self, torques, params, control_dt, config):
+        super().__init__(params=params, control_dt=control_dt, kp=config.hold_kp,
+                         kd=config.hold_kd)
+        self.queue = list(torques)
+
+    def plan(self, x0, xt, t0, remaining):
+        return (self.queue.pop(0), None) if self.queue else None
+
+
 def _applied(action: float, params) -> float:
     a = float(np.clip(action, -1.0, 1.0))
     return params.torque_min + 0.5 * (a + 1.0) * (params.torque_max - params.torque_min)
 
 
 def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20) -> None:
-    """A GIF (Pillow) or MP4 (imageio-ffmpeg) of a recording."""
+    """Write the recording `rec` as a GIF (Pillow) or MP4 (imageio-ffmpeg) at `path`:
+    at most `max_frames` frames spread over the run, shown at `fps` frames per second.
+    Raises RuntimeError for an MP4 without imageio-ffmpeg."""
     import imageio.v2 as imageio
     from hoprover_env.rendering import Renderer
     roll = rec.rollout

@@ -42,7 +42,13 @@ from hoprover_env.controllers import attitude_hold
 
 
 class ScriptedHopper:
-    """Contest controller: ``torque = hopper(pos, vel, the, omg, posT, t, smt, state)``."""
+    """Contest controller: ``torque = hopper(pos, vel, the, omg, posT, t, smt, state)``.
+
+    Parameters: `params` the rover it plans with (default the contest's RoverParams);
+    `control_dt` the control period of the run [s]; `kp` [1/s^2] and `kd` [1/s] the
+    attitude-hold gains; `grid` launch torques tried per plan and `refine` bisection
+    steps; `integrator` and `impact_law` those of its look-ahead simulator.
+    """
 
     def __init__(self, params: RoverParams | None = None, control_dt: float = 0.5,
                  kp: float = 0.15, kd: float = 0.9, grid: int = 16, refine: int = 12,
@@ -72,6 +78,7 @@ class ScriptedHopper:
         self.t_hi = min(abs(p.torque_min), abs(p.torque_max))
 
     def reset(self):
+        """Forget the episode: at rest, no plan."""
         self.phase = "rest"
         self.torque = 0.0
         self.plans = 0
@@ -107,6 +114,8 @@ class ScriptedHopper:
         return self.torque
 
     def in_band(self, x, xt):
+        """Whether a bottom corner of a level rover with c.m. at `x` lies in the band
+        around the target `xt` [m]."""
         p = self.params
         return (abs(x + p.half_width - xt) <= p.band_half_width
                 or abs(x - p.half_width - xt) <= p.band_half_width)
@@ -140,7 +149,9 @@ class ScriptedHopper:
         return float(sim.s[0]), t0 + horizon, sim.broken
 
     def plan(self, x0, xt, t0, remaining):
-        """The launch torque whose predicted rest point is nearest the target."""
+        """The launch torque whose predicted rest point is nearest the target: from rest
+        at `x0` [m], target `xt` [m], at time `t0` [s] with `remaining` [s] to go.
+        Returns (torque [N m], predicted rest x [m]), or None if no hop fits the time."""
         want = xt - x0
         sign = 1.0 if want > 0 else -1.0
         horizon = max(remaining - self.params.dwell_time, self.control_dt)

@@ -21,7 +21,12 @@ class Section:
 def table(header: list[str], rows: list[list], fmt: dict | None = None) -> str:
     """A markdown table; `fmt` maps a column name to a format spec."""
     fmt = fmt or {}
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+
+    def cell(text) -> str:          # a '|' inside a cell (|d x|) would split it
+        return str(text).replace("|", "\\|")
+
+    out = ["| " + " | ".join(cell(h) for h in header) + " |",
+           "|" + "|".join("---" for _ in header) + "|"]
     for row in rows:
         cells = []
         for h, v in zip(header, row):
@@ -31,7 +36,7 @@ def table(header: list[str], rows: list[list], fmt: dict | None = None) -> str:
                 cells.append(f"{v:.4g}")
             else:
                 cells.append(str(v))
-        out.append("| " + " | ".join(cells) + " |")
+        out.append("| " + " | ".join(cell(c) for c in cells) + " |")
     return "\n".join(out)
 
 

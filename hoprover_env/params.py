@@ -35,7 +35,21 @@ MAX_MAGNITUDE = 1e9
 
 @dataclasses.dataclass(frozen=True)
 class RoverParams:
-    """Rover, ground and judge parameters (SI units). Defaults: the 2015 contest."""
+    """Rover, ground and judge parameters (SI units). Defaults: the 2015 contest.
+
+    Fields: `mass` m [kg], `inertia` I about the c.m. [kg m^2], `half_width` r and
+    `half_height` h of the body [m], `gravity` g [m/s^2], `mu_static` and `mu_dynamic`
+    (friction coefficients), `restitution_x` and `restitution_y` (of the contact point,
+    horizontal and vertical), `v_xmin` and `v_ymin` (post-impact speeds zeroed below
+    these [m/s]), `torque_min` and `torque_max` (the torquer's limits [N m]),
+    `band_half_width` (the judge's band around the target [m]) and `dwell_time` (how
+    long a contact point must stay in the band [s]).
+
+    Raises ValueError naming the field for a value that is not a finite real number, out
+    of its range (negative mass, mu_dynamic > mu_static, torque_min > torque_max, ...)
+    or beyond 1e9 in magnitude, and for sets where the contact model has no unique
+    solution (Painleve; docs/PHYSICS.md).
+    """
 
     mass: float = 1.0                 # m [kg]
     inertia: float = 0.0017           # I about the c.m. [kg m^2]
@@ -110,23 +124,25 @@ class RoverParams:
     # ---- derived quantities -------------------------------------------------------
     @property
     def corner_distance(self) -> float:
-        """l = sqrt(r^2 + h^2): c.m. to any corner."""
+        """l = sqrt(r^2 + h^2): c.m. to any corner [m]."""
         return math.hypot(self.half_width, self.half_height)
 
     @property
     def alpha(self) -> float:
-        """atan(h / r)."""
+        """atan(h / r) [rad]: the angle of the corner diagonal."""
         return math.atan2(self.half_height, self.half_width)
 
     @property
     def tipping_torque(self) -> float:
-        """|T| above which the rover at rest on both corners lifts one (m g r), on level
-        ground (on a slope the thresholds are (m g cos(phi) r +- m g sin(phi) h))."""
+        """Torque magnitude [N m] above which the rover at rest on both corners lifts one
+        (m g r), on level ground (on a slope the thresholds are
+        m g cos(phi) r +- m g sin(phi) h)."""
         return self.mass * self.gravity * self.half_width
 
     @property
     def slip_torque(self) -> float:
-        """|T| above which the rover leaves F straight into a slide (C or E).
+        """Torque magnitude [N m] above which the rover leaves F straight into a slide (C
+        or E).
 
         At the tipping instant (theta = 0, omega = 0) the pivot needs
         f_x = m h thdd and f_y = m (g + r thdd) with thdd = (T - m g r) / J,

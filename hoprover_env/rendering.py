@@ -31,7 +31,13 @@ def _pygame():
 
 
 class Renderer:
-    """Draws rover states into frames (width x height pixels)."""
+    """Draws rover states into frames of `width` x `height` pixels.
+
+    `mode` "rgb_array" returns each frame as a (height, width, 3) uint8 array; "human"
+    shows it in a pygame window at most `fps` frames per second instead. The view follows
+    the rover, its recent path and the target band. Raises ImportError if pygame is
+    missing.
+    """
 
     def __init__(self, width: int = 640, height: int = 360, mode: str = "rgb_array",
                  fps: int = 30):
@@ -58,7 +64,13 @@ class Renderer:
         self.view = (center, scale)
 
     def draw(self, state, params, target, trace, t, letter, torque=0.0):
-        """Draw one frame. state = (x, y, theta, ...), trace = list of (x, y)."""
+        """Draw one frame and return it ("rgb_array": (height, width, 3) uint8) or None
+        ("human").
+
+        Parameters: `state` = (x [m], y [m], theta [rad], ...) of the c.m.; `params` the
+        RoverParams (size, band); `target` [m]; `trace` the path so far, a list of (x, y)
+        [m]; `t` the time [s]; `letter` the contact state A-G; `torque` [N m].
+        """
         pg = self.pg
         x, y, th = float(state[0]), float(state[1]), float(state[2])
         pts = trace[-400:] if trace else [(x, y)]
@@ -114,6 +126,7 @@ class Renderer:
         self.clock.tick(self.fps)
 
     def close(self):
+        """Close the window, if one was opened (mode "human")."""
         if self.window is not None:
             self.pg.display.quit()
             self.window = None

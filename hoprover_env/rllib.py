@@ -17,7 +17,10 @@ def make_env(env_config):
     """RLlib's env creator. `env_config` (an EnvContext: a dict of HopRoverEnv keyword
     arguments, with worker_index etc. as attributes) becomes the env's kwargs; with
     `num_envs` in it (RLlib's vector_entry_point mode) one HopRoverVectorEnv steps all
-    of a runner's sub-envs in one numba call."""
+    of a runner's sub-envs in one numba call.
+
+    Returns a HopRoverEnv, or a HopRoverVectorEnv of `num_envs` sub-envs. Raises
+    ValueError/TypeError for a bad or unknown env argument, naming it."""
     kwargs = dict(env_config)
     num_envs = kwargs.pop("num_envs", None)
     if num_envs is None:
@@ -27,9 +30,12 @@ def make_env(env_config):
 
 class HopRoverMetrics(RLlibCallback):
     """Per finished episode: hoprover_success, hoprover_broken and (on success)
-    hoprover_ttrtp, averaged by RLlib into `result["env_runners"]`."""
+    hoprover_ttrtp [s], averaged by RLlib into `result["env_runners"]`. Pass the class as
+    ``config.callbacks(HopRoverMetrics)``."""
 
     def on_episode_end(self, *, episode, metrics_logger=None, **kwargs):
+        """Log the judge's verdict from the episode's last info: success (0/1), broken
+        (0/1) and, on success, the TTRTP [s]. RLlib calls it; returns None."""
         info = episode.get_infos(-1)
         success = bool(info.get("is_success", False))
         metrics_logger.log_value("hoprover_success", float(success))

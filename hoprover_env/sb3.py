@@ -28,6 +28,23 @@ from . import ENVS, vector_env_class
 
 
 class HopRoverSB3VecEnv(VecEnv):
+    """N rovers as one Stable-Baselines3 ``VecEnv``, stepped by the native vector env.
+
+    Parameters: `num_envs` sub-envs (>= 1); `seed` (int or None) seeds sub-env i with
+    seed + i at the next reset; `threads` (None: threaded from 64 sub-envs on, or
+    True/False); `render_mode` (None or "rgb_array"); `env_id` one of `hoprover_env.ENVS`
+    (its fixed arguments apply); `env_kwargs` the env's arguments (the tables on the
+    environment pages: control_dt [s], episode_time [s], target_range [m], reward
+    weights, ...).
+
+    Observations are float32 (num_envs, 19), rewards float32 (num_envs,), actions
+    (num_envs, 1) in [-1, 1]. `step_seconds` accumulates the wall time [s] spent in
+    `step_wait` (the env's share of training time).
+
+    Raises ValueError (an unknown `env_id`, a bad env argument, a non-finite action at
+    `step_wait`) and TypeError (an unknown env argument), naming the argument.
+    """
+
     def __init__(self, num_envs: int = 1, seed: int | None = None, threads: bool | None = None,
                  render_mode: str | None = None, env_id: str = "HopRover-v0",
                  **env_kwargs: Any):
@@ -45,6 +62,9 @@ class HopRoverSB3VecEnv(VecEnv):
 
     # ---- the VecEnv contract ------------------------------------------------------
     def reset(self):
+        """Reset every sub-env (with the seeds of `seed()` and the `target_x` of
+        `set_options()`, if given) and return the observations (num_envs, 19). Raises
+        ValueError if `target_x` was set for some sub-envs but not all."""
         seeds = None if all(s is None for s in self._seeds) else list(self._seeds)
         targets = [o.get("target_x") for o in self._options]
         options = None
@@ -59,9 +79,15 @@ class HopRoverSB3VecEnv(VecEnv):
         return obs
 
     def step_async(self, actions: np.ndarray) -> None:
+        """Store `actions` ((num_envs, 1) or (num_envs,), in [-1, 1]) for `step_wait`."""
         self._actions = actions
 
     def step_wait(self):
+        """Step every sub-env one control period (one hop on HopRoverHop-v0). Returns
+        (obs, rewards, dones, infos); a sub-env that ended is reset at once and its info
+        holds `terminal_observation`, `TimeLimit.truncated`, `is_success`, the judge's
+        `ttrtp` [s], `broken`, `target_x` [m] and `state`. Raises ValueError for a
+        non-finite action."""
         t0 = time.perf_counter()
         try:
             return self._step()
@@ -86,9 +112,12 @@ class HopRoverSB3VecEnv(VecEnv):
         return obs, rew.astype(np.float32), dones, out
 
     def close(self) -> None:
+        """Close the vector env (its renderers)."""
         self.venv.close()
 
     def get_attr(self, attr_name: str, indices=None) -> list:
+        """`attr_name` per sub-env in `indices` (default all): "target_x"/"targets" [m]
+        and "params" (RoverParams) per sub-env, anything else read from the vector env."""
         idx = self._get_indices(indices)
         if attr_name == "render_mode":
             return [self.venv.render_mode for _ in idx]
@@ -99,9 +128,13 @@ class HopRoverSB3VecEnv(VecEnv):
         return [getattr(self.venv, attr_name) for _ in idx]
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+        """Set `attr_name` on the vector env (shared by all sub-envs: `indices` is
+        ignored)."""
         setattr(self.venv, attr_name, value)
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list:
+        """Call `method_name` on the vector env once and return its result per index
+        ("render" returns each sub-env's frame)."""
         idx = self._get_indices(indices)
         if method_name == "render":
             frames = self.venv.render()
@@ -110,8 +143,11 @@ class HopRoverSB3VecEnv(VecEnv):
         return [result for _ in idx]
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        """False per index: the sub-envs are rows of one array, never wrapped."""
         return [False for _ in self._get_indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
+        """One RGB frame (H, W, 3) uint8 per sub-env with render_mode "rgb_array", else
+        None per sub-env."""
         frames = self.venv.render()
         return list(frames) if frames else [None] * self.num_envs

@@ -259,6 +259,22 @@ def test_recording_of_a_success_has_its_ttrtp(tmp_path):
     assert len(nine_figures(rec, tmp_path)) == 9
 
 
+def test_recording_of_a_hop_level_policy_flies_its_hops():
+    # the hop policy acts once per hop in HopRoverHop-v0; recorded in HopRover-v0 (as it
+    # was) its actions became torques and the episode failed
+    from agents.evaluation import run_episodes
+    from agents.policies import load_policy
+    from agents.replay import record_episode
+    policy = load_policy("hop")
+    rec = record_episode(policy, 0.7)
+    env_result = run_episodes(policy, [0.7])[0]
+    assert env_result.success and rec.ttrtp == env_result.ttrtp
+    # the dense replay (scripted hopper's launch/hold/settle with the policy's launch
+    # torques) reaches the same verdict to integrator precision
+    assert rec.rollout.ttrtp == pytest.approx(env_result.ttrtp, abs=1e-6)
+    assert not rec.broken and (rec.rollout.state == "A").any()
+
+
 # ---------------------------------------------------------------- the model is in the repository
 def test_model_is_documented_in_the_repository():
     text = (ROOT / "docs" / "MODEL.md").read_text()
