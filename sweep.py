@@ -2,24 +2,29 @@
 
     python sweep.py --config configs/ppo_scratch.yaml --seeds 0-7 \\
         --search "learning_rate=loguniform(1e-5,1e-3)" --samples 16 --name lr
-    python sweep.py ... --address ray://HOST:10001      # the same sweep on a cluster
+    python sweep.py ... --address HEAD:6379 --out /shared/sweeps   # the same on a cluster
 
 Each trial is train.py's Trainer (the same config, checks, evaluations and files) with
-the sampled values applied, in runs/sweeps/NAME/trials/TRIAL_ID. Optuna proposes the
-values (Tune's OptunaSearch); ASHA stops trials whose judged success rate lags at an
-evaluation (each `evaluation.freq` steps is one ASHA time unit). Trial k trains with
-seed SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never searched over
-(picking a lucky seed is not tuning). One CPU per trial by default.
+the sampled values applied. Optuna proposes the values (Tune's OptunaSearch); ASHA stops
+trials whose judged success rate lags at an evaluation (each `evaluation.freq` steps is
+one ASHA time unit). Trial k (Tune's k-th trial, from 0) trains with seed
+SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never searched over (picking
+a lucky seed is not tuning). One CPU per trial by default.
 
 Search terms, repeatable: NAME=uniform(a,b) | loguniform(a,b) | randint(a,b) |
 choice(a|b|...). NAME is a config key: a bare `learning_rate` is looked up in
 `hyperparams`, then `env`, then `policy`; `env.time_cost` names the section.
 
-At the end it prints a table of the trials and writes runs/sweeps/NAME/best_config.yaml,
-which `python train.py --config runs/sweeps/NAME/best_config.yaml --out ...` accepts
-unchanged. Running the same command again resumes an interrupted sweep: finished trials
-are kept, unfinished ones continue from their last train.py checkpoint. Without
---address (or RAY_ADDRESS) it starts a local Ray on this machine's cores.
+--out is Tune's storage (a directory every node mounts at the same path, or a URI such
+as s3://bucket/sweeps). OUT/NAME holds Tune's experiment state, each trial's folder
+(its train.py run directory in run/, and Tune checkpoints checkpoint_*/run reported
+with its evaluations) and, at the end, best_config.yaml, which `python train.py
+--config OUT/NAME/best_config.yaml --out ...` accepts unchanged. A trial whose node dies
+restarts from its last checkpoint on another node (--max-failures). Ctrl-C stops the
+sweep with exit code 130, writes no best config and prints the command that resumes
+it: running the same command again keeps finished trials and continues unfinished ones
+from their last checkpoint. Without --address (or RAY_ADDRESS) it starts a local Ray
+on this machine's cores; through ray://HOST:10001 Tune's driver runs on the head node.
 """
 from __future__ import annotations
 
@@ -195,6 +200,7 @@ def _snapshot(run: Path, reported: list[int]):
 def make_trainable(base: dict, paths: dict, seeds: list[int], first: int, expected: dict):
     def trainable(config: dict):
         import shutil
+        import ray
         import torch
         from ray import tune
         from hoprover_env.buildinfo import require
@@ -219,6 +225,7 @@ def make_trainable(base: dict, paths: dict, seeds: list[int], first: int, expect
                 trainer.model.num_timesteps >= cfg["timesteps"]:
             return          # it had finished (the sweep stopped before Tune noted it)
         final: list[dict] = []
+        resumed_at = int(trainer.model.num_timesteps)     # 0 unless restored
 
         def report(row, defer=True):
             if row["timesteps"] in reported:
@@ -228,7 +235,8 @@ def make_trainable(base: dict, paths: dict, seeds: list[int], first: int, expect
                 return
             reported.append(row["timesteps"])
             metrics = {**row, METRIC: score(row), "seed": cfg["seed"], "index": index,
-                       "trial_id": trial_id}
+                       "trial_id": trial_id, "resumed_at": resumed_at,
+                       "node": ray.get_runtime_context().get_node_id()}
             if not (run / "checkpoints" / "last.json").exists():
                 tune.report(metrics)
                 return

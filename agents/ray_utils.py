@@ -71,12 +71,13 @@ def init_ray(address: str | None = None, num_cpus: int | None = None,
     return ray
 
 
-def check_nodes(ray) -> dict:
+def check_nodes(ray, expected: dict | None = None) -> dict:
     """Run hoprover_env.buildinfo.probe on every live node; raise ClusterCodeError naming
-    the nodes whose hoprover differs from the driver's. Returns node id -> probe."""
+    the nodes whose hoprover differs from `expected` (the driver's build_info()).
+    Returns node id -> probe."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
     from hoprover_env.buildinfo import build_info, mismatch, probe
-    expected = build_info()
+    expected = expected or build_info()
     task = ray.remote(num_cpus=0, max_retries=0)(probe)
     nodes = [n for n in ray.nodes() if n["Alive"]]
     refs = {n["NodeID"]: task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(
