@@ -62,10 +62,17 @@ def _fresh_worker_evaluates():
     """In a Ray worker: evaluate every kind of policy, then count numba's compiles."""
     from agents.evaluation import run_episodes, seeded_targets
     from agents.policies import load_policy
+    import numba
     from hoprover_env.compile import compile_counts
     for name in ("scratch", "hop", "scripted", "random"):
         run_episodes(load_policy(name, control_dt=0.5), seeded_targets(3, 5), batch=2)
-    return compile_counts(), os.getpid()
+    counts = compile_counts()
+
+    @numba.njit
+    def never_cached(x):      # the count sees a compile in this process
+        return x + 1
+    never_cached(1)
+    return counts, compile_counts()[0], os.getpid()
 
 
 def test_a_worker_started_after_the_warm_up_compiles_nothing(local_ray):
@@ -78,8 +85,9 @@ def test_a_worker_started_after_the_warm_up_compiles_nothing(local_ray):
     # a runtime_env of its own: Ray starts a new worker process for this task
     fresh = ray.remote(num_cpus=1)(_fresh_worker_evaluates).options(runtime_env={
         "env_vars": {"PYTHONPATH": str(ROOT), "HOPROVER_TEST_WORKER": str(time.time())}})
-    (compiled, loaded), pid = ray.get(fresh.remote())
+    (compiled, loaded), then, pid = ray.get(fresh.remote())
     assert pid != os.getpid()
+    assert list(then) == [f"{__name__}._fresh_worker_evaluates.<locals>.never_cached"]
     assert compiled == {}, f"the worker compiled {compiled}"
     assert loaded > 0                         # it ran the kernels, from the cache
 
