@@ -286,10 +286,50 @@ def unfinished(sweep_dir: str, samples: int) -> bool:
                                         for t in trials)
 
 
-def run_sweep(args, base: dict, searched: list, expected: dict) -> dict:
+class _StopFlag:
+    """Ctrl-C for Tune's driver on the head, set by a ray:// client (an actor)."""
+
+    def __init__(self):
+        self.set = False
+
+    def stop(self):
+        self.set = True
+
+    def stopped(self) -> bool:
+        return self.set
+
+
+def _watch(flag, done) -> None:
+    """In Tune's driver: turn the client's Ctrl-C into this process's (Tune then stops
+    as it does on a node: saving its state)."""
+    import _thread
+    import ray
+    while not done.wait(1.0):
+        try:
+            if ray.get(flag.stopped.remote(), timeout=30):
+                _thread.interrupt_main()
+                return
+        except Exception:      # noqa: BLE001 - the client is gone: nothing to watch
+            return
+
+
+def run_sweep(args, base: dict, searched: list, expected: dict, flag=None) -> dict:
     """The Tune part of a sweep, run where Ray's driver is (in this process, or on the
-    head node for a ray:// client). Returns the trial rows, whether Tune was
-    interrupted, and the best config written (None if it was not)."""
+    head node for a ray:// client, whose Ctrl-C arrives through `flag`). Returns the
+    trial rows, whether Tune was interrupted, and the best config written (None if it
+    was not)."""
+    import threading
+    done = threading.Event()
+    if flag is not None:
+        threading.Thread(target=_watch, args=(flag, done), daemon=True).start()
+    try:
+        return _run_sweep(args, base, searched, expected)
+    finally:
+        done.set()
+
+
+def _run_sweep(args, base: dict, searched: list, expected: dict) -> dict:
+    import ray
     from ray import tune
     from ray.tune import CheckpointConfig, FailureConfig, RunConfig
     from ray.tune.schedulers import ASHAScheduler
@@ -298,7 +338,6 @@ def run_sweep(args, base: dict, searched: list, expected: dict) -> dict:
     name = args.name or Path(args.config).stem
     storage = storage_root(args.out)
     sweep_dir = f"{storage.rstrip('/')}/{name}"
-    import ray
     check_storage(ray, storage)
     space, paths = {}, {}
     for (section, key), dist, values in searched:
@@ -392,9 +431,10 @@ def main(argv=None) -> int:
         expected = build_info()
         if is_client(address):
             # Tune's driver runs on the head, next to the storage it must read and write
+            flag = ray.remote(num_cpus=0)(_StopFlag).remote()
             task = ray.remote(num_cpus=0, max_retries=0)(run_sweep).options(
                 scheduling_strategy=head_node_strategy(ray))
-            ref = task.remote(args, base, searched, expected)
+            ref = task.remote(args, base, searched, expected, flag)
             out = ray.get(ref)
         else:
             out = run_sweep(args, base, searched, expected)
@@ -402,16 +442,19 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        if ref is not None:          # let Tune on the head save its state and stop
-            import ray
-            ray.cancel(ref)
+        out = None
+        if ref is not None:
+            # Ctrl-C reaches only this client: pass it to Tune's driver on the head, which
+            # then stops as it does on a node (saving its state); collect its table
             try:
-                ray.get(ref, timeout=60)
-            except Exception:        # noqa: BLE001 - cancelled, as asked
-                pass
-        print(f"\ninterrupted: the sweep is not finished and no best config was written. "
-              f"Resume it with:\n  {again}", file=sys.stderr)
-        return 130
+                ray.get(flag.stop.remote(), timeout=30)
+                out = ray.get(ref, timeout=300)
+            except (KeyboardInterrupt, Exception):  # noqa: BLE001 - a second Ctrl-C, ...
+                out = None
+        if out is None:
+            print(f"\ninterrupted: the sweep is not finished and no best config was "
+                  f"written. Resume it with:\n  {again}", file=sys.stderr)
+            return 130
     print(format_trials(out["rows"], out["keys"]))
     if out["interrupted"]:
         print(f"\ninterrupted: partial results above; no best config was written. Resume "

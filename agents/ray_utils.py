@@ -84,16 +84,18 @@ def check_nodes(ray, expected: dict | None = None) -> dict:
         n["NodeID"], soft=False)).remote() for n in nodes}
     seen, problems = {}, []
     for node in nodes:
-        where = node.get("NodeManagerAddress", "?")
+        where = f"{node.get('NodeManagerAddress', '?')} (id {node['NodeID'][:8]})"
         try:
             seen[node["NodeID"]] = info = ray.get(refs[node["NodeID"]], timeout=300)
         except Exception as exc:      # noqa: BLE001 - whatever stops a node importing it
-            problems.append(f"  node {where}: cannot import hoprover_env "
-                            f"({type(exc).__name__}: {str(exc).strip().splitlines()[-1]})")
+            problems.append(
+                f"  node {where}: its workers cannot load hoprover_env.buildinfo: hoprover "
+                f"is not installed there, or is older than this driver's "
+                f"({type(exc).__name__}: {str(exc).strip().splitlines()[-1]})")
             continue
         why = mismatch(expected, info)
         if why:
-            problems.append(f"  node {where} ({info['host']}): {why}")
+            problems.append(f"  node {where} on {info['host']}: {why}")
     if problems:
         raise ClusterCodeError(
             "the cluster does not run this hoprover:\n" + "\n".join(problems) +
