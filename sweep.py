@@ -212,7 +212,7 @@ def make_trainable(base: dict, paths: dict, seeds: list[int], first: int, expect
         index = trial_index(Path(ctx.get_trial_dir()).name, trial_id, first)
         cfg = apply_params(base, config, paths)
         cfg["seed"] = seeds[index % len(seeds)]
-        run = Path(ctx.get_trial_dir()) / "run"       # local to this node
+        run = Path(ctx.get_trial_dir()) / "run"   # Tune's trial folder, in storage or staged
         shutil.rmtree(run, ignore_errors=True)
         restored = tune.get_checkpoint()
         reported: list[int] = []
