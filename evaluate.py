@@ -90,6 +90,8 @@ def parse_args(argv=None):
     ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                     help="run the episodes as Ray tasks, one batch each: on a local Ray, "
                          "or on the cluster at ADDRESS (or RAY_ADDRESS); same results")
+    from agents.ray_utils import SHIP_CODE_HELP
+    ap.add_argument("--ship-code", action="store_true", help="with --ray: " + SHIP_CODE_HELP)
     args = ap.parse_args(_join_dash_values(sys.argv[1:] if argv is None else list(argv)))
     if args.batch < 1:
         ap.error(f"--batch must be at least 1, got {args.batch}")
@@ -190,13 +192,18 @@ def _main(argv=None) -> int:
                                                              policies[len(specs):])]
         try:
             from agents.ray_eval import evaluate_on_ray
+            from agents.ray_utils import ClusterCodeError
         except ImportError as exc:
             print(f"error: --ray needs Ray: pip install 'hoprover[ray]' ({exc})",
                   file=sys.stderr)
             return 2
         t0 = time.perf_counter()
-        by_name = evaluate_on_ray(jobs, targets, args.control_dt, args.seed, args.batch,
-                                  address=args.ray or None)
+        try:
+            by_name = evaluate_on_ray(jobs, targets, args.control_dt, args.seed, args.batch,
+                                      address=args.ray or None, ship_code=args.ship_code)
+        except ClusterCodeError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
         for _, _, name in jobs:
             rows.append((name, summarize(by_name[name])))
             all_results.extend(by_name[name])

@@ -34,6 +34,7 @@ from agents.evaluation import run_episodes, seeded_targets, summarize
 from agents.files import atomic_write, write_json
 from agents.policies import SB3Policy
 from agents.sb3_agents import ConfigError, algo_class, env_kwargs, load_config, make_agent
+from hoprover_env.buildinfo import git_commit
 
 EVAL_FIELDS = ["timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken"]
 
@@ -81,21 +82,6 @@ def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
 
 
 # ---- files --------------------------------------------------------------------------
-def git_commit() -> str | None:
-    """The commit of this checkout (with '+dirty' if it has uncommitted changes), or None."""
-    import subprocess
-    root = Path(__file__).resolve().parent
-    try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
-                             text=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=root, capture_output=True, text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return (rev + ("+dirty" if dirty else "")) if rev else None
-
-
-
 def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> None:
     """model.zip, _vecnormalize.pkl, .json (and _replay_buffer.pkl) next to `stem`,
     each written to a temporary name first and renamed, so a crash leaves either the

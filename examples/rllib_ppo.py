@@ -22,6 +22,9 @@ What RLlib needs from an environment, and how hoprover gives it:
   autoreset, which is the vector env's default too.
 * **Code the runners can import.** The creator and the metrics callback live in the
   installed package (`hoprover_env/rllib.py`), so every runner process unpickles them.
+  On a cluster the runners import the hoprover installed on their node (checked against
+  this driver's before training starts), or this checkout's copy with --ship-code:
+  the same mechanism as sweep.py and evaluate.py --ray (agents/ray_utils.py).
 * **Episode metrics.** `HopRoverMetrics.on_episode_end` reads the judge's verdict from
   the last step's info (`is_success`, `ttrtp`, `broken`) and logs it with RLlib's
   MetricsLogger: `env_runners/hoprover_success`, `hoprover_ttrtp`, `hoprover_broken` in
@@ -35,11 +38,12 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))           # agents/ of this checkout, run from anywhere
+from agents.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
 ENV_NAME = "hoprover"
 ENV_CONFIG = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0, "gamma": 0.995}
 
@@ -69,20 +73,6 @@ def build_config(env_runners: int = 2, envs_per_runner: int = 32, env_config: di
     )
 
 
-def init_ray(address: str | None = None, num_cpus: int | None = None):
-    import ray
-    address = address or os.environ.get("RAY_ADDRESS")
-    if ray.is_initialized():
-        return ray
-    if address:
-        ray.init(address=address, runtime_env={
-            "working_dir": str(ROOT),
-            "excludes": ["runs/", ".venv/", ".git/", "benchmarks/figures/", "*.zip"]})
-    else:
-        ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
-    return ray
-
-
 def summary(result: dict) -> dict:
     """The numbers this example prints from one RLlib training result."""
     runners = result.get("env_runners", {})
@@ -104,8 +94,13 @@ def main(argv=None) -> int:
     ap.add_argument("--envs-per-runner", type=int, default=32)
     ap.add_argument("--address", default=None, help="Ray cluster (default RAY_ADDRESS or local)")
     ap.add_argument("--num-cpus", type=int, default=None, help="CPUs of a local Ray")
+    ap.add_argument("--ship-code", action="store_true", help=SHIP_CODE_HELP)
     args = ap.parse_args(argv)
-    init_ray(args.address, args.num_cpus)
+    try:
+        init_ray(args.address, args.num_cpus, args.ship_code)
+    except ClusterCodeError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
     algo = build_config(args.env_runners, args.envs_per_runner).build_algo()
     try:
         for _ in range(args.iterations):

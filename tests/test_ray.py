@@ -1,12 +1,12 @@
-"""Ray: RLlib on the native vector env, Tune sweeps of train.py's trainer (with resume),
-and evaluate.py --ray. A local Ray limited to 2 CPUs and tiny budgets. Skipped, with the
+"""Ray: RLlib on the native vector env, evaluate.py --ray, a warm numba cache in a new
+worker, and the checks of the code a cluster runs. A local Ray limited to 2 CPUs and
+tiny budgets; sweeps and lost nodes are in test_ray_cluster.py. Skipped, with the
 reason, where Ray is not installed (pip install 'hoprover[ray]'); CI installs it."""
 from __future__ import annotations
 
 import json
 import math
 import os
-import signal
 import subprocess
 import sys
 import time
@@ -58,73 +58,38 @@ def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
     assert 0.0 <= s["success"] <= 1.0            # the judge's verdict, as an RLlib metric
 
 
-TINY = """\
-algo: ppo
-env_id: HopRover-v0
-n_envs: 4
-timesteps: 256
-env: {control_dt: 2.0, episode_time: 60.0}
-policy: {net_arch: [16, 16], log_std_init: -2.0}
-hyperparams: {n_steps: 32, batch_size: 64, n_epochs: 1}
-evaluation: {freq: 128, episodes: 4, seed: 7}
-checkpoint: {freq: 128}
-"""
+def _fresh_worker_evaluates():
+    """In a Ray worker: evaluate every kind of policy, then count numba's compiles."""
+    from agents.evaluation import run_episodes, seeded_targets
+    from agents.policies import load_policy
+    import numba
+    from hoprover_env.compile import compile_counts
+    for name in ("scratch", "hop", "scripted", "random"):
+        run_episodes(load_policy(name, control_dt=0.5), seeded_targets(3, 5), batch=2)
+    counts = compile_counts()
+
+    @numba.njit
+    def never_cached(x):      # the count sees a compile in this process
+        return x + 1
+    never_cached(1)
+    return counts, compile_counts()[0], os.getpid()
 
 
-def _sweep_cmd(cfg: Path, out: Path, samples: int = 4):
-    return [sys.executable, str(ROOT / "sweep.py"), "--config", str(cfg), "--seeds", "0-1",
-            "--search", "learning_rate=loguniform(1e-5,1e-3)", "--samples", str(samples),
-            "--name", "tiny", "--out", str(out), "--num-cpus", "2", "--grace", "1"]
-
-
-def _finished(trials: Path) -> dict:
-    """trial dir -> (final model mtime, evaluations) of the trials that completed."""
-    done = {}
-    for d in sorted(trials.glob("*")) if trials.exists() else []:
-        final = d / "final_model.json"
-        if final.exists():
-            done[d.name] = (final.stat().st_mtime_ns, (d / "evaluations.csv").read_text())
-    return done
-
-
-def test_sweep_resumes_after_a_kill_and_writes_a_best_config_train_accepts(tmp_path):
-    cfg = tmp_path / "tiny.yaml"
-    cfg.write_text(TINY)
-    out = tmp_path / "sweeps"
-    trials = out / "tiny" / "trials"
-    env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen(_sweep_cmd(cfg, out), cwd=ROOT, env=env, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.time() + 400
-    try:
-        while time.time() < deadline and proc.poll() is None and not _finished(trials):
-            time.sleep(0.2)
-    finally:
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
-    before = _finished(trials)
-    assert before, "no trial finished before the kill"
-    assert len(before) < 4, "the sweep ended before the kill: nothing left to resume"
-    rerun = subprocess.run(_sweep_cmd(cfg, out), cwd=ROOT, env=env, capture_output=True,
-                           text=True, timeout=600)
-    assert rerun.returncode == 0, rerun.stderr[-3000:]
-    after = _finished(trials)
-    # finished trials were not run again: same files, untouched
-    for name, state in before.items():
-        assert after.get(name) == state, name
-    assert len(after) == 4
-    assert "trial" in rerun.stdout and "score" in rerun.stdout      # the table
-    best = out / "tiny" / "best_config.yaml"
-    from agents.sb3_agents import load_config
-    loaded = load_config(best)
-    assert loaded["timesteps"] == 256 and 1e-5 <= loaded["hyperparams"]["learning_rate"] <= 1e-3
-    # train.py accepts it unchanged
-    run = subprocess.run([sys.executable, str(ROOT / "train.py"), "--config", str(best),
-                          "--out", str(tmp_path / "retrain"), "--timesteps", "128",
-                          "--no-progress"], cwd=ROOT, env=env, capture_output=True, text=True,
-                         timeout=300)
-    assert run.returncode == 0, run.stderr[-3000:]
+def test_a_worker_started_after_the_warm_up_compiles_nothing(local_ray):
+    warm = subprocess.run([sys.executable, "-m", "hoprover_env.compile"], cwd=ROOT,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
+                          text=True, timeout=900)
+    assert warm.returncode == 0, warm.stderr[-3000:]
+    assert "compiled" in warm.stdout and "loaded" in warm.stdout
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    # a runtime_env of its own: Ray starts a new worker process for this task
+    fresh = ray.remote(num_cpus=1)(_fresh_worker_evaluates).options(runtime_env={
+        "env_vars": {"PYTHONPATH": str(ROOT), "HOPROVER_TEST_WORKER": str(time.time())}})
+    (compiled, loaded), then, pid = ray.get(fresh.remote())
+    assert pid != os.getpid()
+    assert list(then) == [f"{__name__}._fresh_worker_evaluates.<locals>.never_cached"]
+    assert compiled == {}, f"the worker compiled {compiled}"
+    assert loaded > 0                         # it ran the kernels, from the cache
 
 
 def test_evaluate_on_ray_equals_the_local_run_episode_for_episode(tmp_path):
@@ -162,3 +127,51 @@ def test_evaluate_chunks_follow_the_local_batches(local_ray):
     assert len(seen) == 3 and max(seen) == 10       # ceil(10 / 4) tasks, all counted
     assert [r.episode for r in res["random"]] == list(range(10))
     assert np.allclose([r.target_x for r in res["random"]], targets)
+
+
+def test_a_node_with_other_code_is_refused_by_name(local_ray):
+    from agents.ray_utils import ClusterCodeError, check_nodes
+    from hoprover_env.buildinfo import build_info
+    seen = check_nodes(ray)                      # this checkout everywhere: accepted
+    assert [p["source"] for p in seen.values()] == [build_info()["source"]]
+    other = {**build_info(), "source": "0123456789ab", "commit": "feedbeef"}
+    with pytest.raises(ClusterCodeError, match="--ship-code") as err:
+        check_nodes(ray, other)
+    assert build_info()["source"] in str(err.value) and "0123456789ab" in str(err.value)
+
+
+def test_trials_get_the_seeds_in_turn():
+    # trial k trains with SEEDS[k mod n]; Tune's directory names count from 1 with a search
+    # algorithm and from 0 without one (the names below are Ray 2.60's)
+    from sweep import trial_index
+    searched = ["trainable_715df97f_2_learning_rate=0.0003_2026-11-23_21-47-55",
+                "trainable_afe486ee_1_learning_rate=0.0001_2026-11-23_21-47-52"]
+    assert [trial_index(d, d.split("_")[1], 1) for d in searched] == [1, 0]
+    plain = ["trainable_5e0a1_00000_0_2026-11-23_21-47-52",
+             "trainable_5e0a1_00001_1_2026-11-23_21-47-53"]
+    assert [trial_index(d, "_".join(d.split("_")[1:3]), 0) for d in plain] == [0, 1]
+
+
+def test_policy_files_travel_with_the_tasks(tmp_path):
+    # a run directory on the driver only: its model files are read here, rebuilt there
+    from agents.policies import BUNDLED_DIR, BUNDLED
+    from agents.ray_eval import _materialize, policy_files
+    run = tmp_path / "myrun"
+    run.mkdir()
+    stem = BUNDLED_DIR / BUNDLED["scratch"]
+    for suffix in (".zip", ".json", "_vecnormalize.pkl"):
+        src = stem.with_name(stem.name + suffix)
+        if src.exists():
+            (run / f"best_model{suffix}").write_bytes(src.read_bytes())
+    (run / "evaluations.csv").write_text("not a model")
+    assert policy_files("policy", "scratch") is None
+    relspec, files = policy_files("policy", str(run))
+    assert relspec == "myrun" and "myrun/evaluations.csv" not in files
+    where = _materialize((relspec, files))
+    assert Path(where).name == "myrun" and Path(where) != run
+    from agents.policies import load_policy
+    a, b = load_policy(str(run)), load_policy(where)
+    assert a.name == b.name == "myrun"
+    obs = np.zeros((2, a.model.observation_space.shape[0]), dtype=np.float32)
+    assert np.array_equal(a.model.predict(obs, deterministic=True)[0],
+                          b.model.predict(obs, deterministic=True)[0])
