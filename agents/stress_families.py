@@ -10,9 +10,10 @@ import math
 
 import numpy as np
 
-from agents.stress import (CTRL_HOPPER, CTRL_SCHEDULE, HOPPER_FREE, HOPPER_HOLD, RunSpec,
-                           controller_params, flight_state_at, state_from, upright)
+from agents.stress import (CTRL_HOPPER, CTRL_SCHEDULE, HOPPER_FREE, HOPPER_HOLD, TARGET_X,
+                           RunSpec, controller_params, flight_state_at, state_from, upright)
 from hoprover_env import RoverParams
+from hoprover_env.simulate import make_state
 
 DEFAULT = RoverParams()
 T_MAX = DEFAULT.torque_max
@@ -329,7 +330,33 @@ def family_found_cases(rng, quick):
     return specs
 
 
+def family_terrain(rng, quick):
+    """9. Terrain: random slopes in [-0.5, 0.5] rad (the model's range) and roughness in
+    [0, 0.3] rad, each set with its own seeded bumps: the hopper (attitude hold, random
+    launches) and uniform random torques."""
+    n_sets = 8 if quick else 100
+    t_end = 300.0 if quick else 2000.0
+    dt = 0.1
+    specs = []
+    for i in range(n_sets):
+        p = RoverParams(slope=float(rng.uniform(-0.5, 0.5)),
+                        roughness=float(rng.uniform(0.0, 0.3)))
+        seed = int(rng.integers(2**63))
+        if i % 2 == 0:
+            kind, sched, label = CTRL_HOPPER, np.zeros(1), "hopper"
+        else:
+            kind, label = CTRL_SCHEDULE, "uniform random torques"
+            sched = p.torque_max * rng.uniform(-1, 1, int(t_end / dt))
+        rand = rng.random(4096)
+        specs += variants("9 terrain", p, make_state(p, TARGET_X, upright(p), seed=seed),
+                          kind, controller_params(), sched, rand, dt, t_end,
+                          label=f"{label}; slope {p.slope:.3f} rad, roughness "
+                                f"{p.roughness:.3f} rad, seed {seed}",
+                          initial=upright(p))
+    return specs
+
+
 FAMILIES = (family_long_horizon, family_extreme_torques, family_press_bounces,
             family_grazing, family_near_flat, family_flat, family_random_params,
-            family_control_periods, family_found_cases)
+            family_control_periods, family_found_cases, family_terrain)
 

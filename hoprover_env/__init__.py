@@ -38,7 +38,8 @@ for _id, (_entry, _vector_entry, _kwargs) in ENVS.items():
 
 
 def vector_env_class(env_id: str):
-    """The native vector env class of a registered hoprover id."""
+    """The native vector env class of a registered hoprover id (ValueError for an
+    unknown id)."""
     import importlib
     if env_id not in ENVS:
         raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")

@@ -77,6 +77,7 @@ class BatchRollout(SampledStates):
 
     @property
     def success(self) -> np.ndarray:
+        """(N,) bool: whether each run reached the judge's TTRTP."""
         return ~np.isnan(self.ttrtp)
 
     def __len__(self) -> int:

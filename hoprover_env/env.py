@@ -181,6 +181,9 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 
 
 class HopRoverEnv(gym.Env):
+    """The torque task as a Gymnasium env: HopRover-v0 and HopRoverContest-v0 (this
+    module's docstring has the tables). Keyword arguments are EnvConfig's (unknown names
+    raise TypeError); render_mode is None, "rgb_array" or "human"."""
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
     config_class = EnvConfig
     task = torque               # its KERNELS[integrator].step advances one env, its
@@ -215,6 +218,10 @@ class HopRoverEnv(gym.Env):
 
     # ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start an episode: returns (observation, info). `seed` seeds the env's generator
+        (target, randomised parameters, terrain); `options` may fix "target_x" [m],
+        "initial_state" (x, y, theta, vx, vy, omega), "slope" and "roughness" [rad].
+        Raises ValueError for an unknown option or a state no contact state allows."""
         super().reset(seed=seed)
         self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
             self.config, self.np_random, options)
@@ -229,6 +236,9 @@ class HopRoverEnv(gym.Env):
         return self._obs.copy(), self._info(0)
 
     def step(self, action):
+        """Hold the torque `action` maps to for one control period. Returns (observation,
+        reward, terminated, truncated, info). Raises ValueError for a non-finite or
+        misshapen action and gymnasium.error.ResetNeeded before reset or after the end."""
         if self._s is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:
@@ -273,6 +283,8 @@ class HopRoverEnv(gym.Env):
 
     # ------------------------------------------------------------------------------
     def render(self):
+        """The current frame (an RGB array) with render_mode="rgb_array"; draws the
+        window with "human"; None (and a warning) without a render_mode."""
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; "
                             'e.g. gym.make("HopRover-v0", render_mode="rgb_array")')
@@ -297,6 +309,7 @@ class HopRoverEnv(gym.Env):
         self.__dict__.update(state)
 
     def close(self):
+        """Close the renderer's window, if any."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

@@ -108,6 +108,7 @@ class EnvConfig(RewardConfig):
         return cls(**kwargs)
 
     def options_vector(self) -> np.ndarray:
+        """The kernel's option vector O (integrator, impact law, tolerances)."""
         return make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
 
     def task_vector(self) -> np.ndarray:

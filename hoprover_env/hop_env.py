@@ -78,6 +78,7 @@ from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverHopEnv(HopRoverEnv):
+    """The hop-level task (HopRoverHop-v0) as a Gymnasium env: one action, one hop."""
     config_class = HopEnvConfig
     task = hop
 
@@ -85,5 +86,7 @@ class HopRoverHopEnv(HopRoverEnv):
 # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
 # its class's direct bases
 class HopRoverHopVectorEnv(HopRoverVectorEnv, VectorEnv):
+    """N hop-level envs stepped in one jitted call; sub-env i equals HopRoverHopEnv
+    seeded with seed + i."""
     config_class = HopEnvConfig
     task = hop

@@ -378,6 +378,7 @@ class Rollout(SampledStates):
 
     @property
     def success(self) -> bool:
+        """Whether the judge's TTRTP was reached."""
         return self.ttrtp is not None
 
     def corner(self, which: str):

@@ -124,6 +124,7 @@ class RoverSim:
         self._w = np.zeros(core.N_WORK)
 
     def copy(self) -> "RoverSim":
+        """An independent copy of the simulator's state (for look-ahead planning)."""
         new = object.__new__(RoverSim)
         new.params, new.p, new.o, new.seed = self.params, self.p, self.o, self.seed
         new.s = self.s.copy()
@@ -152,10 +153,12 @@ class RoverSim:
 
     @property
     def t(self) -> float:
+        """Simulated time [s]."""
         return float(self.s[core.S_T])
 
     @property
     def mode(self) -> str:
+        """The contact state's letter, 'A'..'G'."""
         return core.MODE_LETTERS[int(self.s[core.S_MODE])]
 
     @property
@@ -165,14 +168,17 @@ class RoverSim:
 
     @property
     def stopped(self) -> bool:
+        """Whether the last advance stopped on its stop_on event."""
         return bool(self.s[core.S_STOPPED])
 
     @property
     def broken(self) -> bool:
+        """Whether a top corner has touched the ground."""
         return bool(self.s[core.S_BROKEN])
 
     @property
     def ttrtp(self) -> float | None:
+        """The judge's TTRTP [s], or None before the target is reached."""
         v = self.s[core.S_TTRTP]
         return None if math.isnan(v) else float(v)
 
@@ -219,7 +225,12 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     adds samples between control instants (for plots); the physics is unchanged.
     `seed` (and `rover`, the run's index in a batch) key the rough-terrain draws; on
     rough ground without a seed one is drawn from fresh entropy and `Rollout.seed` says
-    which.
+    which. Times in s, torques in N m, lengths in m.
+
+    Returns the `Rollout`. Raises ValueError for a bad argument (named), a non-finite
+    torque from the controller, a grid too large for one call or an initial state no
+    contact state allows; TypeError for a compiled controller without the contest
+    signature; RuntimeError when the integrator cannot go on (see `budget_error`).
     """
     params = RoverParams() if params is None else params
     if not isinstance(params, RoverParams):

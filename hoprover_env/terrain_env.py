@@ -65,6 +65,7 @@ from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverTerrainEnv(HopRoverEnv):
+    """The terrain task (HopRoverTerrain-v0) as a Gymnasium env (tables above)."""
     config_class = TerrainEnvConfig
     task = terrain
 
@@ -72,5 +73,7 @@ class HopRoverTerrainEnv(HopRoverEnv):
 # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
 # its class's direct bases
 class HopRoverTerrainVectorEnv(HopRoverVectorEnv, VectorEnv):
+    """N terrain envs stepped in one jitted call; sub-env i equals HopRoverTerrainEnv
+    seeded with seed + i, bumps included."""
     config_class = TerrainEnvConfig
     task = terrain

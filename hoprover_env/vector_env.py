@@ -36,6 +36,8 @@ THREAD_THRESHOLD = 64
 
 
 class HopRoverVectorEnv(VectorEnv):
+    """N rovers of the torque task stepped in one jitted call (the module docstring has
+    the arguments); sub-env i equals a HopRoverEnv seeded with seed + i."""
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
     config_class = EnvConfig
@@ -119,6 +121,9 @@ class HopRoverVectorEnv(VectorEnv):
             self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
 
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
+        """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
+        (sub-env i gets seed + i) or one per sub-env; options "target_x", "slope" and
+        "roughness" take a value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
         if seed is None:
@@ -150,6 +155,9 @@ class HopRoverVectorEnv(VectorEnv):
         return self._obs.copy(), self._infos(np.zeros(n, dtype=np.int64))
 
     def step(self, actions):
+        """Step every active sub-env by one control period: actions of shape (N, 1) (or
+        (N,)). Returns (observations, rewards, terminated, truncated, infos); raises
+        ValueError for a non-finite or misshapen action, RuntimeError before reset."""
         if not self._ready:
             raise RuntimeError("call reset() before step()")
         n = self.num_envs
@@ -220,6 +228,7 @@ class HopRoverVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------------------
     def render(self):
+        """One RGB frame per sub-env (render_mode="rgb_array"), or None."""
         if self.render_mode is None:
             return None
         from .rendering import Renderer
@@ -234,6 +243,7 @@ class HopRoverVectorEnv(VectorEnv):
         return tuple(frames)
 
     def close_extras(self, **kwargs):
+        """Close the sub-envs' renderers."""
         for r in getattr(self, "_renderers", ()):    # None if __init__ refused its arguments
             r.close()
         self._renderers = []
