@@ -18,7 +18,7 @@ from benchmarks.report import machine
 SECTIONS = [("accuracy", "benchmarks.bench_accuracy"), ("env", "benchmarks.bench_env"),
             ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training"),
             ("oracle", "benchmarks.bench_oracle"), ("learning", "benchmarks.bench_learning"),
-            ("runs", "benchmarks.bench_runs")]
+            ("runs", "benchmarks.bench_runs"), ("terrain", "benchmarks.bench_terrain")]
 
 
 def main(argv=None) -> int:

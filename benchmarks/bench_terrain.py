@@ -1,0 +1,152 @@
+"""How each policy degrades on sloped and rough ground (issue 23): success and median
+TTRTP of the bundled policies and the scripted hopper against the slope (roughness 0.05)
+and against the roughness (level ground), on the same seeded targets, with the contest
+judge.
+
+    python -m benchmarks --only terrain            # as a section of BENCHMARKS.md
+    python -m benchmarks.bench_terrain --episodes 40 --json out.json   # measure only
+
+Every policy acts in its own task (scratch and bundled in HopRover-v0, hop in
+HopRoverHop-v0, terrain in HopRoverTerrain-v0, the scripted hopper through the torque
+task); the ground is set per episode by the reset options `slope` and `roughness`, which
+every hoprover env takes, so all rows face the same ground and targets.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+
+import numpy as np
+
+from agents.evaluation import run_episodes, seeded_targets, summarize
+from agents.files import write_json
+from agents.policies import BUNDLED, BUNDLED_DIR, load_policy
+from benchmarks.report import Section, table
+
+SLOPES = (-0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3)      # rad, at roughness SLOPE_ROUGHNESS
+SLOPE_ROUGHNESS = 0.05
+ROUGHNESSES = (0.0, 0.05, 0.1, 0.2)                    # rad, on level ground
+POLICIES = ("scratch", "hop", "bundled", "scripted", "terrain")
+SEED = 2015
+
+
+def conditions():
+    """(label, slope, roughness) of every measured ground."""
+    return ([(f"slope {s:+.1f}", s, SLOPE_ROUGHNESS) for s in SLOPES]
+            + [(f"roughness {r:.2f}", 0.0, r) for r in ROUGHNESSES if r != SLOPE_ROUGHNESS])
+
+
+def available(names=POLICIES):
+    """The policies that can be loaded here (a bundled file may not exist yet)."""
+    return [n for n in names if n not in BUNDLED or (BUNDLED_DIR / f"{BUNDLED[n]}.zip").exists()]
+
+
+def measure(episodes: int, names=POLICIES, progress=print) -> dict:
+    """{policy: {label: summary}} over `episodes` seeded targets per ground."""
+    targets = seeded_targets(episodes, SEED, -1.0, 1.0)
+    out = {"episodes": episodes, "seed": SEED, "results": {}, "wall": {}}
+    for name in available(names):
+        pol = load_policy(name, control_dt=0.5, seed=SEED)
+        t0 = time.perf_counter()
+        rows = {}
+        for label, slope, rough in conditions():
+            rows[label] = summarize(run_episodes(pol, targets,
+                                                 terrain={"slope": slope, "roughness": rough}))
+            progress(f"  {name:9s} {label:16s} success {rows[label]['success_rate']:.0%}")
+        out["results"][name] = rows
+        out["wall"][name] = time.perf_counter() - t0
+    return out
+
+
+def _cell(s: dict) -> str:
+    med = s["median_ttrtp"]
+    return f"{100 * s['success_rate']:.0f} % / " + ("-" if med is None or math.isnan(med)
+                                                   else f"{med:.0f} s")
+
+
+def figure(data: dict, path: str) -> str:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharey="row")
+    for name, rows in data["results"].items():
+        for col, (xs, labels) in enumerate((
+                (SLOPES, [f"slope {s:+.1f}" for s in SLOPES]),
+                (ROUGHNESSES, [f"slope {0.0:+.1f}" if r == SLOPE_ROUGHNESS else
+                               f"roughness {r:.2f}" for r in ROUGHNESSES]))):
+            succ = [100 * rows[lb]["success_rate"] for lb in labels]
+            med = [rows[lb]["median_ttrtp"] for lb in labels]
+            axes[0, col].plot(xs, succ, "o-", label=name)
+            axes[1, col].plot(xs, [np.nan if m is None else m for m in med], "o-", label=name)
+    axes[0, 0].set_title(f"against the slope (roughness {SLOPE_ROUGHNESS} rad)")
+    axes[0, 1].set_title("against the roughness (level ground)")
+    axes[0, 0].set_ylabel("success [%]")
+    axes[1, 0].set_ylabel("median TTRTP [s]")
+    axes[1, 0].set_xlabel("slope [rad]")
+    axes[1, 1].set_xlabel("roughness [rad]")
+    axes[0, 1].legend()
+    for ax in axes.flat:
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"{data['episodes']} seeded targets per ground (seed {data['seed']}), "
+                 "contest judge, 600 s")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def markdown(data: dict) -> str:
+    labels = [lb for lb, _, _ in conditions()]
+    rows = [[name] + [_cell(r[lb]) for lb in labels] for name, r in data["results"].items()]
+    text = (f"Success and median TTRTP (success % / median) of each policy on "
+            f"{data['episodes']} seeded targets in [-1, 1] m (seed {data['seed']}) per "
+            f"ground, the contest judge, 600 s. Slopes at roughness {SLOPE_ROUGHNESS} rad; "
+            "roughness on level ground. Every policy acts in its own task (module "
+            "docstring of benchmarks/bench_terrain.py).\n\n")
+    return text + table(["policy"] + labels, rows)
+
+
+def run(quick: bool = False, fig_dir: str = ".") -> Section:
+    data = measure(4 if quick else 40, names=("scratch", "scripted") if quick else POLICIES,
+                   progress=lambda line: print(line, file=sys.stderr))
+    fig = figure(data, f"{fig_dir}/terrain_degradation.png")
+    return Section("Terrain: degradation with slope and roughness", markdown(data), [fig],
+                   headline={})
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--episodes", type=int, default=40)
+    ap.add_argument("--policies", default=",".join(POLICIES))
+    ap.add_argument("--json", default=None, help="write the measurements (JSON)")
+    ap.add_argument("--from-json", action="append", default=None,
+                    help="render saved measurements (repeat to join policies measured apart)")
+    ap.add_argument("--figure", default="benchmarks/figures/terrain_degradation.png")
+    args = ap.parse_args(argv)
+    if args.from_json:
+        data = None
+        for path in args.from_json:
+            with open(path) as fh:
+                part = json.load(fh)
+            if data is None:
+                data = part
+            elif (part["episodes"], part["seed"]) != (data["episodes"], data["seed"]):
+                raise SystemExit(f"{path}: other targets ({part['episodes']} episodes, seed "
+                                 f"{part['seed']}) than {args.from_json[0]}")
+            else:
+                data["results"].update(part["results"])
+                data["wall"].update(part["wall"])
+    else:
+        data = measure(args.episodes, tuple(args.policies.split(",")))
+        if args.json:
+            write_json(args.json, data)
+    figure(data, args.figure)
+    print(markdown(data))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
