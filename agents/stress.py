@@ -356,6 +356,13 @@ class RunSpec:
     def options(self) -> np.ndarray:
         return make_options(self.integrator, self.law, euler_dt=self.euler_dt)
 
+    def seed(self) -> int | None:
+        """The seed of the run's rough-terrain bumps (None on smooth ground), read back
+        from the state's two 32-bit halves (for a `simulate` replay)."""
+        if self.params.roughness == 0.0:
+            return None
+        return int(self.state[core.S_SEED_LO]) + (int(self.state[core.S_SEED_HI]) << 32)
+
     def fresh_memory(self) -> np.ndarray:
         mem = np.zeros(N_MEM)
         mem[M_PHASE] = PHASE_REST

@@ -130,7 +130,7 @@ def cross_check(spec: RunSpec, max_steps: int):
                         control_dt=spec.control_dt, target_x=TARGET_X,
                         integrator=spec.integrator, impact_law=spec.law,
                         params=spec.params, initial_state=spec.initial,
-                        euler_dt=spec.euler_dt)
+                        euler_dt=spec.euler_dt, seed=spec.seed())
     except RuntimeError:
         if not plain.r[R_VIOLATIONS + V_BUDGET]:
             problems.append("simulate ran out of events, the driver did not")
