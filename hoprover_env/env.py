@@ -159,6 +159,10 @@ from .tasks import torque
 _NO_LOG = np.zeros((0, core.EV_COLS))
 TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
 NO_TERRAIN_SEED = -1         # info["terrain_seed"] on smooth ground (nothing is drawn)
+# info's numpy scalars, made once (numpy scalars are immutable)
+_NOT_REACHED = np.float64(TTRTP_NOT_REACHED)
+_STATE_CODE = tuple(np.int64(code) for code in range(len(core.MODE_LETTERS)))
+_COUNT = tuple(np.int64(n) for n in range(256))
 
 
 def check_actions(action, shape, what="action") -> np.ndarray:
@@ -226,6 +230,9 @@ class HopRoverEnv(gym.Env):
         self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
             self.config, self.np_random, options)
         self._rm[:] = reward.new_memory()
+        self._episode = (np.float64(self.target_x), np.float64(self.params.slope),
+                         np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
+                                  else self.terrain_seed))
         self.task.observe(self._s, self._p, self._e, self._obs)
         self._trace = []
         self._done = False
@@ -262,18 +269,19 @@ class HopRoverEnv(gym.Env):
             self._info(n_ev)
 
     def _info(self, n_events: int) -> dict:
-        s = self._s
-        ttrtp = float(s[core.S_TTRTP])
-        reached = ttrtp == ttrtp                      # not NaN
         # numpy scalars of fixed dtype from the first step: TorchRL's info reader wants a
-        # .dtype, and it and Tianshou's buffer refuse None and NaN
-        info = {"is_success": np.bool_(reached),
-                "ttrtp": np.float64(ttrtp if reached else TTRTP_NOT_REACHED),
-                "state": np.int64(s[core.S_MODE]), "target_x": np.float64(self.target_x),
-                "broken": np.bool_(s[core.S_BROKEN] != 0.0), "n_events": np.int64(n_events),
-                "slope": np.float64(self.params.slope),
-                "terrain_seed": np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
-                                         else self.terrain_seed)}
+        # .dtype, and it and Tianshou's buffer refuse None and NaN. Indexing a float64
+        # array gives a float64 scalar and the rest come from tables, made once (a numpy
+        # scalar built per key, or a dict keyed by numpy bools, cost 10 us a step).
+        s = self._s
+        ttrtp = s[core.S_TTRTP]
+        reached = ttrtp == ttrtp                      # not NaN
+        info = {"is_success": np.True_ if reached else np.False_,
+                "ttrtp": ttrtp if reached else _NOT_REACHED,
+                "state": _STATE_CODE[int(s[core.S_MODE])], "target_x": self._episode[0],
+                "broken": np.True_ if s[core.S_BROKEN] != 0.0 else np.False_,
+                "n_events": _COUNT[n_events] if n_events < len(_COUNT) else np.int64(n_events),
+                "slope": self._episode[1], "terrain_seed": self._episode[2]}
         if self.config.info_level == "full":
             info["t"] = np.float64(s[core.S_T])
             info["rover_state"] = s[:6].copy()

@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 
 import numpy as np
 from numba import get_thread_id, njit, prange, types as nt
@@ -216,20 +217,22 @@ class _FixedAddress(WrapperAddressProtocol):
         cres = dispatcher.get_compile_result(CONTROL_SIG)
         self.address = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
 
+    def __wrapper_address__(self):
+        return self.address
+
+    def signature(self):
+        return CONTROL_SIG
+
 
 def _fixed_address(dispatcher):
     """The controller as `_FixedAddress`, or the dispatcher itself (numba then looks its
     address up per call) should a numba release move the internals that needs."""
     try:
         return _FixedAddress(dispatcher)
-    except Exception:      # noqa: BLE001 - any internal moved: the slower, public path
+    except AttributeError as exc:     # an internal moved: the slower, public path
+        warnings.warn(f"hoprover_env: numba's compile result has no {exc}; whole runs "
+                      "pass their controller the slower way", RuntimeWarning, stacklevel=2)
         return dispatcher
-
-    def __wrapper_address__(self):
-        return self.address
-
-    def signature(self):
-        return CONTROL_SIG
 
 
 def _compiled(func, signature, **options):
