@@ -1,7 +1,12 @@
-"""How each policy degrades on sloped and rough ground (issue 23): success and median
-TTRTP of the bundled policies and the scripted hopper against the slope (roughness 0.05)
-and against the roughness (level ground), on the same seeded targets, with the contest
-judge.
+"""Terrain (issue 23): what a slope costs the simulator, and how each policy degrades on
+sloped and rough ground.
+
+* `ground_costs`: CPU time per simulated second at rest (F), in flight (A), in a launch
+  (B/C by DOP853 to lift-off), in a pivot (B) and in a two-corner slide (G), on level
+  ground and at slopes +-0.3 rad, best of N, the slopes interleaved with level ground.
+* `measure`: success and median TTRTP of the bundled policies and the scripted hopper
+  against the slope (roughness 0.05) and against the roughness (level ground), on the
+  same seeded targets, with the contest judge.
 
     python -m benchmarks --only terrain            # as a section of BENCHMARKS.md
     python -m benchmarks.bench_terrain --episodes 40 --json out.json   # measure only
@@ -25,12 +30,84 @@ from agents.evaluation import run_episodes, seeded_targets, summarize
 from agents.files import write_json
 from agents.policies import BUNDLED, BUNDLED_DIR, load_policy
 from benchmarks.report import Section, table
+from hoprover_env import RoverParams, RoverSim, simulate
 
 SLOPES = (-0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3)      # rad, at roughness SLOPE_ROUGHNESS
 SLOPE_ROUGHNESS = 0.05
 ROUGHNESSES = (0.0, 0.05, 0.1, 0.2)                    # rad, on level ground
 POLICIES = ("scratch", "hop", "bundled", "scripted", "terrain")
 SEED = 2015
+
+
+def _cpu_per_second(run, params, repeat):
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.process_time()
+        seconds = run(params)
+        best = min(best, (time.process_time() - t0) / seconds)
+    return best
+
+
+def _rest(p):
+    roll = simulate(np.zeros(6000), t_end=600.0, params=p)
+    assert set(roll.state) == {"F"}
+    return 600.0
+
+
+def _flight(p):
+    roll = simulate(np.zeros(1000), t_end=100.0, params=p,
+                    initial_state=(0.0, 0.6, 0.1, 1e-3, 1e-3, 0.03))
+    assert set(roll.state) == {"A"} and not roll.events
+    return 100.0
+
+
+def _launch(p):
+    total = 0.0
+    for torque in (3e-5, 5e-5, 2e-4, 4e-4):     # pivot and/or slide to lift-off
+        sim = RoverSim(params=p, target_x=0.5)
+        sim.advance(torque, 300.0, stop_on="liftoff")
+        total += sim.t
+    return total
+
+
+def _pivot(p):
+    sim = RoverSim(params=p, target_x=0.5)
+    events = sim.advance(1.5e-5, 1.8)          # at +0.3 rad it slips at 1.84 s
+    assert [e[1:4] for e in events] == [("tip", "F", "B")], events
+    return 1.8
+
+
+def _slide(p):
+    roll = simulate(np.zeros(600), t_end=60.0, params=p,
+                    initial_state=(0.0, p.half_height, 0.0, 4e-3, 0.0, 0.0))
+    assert "G" in set(roll.state)
+    return 60.0
+
+
+GROUND_PHASES = (("rest (F)", _rest), ("flight (A)", _flight), ("launch (B/C)", _launch),
+                 ("pivot (B)", _pivot), ("slide (G)", _slide))
+COST_SLOPES = (0.0, 0.3, -0.3)
+
+
+def ground_costs(repeat: int = 20, rounds: int = 3) -> dict:
+    """{phase: {slope: best CPU seconds per simulated second}} (module docstring)."""
+    out = {}
+    for name, run in GROUND_PHASES:
+        best = {phi: math.inf for phi in COST_SLOPES}
+        for _ in range(rounds):                     # interleaved: level, +0.3, -0.3, ...
+            for phi in COST_SLOPES:
+                best[phi] = min(best[phi], _cpu_per_second(run, RoverParams(slope=phi),
+                                                           repeat))
+        out[name] = best
+    return out
+
+
+def ground_cost_table(costs: dict) -> str:
+    rows = [[name, f"{c[0.0] * 1e6:.2f}"] + [f"{c[phi] * 1e6:.2f} ({c[phi] / c[0.0]:.2f}x)"
+                                             for phi in COST_SLOPES[1:]]
+            for name, c in costs.items()]
+    return table(["phase", "level [us CPU / s simulated]"]
+                 + [f"slope {phi:+.1f} rad" for phi in COST_SLOPES[1:]], rows)
 
 
 def conditions():
@@ -110,11 +187,15 @@ def markdown(data: dict) -> str:
 
 
 def run(quick: bool = False, fig_dir: str = ".") -> Section:
+    costs = ground_costs(repeat=2 if quick else 20, rounds=1 if quick else 3)
     data = measure(4 if quick else 40, names=("scratch", "scripted") if quick else POLICIES,
                    progress=lambda line: print(line, file=sys.stderr))
     fig = figure(data, f"{fig_dir}/terrain_degradation.png")
-    return Section("Terrain: degradation with slope and roughness", markdown(data), [fig],
-                   headline={})
+    text = ("What a slope costs the simulator: CPU time per simulated second, best of "
+            "repeated runs, slopes interleaved with level ground (`ground_costs`).\n\n"
+            + ground_cost_table(costs) + "\n\n" + markdown(data))
+    return Section("Terrain: cost on a slope, and degradation with slope and roughness",
+                   text, [fig], headline={})
 
 
 def main(argv=None) -> int:
@@ -125,7 +206,12 @@ def main(argv=None) -> int:
     ap.add_argument("--from-json", action="append", default=None,
                     help="render saved measurements (repeat to join policies measured apart)")
     ap.add_argument("--figure", default="benchmarks/figures/terrain_degradation.png")
+    ap.add_argument("--costs", action="store_true",
+                    help="only the cost per simulated second on a slope")
     args = ap.parse_args(argv)
+    if args.costs:
+        print(ground_cost_table(ground_costs()))
+        return 0
     if args.from_json:
         data = None
         for path in args.from_json:
