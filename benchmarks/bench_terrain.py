@@ -186,6 +186,48 @@ def markdown(data: dict) -> str:
     return text + table(["policy"] + labels, rows)
 
 
+def learning_curves(run_dirs, path: str) -> str:
+    """A figure and a table of train.py's own evaluations (`evaluations.csv`) of terrain
+    runs (one per seed): success and median TTRTP against environment steps."""
+    import csv
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (ax_s, ax_m) = plt.subplots(1, 2, figsize=(11, 4))
+    rows = []
+    for run_dir in run_dirs:
+        with open(f"{run_dir}/evaluations.csv") as fh:
+            ev = list(csv.DictReader(fh))
+        steps = np.array([float(r["timesteps"]) for r in ev])
+        succ = np.array([float(r["success_rate"]) for r in ev])
+        med = np.array([float(r["median_ttrtp"]) if r["median_ttrtp"] not in ("", "nan")
+                        else np.nan for r in ev])
+        wall = np.array([float(r["wall_s"]) for r in ev])
+        name = str(run_dir).rstrip("/").rsplit("/", 1)[-1]
+        ax_s.plot(steps / 1e6, 100 * succ, "o-", label=name)
+        ax_m.plot(steps / 1e6, med, "o-", label=name)
+        hit = np.flatnonzero(succ >= 0.95)
+        best = int(np.argmax(succ))
+        rows.append([name, f"{steps[-1] / 1e6:.1f} M", f"{wall[-1]:.0f}",
+                     f"{100 * succ[-1]:.0f} %",
+                     f"{100 * succ[best]:.0f} % at {steps[best] / 1e6:.1f} M",
+                     "-" if not hit.size else f"{steps[hit[0]] / 1e6:.1f} M / {wall[hit[0]]:.0f} s"])
+    ax_s.set_ylabel("validation success [%]")
+    ax_m.set_ylabel("validation median TTRTP [s]")
+    for ax in (ax_s, ax_m):
+        ax.set_xlabel("environment steps [M]")
+        ax.grid(alpha=0.3)
+    ax_s.legend()
+    fig.suptitle("PPO from scratch on HopRoverTerrain-v0 (train.py evaluations: 100 "
+                 "validation targets and slopes, seed 7)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return table(["run", "steps", "wall s", "last success", "best success",
+                  "first >= 95 % (steps / wall)"], rows)
+
+
 def run(quick: bool = False, fig_dir: str = ".") -> Section:
     costs = ground_costs(repeat=2 if quick else 20, rounds=1 if quick else 3)
     data = measure(4 if quick else 40, names=("scratch", "scripted") if quick else POLICIES,
@@ -208,7 +250,12 @@ def main(argv=None) -> int:
     ap.add_argument("--figure", default="benchmarks/figures/terrain_degradation.png")
     ap.add_argument("--costs", action="store_true",
                     help="only the cost per simulated second on a slope")
+    ap.add_argument("--curves", nargs="+", default=None, metavar="RUN_DIR",
+                    help="only the learning curves of these train.py run directories")
     args = ap.parse_args(argv)
+    if args.curves:
+        print(learning_curves(args.curves, "benchmarks/figures/terrain_learning.png"))
+        return 0
     if args.costs:
         print(ground_cost_table(ground_costs()))
         return 0
