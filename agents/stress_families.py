@@ -238,6 +238,15 @@ def random_edge_params(rng):
         return None
 
 
+def _hopper_or_random_torques(i, p, rng, t_end, dt):
+    """Set i's controller: the hopper for even i, uniform random torques (drawn here)
+    for odd i. Returns (kind, schedule, label)."""
+    if i % 2 == 0:
+        return CTRL_HOPPER, np.zeros(1), "hopper"
+    return (CTRL_SCHEDULE, p.torque_max * rng.uniform(-1, 1, int(t_end / dt)),
+            "uniform random torques")
+
+
 def family_random_params(rng, quick):
     """6. Random valid parameter sets at the edges of their ranges (mass 0.1..10 kg,
     I 0.02..1 m l^2, r and h 0.01..0.1 m, g 1e-5..1e-3, mu_s, mu_d/mu_s, e_x, e_y in
@@ -253,11 +262,7 @@ def family_random_params(rng, quick):
             continue
         i = len(specs) // 4
         dt = 0.1
-        if i % 2 == 0:
-            kind, sched, label = CTRL_HOPPER, np.zeros(1), "hopper"
-        else:
-            kind, label = CTRL_SCHEDULE, "uniform random torques"
-            sched = p.torque_max * rng.uniform(-1, 1, int(t_end / dt))
+        kind, sched, label = _hopper_or_random_torques(i, p, rng, t_end, dt)
         rand = rng.random(4096)
         desc = (f"{label}; m {p.mass:.3g}, I {p.inertia:.3g}, r {p.half_width:.3g}, "
                 f"h {p.half_height:.3g}, g {p.gravity:.3g}, mu_s {p.mu_static:.3g}, "
@@ -342,11 +347,7 @@ def family_terrain(rng, quick):
         p = RoverParams(slope=float(rng.uniform(-0.5, 0.5)),
                         roughness=float(rng.uniform(0.0, 0.3)))
         seed = int(rng.integers(2**63))
-        if i % 2 == 0:
-            kind, sched, label = CTRL_HOPPER, np.zeros(1), "hopper"
-        else:
-            kind, label = CTRL_SCHEDULE, "uniform random torques"
-            sched = p.torque_max * rng.uniform(-1, 1, int(t_end / dt))
+        kind, sched, label = _hopper_or_random_torques(i, p, rng, t_end, dt)
         rand = rng.random(4096)
         specs += variants("9 terrain", p, make_state(p, TARGET_X, upright(p), seed=seed),
                           kind, controller_params(), sched, rand, dt, t_end,
