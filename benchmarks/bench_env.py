@@ -26,7 +26,8 @@ import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from benchmarks.report import Section, best_of, table
-from hoprover_env import core, rl_kernel
+from hoprover_env import core
+from hoprover_env.tasks import torque
 from hoprover_env.vector_env import HopRoverVectorEnv
 
 
@@ -85,16 +86,17 @@ def kernel_cost_per_sim_second(kind: str, n: int = 512, steps: int = 40) -> floa
             s[core.S_MODE] = core.MODE_A
     elif kind == "contact":
         # a torque just above the tipping torque: a long, slow pivot on corner A
-        act[:] = rl_kernel_action(6e-6)
+        act[:] = action_of(6e-6)
     S0 = venv.S.copy()
     active = np.ones(n, dtype=bool)
-    args = (venv.P, venv._o, venv._e, act, active, venv._obs, venv._rew, venv._term,
-            venv._trunc, venv._succ, venv._nev, venv._log, venv._work)
+    args = (venv.P, venv._o, venv._e, venv._rw, venv._rm, act, active, venv._obs, venv._rew,
+            venv._term, venv._trunc, venv._succ, venv._nev, venv._log, venv._work)
+    batch = torque.KERNELS["event"].batch
 
     def go():
         venv.S[:] = S0
         for _ in range(steps):
-            rl_kernel.batch_step(venv.S, *args)
+            batch(venv.S, *args)
 
     wall, _ = best_of(go, 3)
     modes = np.bincount(venv.S[:, core.S_MODE].astype(int), minlength=7)
@@ -103,8 +105,8 @@ def kernel_cost_per_sim_second(kind: str, n: int = 512, steps: int = 40) -> floa
     return wall / (n * steps * 0.5) * 1e6
 
 
-def rl_kernel_action(torque: float) -> float:
-    return torque / 5e-4                       # the action of a symmetric +-5e-4 range
+def action_of(torque_nm: float) -> float:
+    return torque_nm / 5e-4                    # the action of a symmetric +-5e-4 range
 
 
 FIRST_STEP = """
