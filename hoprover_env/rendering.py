@@ -119,9 +119,9 @@ class Renderer:
         nx, ny = -sp, -cp                         # the outward normal in pixels (rows down)
         a, b = px(target - w_band, 0.0), px(target + w_band, 0.0)
         b = (max(b[0], a[0] + 2) - 1, b[1])       # a band under 2 px still shows
-        pg.draw.polygon(surf, (120, 200, 120),
-                        [(a[0] + 4 * nx, a[1] + 4 * ny), (b[0] + 4 * nx, b[1] + 4 * ny),
-                         (b[0] - 3 * nx, b[1] - 3 * ny), (a[0] - 3 * nx, a[1] - 3 * ny)])
+        pg.draw.polygon(surf, (120, 200, 120),    # rounded: pygame would truncate
+                        [(round(p[0] + k * nx), round(p[1] + k * ny))
+                         for p, k in ((a, 4), (b, 4), (b, -3), (a, -3))])
         # the target: a mark along the ground's normal (positions are along the surface)
         pg.draw.line(surf, (40, 120, 40), px(target, 0), px(target, 0.25 * self.height * scale), 1)
         pg.draw.line(surf, (90, 80, 60), g0, g1, 2)
