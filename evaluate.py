@@ -253,7 +253,8 @@ def _main(argv=None) -> int:
         if k is None:        # the first target more than a body width away: a real hop
             far = np.flatnonzero(np.abs(targets) > 0.15)
             k = int(far[0]) if far.size else 0
-        rec = record_episode(policies[0], float(targets[k]))
+        rec = record_episode(policies[0], float(targets[k]),
+                             terrain={key: v[k] for key, v in ground.items()})
         if args.plot:
             from agents.plots import nine_figures
             paths = nine_figures(rec, args.plot)

@@ -16,15 +16,12 @@ from gymnasium.vector import AutoresetMode
 
 from agents.scripted import ScriptedHopper
 from hoprover_env import Rollout, core, simulate, vector_env_class
+from hoprover_env.tasks.hop import hop_torque
 
 
 def _launch_torque(action: float, venv) -> float:
     """The launch torque [N m] the hop-level env `venv` flies for `action` (its own map)."""
-    if hasattr(venv.config, "task_vector"):          # hoprover_env/tasks/ (issue 19)
-        from hoprover_env.tasks.hop import hop_torque
-        return float(hop_torque(action, venv.P[0], venv.config.task_vector()))
-    from hoprover_env.hop_kernel import hop_torque   # the layout before it
-    return float(hop_torque(action, venv.P[0], venv.config.reward_vector()))
+    return float(hop_torque(action, venv.P[0], venv.config.task_vector()))
 
 
 @dataclasses.dataclass
@@ -42,12 +39,15 @@ class Recording:
 
 
 def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
-                   sample_dt: float = 0.1) -> Recording:
+                   sample_dt: float = 0.1, terrain: dict | None = None) -> Recording:
     """Run `policy` (see `agents.policies`) for one episode towards `target_x` [m] in the
     vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
     samples every `sample_dt` [s] (at most one control period).
 
     `env_kwargs` configure the env; the policy's own `env_kwargs` take precedence.
+    `terrain` fixes this episode's ground, {"slope": rad, "roughness": rad} (either may
+    be left out), as `agents.evaluation.run_episodes` does per episode; the replay flies
+    the same slope and, on rough ground, the same bumps (the env's seed of the draws).
     Returns a `Recording`; its TTRTP is the judge's of the env that ran the episode.
     Raises ValueError for bad env arguments (as the env does).
     """
@@ -56,9 +56,13 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
     env_id = getattr(policy, "env_id", "HopRover-v0")
     venv = vector_env_class(env_id)(1, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     hops = env_id == "HopRoverHop-v0"      # one action = one hop's launch torque
-    obs, _ = venv.reset(seed=0, options={"target_x": np.array([target_x])})
+    ground = {k: float(v) for k, v in (terrain or {}).items()}
+    obs, _ = venv.reset(seed=0, options={"target_x": np.array([target_x]), **ground})
     policy.reset(1)
     params = venv.params[0]
+    # on rough ground the replay meets the episode's bumps: the env's key of the draws
+    # (sub-env 0 is rover 0, as simulate's run is), read before the autoreset redraws it
+    seed = int(getattr(venv, "terrain_seeds", [-1])[0])
     torques = []
     while True:
         action = policy.act(obs, venv)
@@ -82,7 +86,8 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
         t_end = min(max(t_end, dt), len(torques) * dt)
     roll = simulate(controller, t_end=t_end, control_dt=dt, target_x=target_x,
                     integrator=venv.config.integrator, impact_law=venv.config.impact_law,
-                    params=params, sample_dt=min(sample_dt, dt))
+                    params=params, sample_dt=min(sample_dt, dt),
+                    seed=seed if params.roughness > 0.0 and seed >= 0 else None)
     # the replay stops at the TTRTP itself, where its own judge may not yet have closed the
     # 5 s window: the env's judge, which ran the episode, gives the TTRTP
     return Recording(getattr(policy, "name", "policy"), target_x,
@@ -117,10 +122,10 @@ def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20)
     roll = rec.rollout
     idx = np.unique(np.linspace(0, len(roll.t) - 1, min(max_frames, len(roll.t))).astype(int))
     renderer = Renderer(mode="rgb_array")
-    frames, trace = [], []
+    frames, trace, shown = [], [], set(idx.tolist())
     for i in range(len(roll.t)):
         trace.append((roll.x[i], roll.y[i]))
-        if i in set(idx.tolist()):
+        if i in shown:
             frames.append(renderer.draw((roll.x[i], roll.y[i], roll.theta[i]), roll.params,
                                         rec.target_x, list(trace), roll.t[i], roll.state[i],
                                         roll.torque[i]))

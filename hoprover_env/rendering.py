@@ -48,50 +48,83 @@ class Renderer:
         self.surface = self.pg.Surface((width, height))
         self.window = None
         self.clock = None
-        self.view = None        # (x_center, metres per pixel)
+        self.view = None        # (world x at the centre, world y on the ground row,
+                                # metres per pixel)
 
-    def _fit_view(self, xs, ys, target, half_width):
-        """A view that keeps the rover, its recent path and the target band in sight."""
-        lo = min(min(xs), target - half_width) - 0.15
-        hi = max(max(xs), target + half_width) + 0.15
-        top = max(max(ys) + 0.15, 0.3)
-        scale = max((hi - lo) / self.width, top / (0.8 * self.height))
+    def _fit_view(self, pts, ground_x, cos_phi, tan_phi):
+        """A view that keeps the rover, its recent path and the target band in sight.
+
+        `pts` are world points (x, y) [m] to keep in view, `ground_x` world x of ground
+        points that must show (the target band's ends). The lowest of the points and of
+        the ground under the view's ends sits on the ground row (0.88 of the height); on
+        level ground that is y = 0, as it always was."""
+        xs = [p[0] for p in pts]
+        lo = min(min(xs), min(ground_x)) - 0.15 * cos_phi
+        hi = max(max(xs), max(ground_x)) + 0.15 * cos_phi
+        ends = (lo * tan_phi, hi * tan_phi)      # the ground's height at the ends
+        bottom = min(min(p[1] for p in pts), *ends)
+        top = max(max(p[1] for p in pts) + 0.15, max(ends) + 0.3)
+        scale = max((hi - lo) / self.width, (top - bottom) / (0.8 * self.height))
         center = 0.5 * (lo + hi)
         if self.view is not None:         # move the camera smoothly, zoom out at once
-            c0, s0 = self.view
+            c0, b0, s0 = self.view
             scale = max(scale, 0.9 * s0 + 0.1 * scale)
             center = 0.8 * c0 + 0.2 * center
-        self.view = (center, scale)
+            bottom = 0.8 * b0 + 0.2 * bottom
+        self.view = (center, bottom, scale)
 
     def draw(self, state, params, target, trace, t, letter, torque=0.0):
         """Draw one frame and return it ("rgb_array": (height, width, 3) uint8) or None
         ("human").
 
-        Parameters: `state` = (x [m], y [m], theta [rad], ...) of the c.m.; `params` the
-        RoverParams (size, band); `target` [m]; `trace` the path so far, a list of (x, y)
-        [m]; `t` the time [s]; `letter` the contact state A-G; `torque` [N m].
+        Parameters: `state` = (x [m], y [m], theta [rad], ...) of the c.m. in the ground
+        frame; `params` the RoverParams (size, band, slope); `target` [m] along the
+        ground; `trace` the path so far, a list of ground-frame (x, y) [m]; `t` the time
+        [s]; `letter` the contact state A-G; `torque` [N m].
+
+        The picture is in the world frame, gravity pointing down: ground-frame points are
+        turned by the slope phi (the ground rises toward +x for phi > 0), so the ground
+        line, the rover and the target band on the ground are all inclined by phi.
         """
         pg = self.pg
         x, y, th = float(state[0]), float(state[1]), float(state[2])
+        phi = float(getattr(params, "slope", 0.0))
+        cp, sp = math.cos(phi), math.sin(phi)
+
+        def world(gx, gy):
+            # ground frame -> world frame: a rotation by phi (exact identity at phi = 0)
+            return (gx * cp - gy * sp, gx * sp + gy * cp) if phi else (gx, gy)
+
         pts = trace[-400:] if trace else [(x, y)]
-        self._fit_view([p[0] for p in pts] + [x], [p[1] for p in pts] + [y], target,
-                       params.band_half_width)
-        center, scale = self.view
+        w_band = params.band_half_width
+        self._fit_view([world(a, b) for a, b in pts] + [world(x, y)],
+                       [(target - w_band) * cp, (target + w_band) * cp], cp, sp / cp)
+        center, bottom, scale = self.view
         ground = int(self.height * 0.88)
 
-        def px(wx, wy):
+        def px(gx, gy):
+            wx, wy = world(gx, gy)
             return (int(round(self.width / 2 + (wx - center) / scale)),
-                    int(round(ground - wy / scale)))
+                    int(round(ground - (wy - bottom) / scale)))
 
         surf = self.surface
         surf.fill((245, 245, 240))
-        pg.draw.rect(surf, (200, 190, 170), (0, ground, self.width, self.height - ground))
-        left, _ = px(target - params.band_half_width, 0)
-        right, _ = px(target + params.band_half_width, 0)
-        band = pg.Rect(left, ground - 4, max(right - left, 2), 8)
-        pg.draw.rect(surf, (120, 200, 120), band)
+        # the ground line from the left edge of the picture to the right one
+        half = 0.5 * self.width * scale / cp + 1.0
+        g0, g1 = px(center / cp - half, 0.0), px(center / cp + half, 0.0)
+        pg.draw.polygon(surf, (200, 190, 170), [g0, g1, (g1[0], self.height + 10),
+                                                (g0[0], self.height + 10)])
+        # the target band: a strip 8 px thick across the ground line, along it (on level
+        # ground exactly the rectangle of pixels it always was)
+        nx, ny = -sp, -cp                         # the outward normal in pixels (rows down)
+        a, b = px(target - w_band, 0.0), px(target + w_band, 0.0)
+        b = (max(b[0], a[0] + 2) - 1, b[1])       # a band under 2 px still shows
+        pg.draw.polygon(surf, (120, 200, 120),    # rounded: pygame would truncate
+                        [(round(p[0] + k * nx), round(p[1] + k * ny))
+                         for p, k in ((a, 4), (b, 4), (b, -3), (a, -3))])
+        # the target: a mark along the ground's normal (positions are along the surface)
         pg.draw.line(surf, (40, 120, 40), px(target, 0), px(target, 0.25 * self.height * scale), 1)
-        pg.draw.line(surf, (90, 80, 60), (0, ground), (self.width, ground), 2)
+        pg.draw.line(surf, (90, 80, 60), g0, g1, 2)
         if len(pts) > 1:
             pg.draw.lines(surf, (150, 170, 210), False, [px(a, b) for a, b in pts], 1)
         r, h = params.half_width, params.half_height
@@ -106,8 +139,17 @@ class Renderer:
         pg.draw.circle(surf, (255, 255, 255), px(*corners[3]), 3)
         lines = [f"t = {t:7.2f} s   state {STATE_NAMES.get(letter, letter)}",
                  f"x = {x:+.3f} m   target {target:+.3f} m   T = {_torque_text(torque)} N m"]
-        for i, text in enumerate(lines):
-            surf.blit(self.font.render(text, True, (20, 20, 20)), (8, 6 + 18 * i))
+        if phi:
+            lines.append(f"slope {phi:+.3f} rad ({math.degrees(phi):+.1f} deg), "
+                         "x along the ground")
+        texts = [self.font.render(text, True, (20, 20, 20)) for text in lines]
+        if phi:      # an inclined ground may run under the text: keep it readable
+            box = pg.Surface((max(tx.get_width() for tx in texts) + 12, 18 * len(texts) + 6))
+            box.fill((245, 245, 240))
+            box.set_alpha(210)
+            surf.blit(box, (2, 2))
+        for i, tx in enumerate(texts):
+            surf.blit(tx, (8, 6 + 18 * i))
         if self.mode == "human":
             self._show()
             return None
