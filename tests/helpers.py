@@ -1,6 +1,10 @@
 """Small shared pieces of the tests (contest-signature controllers). The state checks
 live in hoprover_env.testing, shared with the benchmarks."""
-from hoprover_env import controllers
+import math
+
+import numpy as np
+
+from hoprover_env import RoverSim, controllers
 
 
 def attitude_hold(the, omg, inertia=0.0017, kp=0.1, kd=0.8):
@@ -23,3 +27,20 @@ def launch_then_hold(torque, t_start=0.0, t_stop=None):
         return torque
 
     return control
+
+
+def first_landing(integrator, euler_dt=1e-3, torque=3e-4, control_dt=0.1, params=None):
+    """Time and contact-point x of the first touchdown after a launch + attitude hold
+    (contest parameters, or `params`: a slope, say)."""
+    sim = RoverSim(params=params, target_x=0.5, integrator=integrator, euler_dt=euler_dt)
+    control = launch_then_hold(torque)
+    for k in range(10000):
+        s = sim.s
+        cmd = control(s[0:2], s[3:5], s[2], s[5], np.array([0.5, 0.0]), sim.t, 600.0, sim.mode)
+        sim.advance(cmd, (k + 1) * control_dt, stop_on="impact")
+        if sim.stopped:
+            x, y, th = sim.state[:3]
+            # the corner that touched: the lower one (A for th > 0)
+            bx = 0.05 if th >= 0 else -0.05
+            return sim.t, x + bx * math.cos(th) - 0.05 * math.sin(th)
+    raise AssertionError("no landing")

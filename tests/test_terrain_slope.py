@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hoprover_env import RoverParams, RoverSim, core, simulate
-from helpers import launch_then_hold
+from helpers import first_landing, launch_then_hold
 from hoprover_env.reference import Ref
 
 SLOPES = [-0.3, -0.1, 0.1, 0.3]
@@ -122,27 +122,11 @@ def test_flight_on_a_slope_sample_by_sample(slope, omega0, torque):
         np.testing.assert_allclose(g_[fly], w, rtol=1e-12, atol=1e-13)
 
 
-def first_landing(integrator, slope, euler_dt=1e-3, torque=3e-4, control_dt=0.1):
-    """Time and contact-point x of the first touchdown after a launch + attitude hold."""
-    p = RoverParams(slope=slope)
-    sim = RoverSim(params=p, target_x=0.5, integrator=integrator, euler_dt=euler_dt)
-    control = launch_then_hold(torque)
-    for k in range(10000):
-        s = sim.s
-        cmd = control(s[0:2], s[3:5], s[2], s[5], np.array([0.5, 0.0]), sim.t, 600.0, sim.mode)
-        sim.advance(cmd, (k + 1) * control_dt, stop_on="impact")
-        if sim.stopped:
-            x, y, th = sim.state[:3]
-            bx = 0.05 if th >= 0 else -0.05
-            return sim.t, x + bx * math.cos(th) - 0.05 * math.sin(th)
-    raise AssertionError("no landing")
-
-
 @pytest.mark.parametrize("slope", [-0.3, 0.2])
 def test_euler_converges_to_event_at_first_order_on_a_slope(slope):
-    t_ref, x_ref = first_landing("event", slope)
+    t_ref, x_ref = first_landing("event", params=RoverParams(slope=slope))
     dts = [1e-2, 1e-3, 1e-4]
-    errs = np.array([[abs(v - r) for v, r in zip(first_landing("euler", slope, dt),
+    errs = np.array([[abs(v - r) for v, r in zip(first_landing("euler", dt, params=RoverParams(slope=slope)),
                                                  (t_ref, x_ref))] for dt in dts])
     assert np.all(np.diff(errs[:, 0]) < 0) and np.all(np.diff(errs[:, 1]) < 0)
     overall = np.log(errs[0] / errs[-1]) / np.log(dts[0] / dts[-1])
