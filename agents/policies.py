@@ -264,9 +264,12 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
                                 env_kwargs={"control_dt": control_dt})
     if spec == "random":
         return RandomPolicy(seed)
+    if spec == "mpc":
+        from hoprover_env.mpc import MPCPolicy
+        return MPCPolicy(seed=seed)
     if spec.endswith(".py") or ".py:" in spec:
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, scripted, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, scripted, mpc, random, a model "
                      ".zip or run directory, or module.py:Control")

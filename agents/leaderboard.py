@@ -1,0 +1,131 @@
+"""The leaderboard: every bundled agent on every frozen suite, scored against the
+best-known references.
+
+    python -m agents.leaderboard                   # all suites, writes the files below
+    python -m agents.leaderboard --suite contest --agents mpc scripted
+
+For each suite (hoprover_env/suites.py) and agent it runs the suite's episodes
+(`hoprover_env.suites.run`, the contest judge), and summarises them with
+`hoprover_env.scores.summarize`: success, median regret, mean and IQM normalised score,
+each with a 95 % bootstrap interval over the episodes (rliable). Writes
+`benchmarks/results/leaderboard.json` (every episode) and `docs/leaderboard.md` (the
+tables), and splices the summary table into README.md between its leaderboard
+markers. Every file is written atomically.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from agents.files import atomic_write
+from hoprover_env import suites
+from hoprover_env.scores import format_table, summarize
+
+ROOT = Path(__file__).resolve().parent.parent
+SUITES = {"level": "HopRover-v0", "terrain": "HopRoverTerrain-v0",
+          "contest": "HopRoverContest-v0"}
+AGENTS = {
+    "level": ["mpc", "scratch", "hop", "bundled", "scripted", "random"],
+    "terrain": ["mpc", "terrain", "scripted", "scratch", "random"],
+    "contest": ["mpc", "scratch", "hop", "bundled", "scripted", "random"],
+}
+# what each agent knows beyond the observation
+PRIVILEGE = {
+    "reference": "clairvoyant search: the simulator as model, and on rough ground the "
+                 "episode's own bumps",
+    "mpc": "the simulator as its model and the exact state (not the bumps)",
+    "scripted": "the simulator as its look-ahead and the exact state (plans on the mean "
+                "plane)",
+    "scratch": "observation only (learned)", "hop": "observation only (learned)",
+    "bundled": "observation only (learned, cloned from the scripted hopper)",
+    "terrain": "observation only (learned)", "random": "nothing",
+}
+START, END = "<!-- leaderboard start -->", "<!-- leaderboard end -->"
+
+
+def load_agent(name: str):
+    if name == "mpc":
+        from hoprover_env.mpc import MPCPolicy
+        return MPCPolicy()
+    from agents.policies import load_policy
+    return load_policy(name, control_dt=suites.CONTROL_DT)
+
+
+def evaluate(suite_names, agent_names=None) -> dict:
+    out = {}
+    for name in suite_names:
+        suite = suites.load(SUITES[name])
+        rows = {}
+        for agent in agent_names or AGENTS[name]:
+            t0 = time.perf_counter()
+            episodes = suites.run(load_agent(agent), suite)
+            wall = time.perf_counter() - t0
+            rows[agent] = {"wall_s": wall, "episodes": episodes}
+            ok = np.mean([e["success"] for e in episodes])
+            print(f"[{name}] {agent}: {len(episodes)} episodes in {wall:.0f} s, success "
+                  f"{ok:.1%}", flush=True)
+        out[name] = {"suite": f"{suite.name}-v{suite.version}", "checksum": suite.checksum,
+                     "agents": rows}
+    return out
+
+
+def tables(results: dict) -> str:
+    parts = []
+    for name, res in results.items():
+        summaries = [summarize(agent, [e["score"] for e in r["episodes"]])
+                     for agent, r in res["agents"].items()]
+        n = len(next(iter(res["agents"].values()))["episodes"])
+        parts.append(f"**{res['suite']}** ({SUITES[name]}"
+                     f"{', HopRoverHop-v0' if name == 'level' else ''}; {n} episodes, "
+                     f"checksum `{res['checksum'][:12]}`):\n\n" + format_table(summaries))
+    return "\n\n".join(parts)
+
+
+def privilege_table() -> str:
+    lines = ["| agent | what it knows |", "|---|---|"]
+    lines += [f"| {k} | {v} |" for k, v in PRIVILEGE.items()]
+    return "\n".join(lines)
+
+
+def splice(path: Path, text: str) -> None:
+    src = path.read_text()
+    if START not in src or END not in src:
+        raise ValueError(f"{path} has no leaderboard markers {START} ... {END}")
+    head, rest = src.split(START, 1)
+    _, tail = rest.split(END, 1)
+    atomic_write(str(path), f"{head}{START}\n\n{text}\n\n{END}{tail}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--suite", nargs="+", default=list(SUITES), choices=list(SUITES))
+    ap.add_argument("--agents", nargs="+", default=None, help="default: every bundled agent")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "leaderboard.json"))
+    ap.add_argument("--no-write", action="store_true", help="print the tables only")
+    args = ap.parse_args(argv)
+    results = evaluate(args.suite, args.agents)
+    md = tables(results)
+    print(md)
+    if args.no_write:
+        return 0
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(args.out, json.dumps(results, indent=1, default=float))
+    stamp = (f"Command: `python -m agents.leaderboard` ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}). "
+             "Score = reference TTRTP / TTRTP (0 for a failure), regret = TTRTP / reference; "
+             "intervals: 95 % bootstrap over the episodes (rliable). The references are "
+             "best-known plans, not optima.")
+    page = ROOT / "docs" / "leaderboard.md"
+    atomic_write(str(page), "# Leaderboard\n\nEvery bundled agent on every frozen test suite "
+                 "(`hoprover_env.suites`), scored against the suites' best-known references."
+                 f"\n\n{md}\n\n## What each agent knows\n\n{privilege_table()}\n\n{stamp}\n")
+    splice(ROOT / "README.md", f"{md}\n\n{stamp}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
