@@ -24,7 +24,11 @@ randomize      relative half-ranges {field: r} as in the environments: run i's p
 seed           an integer in [0, 2^64) or None: seeds `randomize` and keys the
                rough-terrain draws, run i with rover index i (so run i equals
                simulate(..., seed=seed, rover=i) whatever the threads or batch size); on
-               rough ground None becomes a fresh seed, recorded in BatchRollout.seed
+               rough ground None becomes a fresh seed, recorded in BatchRollout.seed.
+               Or one seed per run, an integer array (N,): run i is keyed (seeds[i],
+               rover 0), so it equals simulate(..., seed=seeds[i]) at any position of any
+               batch (`randomize` then draws from default_rng(seeds))
+               Every run's Rollout records what replays it: simulate(**b.rollout(i).replay_args)
 initial_states None (upright rest), one (x, y, theta, vx, vy, omega), or (N, 6)
 controller_args (N, M) per-run parameters for a compiled controller: run i calls it with
                posT = (x_T, 0, controller_args[i, 0], ...) (the contest's posT[:2] first)
@@ -72,8 +76,9 @@ class BatchRollout(SampledStates):
     event_log: np.ndarray        # (N, L, 5): t, kind, mode before, mode after, value
     n_logged: np.ndarray         # (N,) rows of event_log used per run
     _run: dict = dataclasses.field(repr=False, default_factory=dict)
-    seed: int | None = None      # key of the rough-terrain draws, run i rover index i
-    #                              (None: smooth ground)
+    seed: int | np.ndarray | None = None   # key of the rough-terrain draws: one seed, run
+    #                    i with rover index i; or (N,) seeds, each run rover 0 (None: smooth)
+    rovers: np.ndarray | None = None       # (N,) rover index of each run's key
 
     @property
     def success(self) -> np.ndarray:
@@ -90,16 +95,24 @@ class BatchRollout(SampledStates):
             raise IndexError(f"run index {i!r} out of range for {n} runs")
         i = int(i) % n
         r = self._run
+        # on smooth ground nothing is drawn: no seed, and the rover index keys nothing
+        rough = self.params[i].roughness > 0.0
+        seed = r["seeds"][i] if rough else None
+        rover = int(r["rovers"][i]) if rough else 0
+        replay = dict(controller=r["schedules"][i].copy() if r["controller"] is None
+                      else r["controller"], **r["kwargs"], target_x=float(self.targets[i]),
+                      params=self.params[i],
+                      initial_state=None if r["initial"][i] is None
+                      else tuple(map(float, r["initial"][i])),
+                      seed=seed, rover=rover,
+                      controller_args=r["cargs"][i].copy() if r["cargs"].shape[1] else None)
         if not r["record"]:
-            return simulate(r["schedules"][i] if r["controller"] is None else r["controller"],
-                            **r["kwargs"], target_x=float(self.targets[i]),
-                            params=self.params[i], initial_state=r["initial"][i],
-                            seed=self.seed, rover=i)
+            return simulate(**replay)
         buf = r["buffers"]
         roll = rollout.build_rollout(buf.rows[i], buf.cmds[i], buf.applied[i], buf.log[i],
                                      buf.prog[i], r["S"][i], self.params[i],
                                      self.targets[i])
-        roll.seed = self.seed if self.params[i].roughness > 0.0 else None
+        roll.seed, roll.rover, roll.replay_args = seed, rover, replay
         return roll
 
 
@@ -209,17 +222,26 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
             raise ValueError(f"run {bad[0][0]}: controller_args element {bad[0][1]} is not "
                              "finite")
 
-    seed = check_seed(seed)
-    plist = _run_params(params, randomize, seed, n)
+    per_run = isinstance(seed, (np.ndarray, list, tuple))
+    if per_run:
+        seeds = _per_run_seeds(seed, n)
+        plist = _run_params(params, randomize, seeds, n)
+        rovers = np.zeros(n, dtype=np.int64)
+    else:
+        seed = check_seed(seed)
+        plist = _run_params(params, randomize, seed, n)
+        seed = check_seed(seed, any(p.roughness > 0.0 for p in plist))
+        seeds = [seed] * n
+        rovers = np.arange(n, dtype=np.int64)
     rough = any(p.roughness > 0.0 for p in plist)
-    seed = check_seed(seed, rough)
     initial = _per_run_rows("initial_states", initial_states, n, 6)
     opts = make_options(integrator, impact_law, rtol, euler_dt)
     S = np.zeros((n, core.N_STATE))
     P = np.zeros((n, len(plist[0].as_array())))
     for i in range(n):
         try:
-            S[i] = make_state(plist[i], float(targets[i]), initial[i], seed, i)
+            S[i] = make_state(plist[i], float(targets[i]), initial[i], seeds[i],
+                              int(rovers[i]))
         except ValueError as err:
             raise ValueError(f"run {i}: {err}") from None
         P[i] = plist[i].as_array()
@@ -260,12 +282,29 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         buf.grow_log()
     result = _result(buf, S, targets, plist, record, dict(
         record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
-        schedules=None if use_ctrl else sched, initial=initial,
+        schedules=None if use_ctrl else sched, initial=initial, cargs=cargs,
+        seeds=seeds, rovers=rovers,
         kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
                     impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
                     sample_dt=sample_dt)))
-    result.seed = seed if rough else None
+    result.seed = (np.array(seeds, dtype=np.uint64) if per_run else seed) if rough else None
+    result.rovers = rovers
     return result
+
+
+def _per_run_seeds(seed, n) -> list:
+    """One seed per run, each an integer in [0, 2^64), as Python ints."""
+    a = np.asarray(seed)
+    if a.shape != (n,) or a.dtype.kind not in "iuO":
+        raise ValueError(f"seed must be None, one integer, or an integer array of shape "
+                         f"({n},) (one per run), got {a.dtype} array of shape {a.shape}")
+    out = []
+    for i, v in enumerate(a.tolist()):
+        try:
+            out.append(check_seed(v))
+        except ValueError as err:
+            raise ValueError(f"run {i}: {err}") from None
+    return out
 
 
 _PAD_LETTERS = np.array(list(core.MODE_LETTERS) + [""])

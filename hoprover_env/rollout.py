@@ -378,6 +378,9 @@ class Rollout(SampledStates):
     n_events: int
     min_corner_height: float     # lowest bottom-corner height after any event or interval
     seed: int | None = None      # key of the rough-terrain draws (None: smooth ground)
+    rover: int = 0               # the run's rover index, the other half of that key
+    # what replays this run: simulate(**rollout.replay_args) gives it again, bit for bit
+    replay_args: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
     @property
     def success(self) -> bool:
@@ -444,7 +447,7 @@ def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
 
 
 def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, target_x,
-                params):
+                params, controller_args=None):
     """`simulate`'s run: a torque schedule (1-D float64, checked finite), a compiled
     controller, or a Python controller (called here at every control instant with the
     contest's arguments), through the one compiled loop. Returns the `Rollout`."""
@@ -458,8 +461,8 @@ def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, t
     sched = np.zeros(0) if schedule is None else np.ascontiguousarray(schedule, np.float64)
     buf = Buffers(1, n_ctrl * sub + 1, 256)
     prog = buf.prog[0]
-    evbuf, w, backup, cbuf = scratch(1, 0)
-    no_args = np.zeros(0)
+    no_args = np.zeros(0) if controller_args is None else controller_args
+    evbuf, w, backup, cbuf = scratch(1, len(no_args))
     pos_t = np.array([float(target_x), 0.0])
     while True:
         run(S, P, O, sched, ctrl, source, no_args, float(control_dt), float(t_end), n_ctrl,

@@ -26,8 +26,9 @@ import numpy as np
 
 from . import _compile, core
 from .params import MAX_MAGNITUDE, RoverParams
-from .rollout import Rollout, budget_error, run_rollout
-from .validate import check_rover, check_seed, check_torque, finite_real, positive_real
+from .rollout import Rollout, budget_error, is_compiled, run_rollout
+from .validate import (check_rover, check_seed, check_torque, finite_real, positive_real,
+                       real_array)
 
 __all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "control_grid",
            "DEFAULT_RTOL"]
@@ -215,7 +216,8 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
              control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
              impact_law: str = "contest", params: RoverParams | None = None,
              initial_state=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
-             sample_dt: float | None = None, seed=None, rover: int = 0) -> Rollout:
+             sample_dt: float | None = None, seed=None, rover: int = 0,
+             controller_args=None) -> Rollout:
     """Simulate one run to `t_end` (or until the rover breaks).
 
     Parameters mirror the contest: `control_dt` is the control period, `target_x` the
@@ -225,7 +227,10 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     adds samples between control instants (for plots); the physics is unchanged.
     `seed` (and `rover`, the run's index in a batch) key the rough-terrain draws; on
     rough ground without a seed one is drawn from fresh entropy and `Rollout.seed` says
-    which. Times in s, torques in N m, lengths in m.
+    which. `controller_args` (1-D) are appended to a compiled controller's posT, as
+    `simulate_batch(..., controller_args=)` does for one run. Times in s, torques in N m,
+    lengths in m. `Rollout.replay_args` holds these arguments (seed and rover included):
+    `simulate(**roll.replay_args)` replays the run bit for bit.
 
     Returns the `Rollout`. Raises ValueError for a bad argument (named), a non-finite
     torque from the controller, a grid too large for one call or an initial state no
@@ -260,12 +265,28 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
         if bad.size:
             raise ValueError(f"torque schedule element {bad[0]} is {float(schedule[bad[0]])!r}; "
                              "torques must be finite")
+    if controller_args is not None:
+        if not is_compiled(controller):
+            raise ValueError("controller_args are passed to a numba-compiled controller; "
+                             "a schedule or a Python controller takes none")
+        controller_args = real_array("controller_args", controller_args)
+        if controller_args.ndim != 1 or not np.all(np.isfinite(controller_args)):
+            raise ValueError(f"controller_args must be a 1-D array of finite numbers, got "
+                             f"shape {controller_args.shape}")
     n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
     if integrator == "euler" and t_end / euler_dt > MAX_EULER_STEPS:
         raise ValueError(f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
                          f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
                          "or the event integrator")
     roll = run_rollout(s, sim.p, sim.o, schedule, controller, control_dt, t_end, n_ctrl, sub,
-                       target_x, params)
+                       target_x, params, controller_args)
     roll.seed = sim.seed
+    roll.rover = int(rover)
+    roll.replay_args = dict(
+        controller=controller if schedule is None else schedule.copy(), t_end=t_end,
+        control_dt=control_dt, target_x=target_x, integrator=integrator,
+        impact_law=impact_law, params=params,
+        initial_state=None if initial_state is None else tuple(map(float, initial_state)),
+        euler_dt=euler_dt, rtol=rtol, sample_dt=sample_dt, seed=sim.seed, rover=int(rover),
+        controller_args=None if controller_args is None else controller_args.copy())
     return roll
