@@ -7,9 +7,15 @@
     python evaluate.py --episodes 100000 --batch 1000 --ray   # episodes as Ray tasks
     python evaluate.py --policy terrain --policy scripted --env HopRoverTerrain-v0
     python evaluate.py --slope 0.2 --roughness 0.1       # every policy on one incline
+    python evaluate.py --suite --policy mpc --policy scratch          # the frozen test suite
+    python evaluate.py --suite --env HopRoverTerrain-v0 --policy terrain --json t.json
 
 Prints one table (success rate, median and 90th-percentile TTRTP, broken count, mean
-wall time per episode) with one row per policy, all on the same targets. --json/--csv
+wall time per episode) with one row per policy, all on the same targets. With --suite,
+the episodes are the frozen test suite of --env (hoprover_env/suites.py) and a second
+table scores each policy against the suite's best-known references: success, median
+regret and mean and IQM normalised score with 95 % bootstrap intervals (rliable); the
+per-episode rows gain reference_ttrtp, regret and score. --json/--csv
 write the per-episode results atomically; --plot writes the contest sample's nine
 trajectory figures and --video an animation of one episode of the first policy.
 """
@@ -85,6 +91,9 @@ def parse_args(argv=None):
                     help="one ground slope [rad] for every episode and policy")
     ap.add_argument("--roughness", type=float, default=None,
                     help="rough-terrain bounces [rad] for every episode and policy")
+    ap.add_argument("--suite", nargs="?", type=int, const=0, default=None, metavar="VERSION",
+                    help="evaluate on the frozen test suite of --env (default HopRover-v0; "
+                         "the newest version, or VERSION) and score against its references")
     ap.add_argument("--batch", type=int, default=256,
                     help="episodes run side by side in one vector env (default 256)")
     ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
@@ -158,7 +167,20 @@ def _main(argv=None) -> int:
         args = parse_args(argv)
     except SystemExit as exc:      # argparse has printed its one-line error (or --help)
         return exc.code if isinstance(exc.code, int) else 2
-    if args.targets is not None:
+    suite = None
+    if args.suite is not None:
+        if args.targets is not None or args.slope is not None or args.roughness is not None:
+            print("error: --suite fixes the episodes; drop --targets/--slope/--roughness",
+                  file=sys.stderr)
+            return 2
+        from hoprover_env import suites
+        try:
+            suite = suites.load(args.env or "HopRover-v0", args.suite or None)
+        except ValueError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+        targets = suite.targets
+    elif args.targets is not None:
         targets = args.targets
     else:
         targets = seeded_targets(args.episodes, args.seed, *args.target_range)
@@ -170,7 +192,7 @@ def _main(argv=None) -> int:
     except (FileNotFoundError, ValueError, AttributeError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    ground = terrain_conditions(args, len(targets))
+    ground = suite.terrain() if suite else terrain_conditions(args, len(targets))
     if args.env is not None:
         for pol in policies:              # controllers act in the task asked for
             if not hasattr(pol, "env_id"):
@@ -182,7 +204,7 @@ def _main(argv=None) -> int:
             pol.name = spec.rstrip("/\\")
 
     rows, all_results = [], []
-    if args.ray is not None and ground:
+    if args.ray is not None and (ground or suite):
         print("error: --ray evaluates on the contest's flat ground; run --env/--slope/"
               "--roughness locally", file=sys.stderr)
         return 2
@@ -225,27 +247,38 @@ def _main(argv=None) -> int:
         if bar:
             bar.close()
         rows.append((pol.name, summarize(results)))
-        all_results.extend(results)
+        all_results.extend(suites.judged(results, suite) if suite else results)
         print(f"  {pol.name}: {len(results)} episodes in {time.perf_counter() - t0:.1f} s",
               file=sys.stderr)
     where = "" if not ground else (
         f"; slope {args.slope} rad" if args.slope is not None else
         f"; slopes U{TERRAIN_SLOPES} rad" if "slope" in ground else "") + (
         f", roughness {ground['roughness'][0]} rad" if "roughness" in ground else "")
-    print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}"
-          f"{where}); TTRTP over the successful episodes\n")
+    if suite:
+        print(f"\nthe {suite.name}-v{suite.version} suite of {args.env or 'HopRover-v0'} "
+              f"({len(suite)} episodes, checksum {suite.checksum[:12]}); TTRTP over the "
+              "successful episodes\n")
+    else:
+        print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}"
+              f"{where}); TTRTP over the successful episodes\n")
     print(format_table(rows))
+    if suite:
+        from hoprover_env.scores import format_table as score_table, summarize as score
+        print("\nagainst the best-known references (score = reference / TTRTP, 0 on "
+              "failure; 95 % bootstrap intervals over the episodes):\n")
+        print(score_table([score(name, [r["score"] for r in all_results
+                                        if r["policy"] == name]) for name, _ in rows]))
 
     if args.json:
-        write_json(args.json, {"summary": dict(rows),
-                               "episodes": [r.as_dict() for r in all_results]})
+        write_json(args.json, {"summary": dict(rows), "episodes": [
+            r if isinstance(r, dict) else r.as_dict() for r in all_results]})
     if args.csv:
         buf = io.StringIO()
-        fields = list(all_results[0].as_dict())
-        w = csv.DictWriter(buf, fieldnames=fields)
+        dicts = [r if isinstance(r, dict) else r.as_dict() for r in all_results]
+        w = csv.DictWriter(buf, fieldnames=list(dicts[0]))
         w.writeheader()
-        for r in all_results:
-            w.writerow(r.as_dict())
+        for r in dicts:
+            w.writerow(r)
         atomic_write(args.csv, buf.getvalue())
     if args.plot or args.video:
         from agents.replay import record_episode

@@ -62,10 +62,16 @@ def evaluate(suite_names, agent_names=None) -> dict:
         suite = suites.load(SUITES[name])
         rows = {}
         for agent in agent_names or AGENTS[name]:
+            policy = load_agent(agent)
             t0 = time.perf_counter()
-            episodes = suites.run(load_agent(agent), suite)
+            episodes = suites.run(policy, suite)
             wall = time.perf_counter() - t0
             rows[agent] = {"wall_s": wall, "episodes": episodes}
+            if hasattr(policy, "decisions"):      # a planner: what its decisions cost
+                rows[agent].update(decisions=policy.decisions,
+                                   planning_s=policy.planning_seconds,
+                                   ms_per_decision=1e3 * policy.planning_seconds
+                                   / max(policy.decisions, 1))
             ok = np.mean([e["success"] for e in episodes])
             print(f"[{name}] {agent}: {len(episodes)} episodes in {wall:.0f} s, success "
                   f"{ok:.1%}", flush=True)

@@ -41,7 +41,6 @@ class MPCPolicy:
     made) and `planning_seconds` (wall time spent searching).
     """
 
-    env_id = "HopRover-v0"
 
     def __init__(self, budget: int = DEFAULT_BUDGET, rough_budget: int = DEFAULT_ROUGH_BUDGET,
                  terrain_samples: int = DEFAULT_TERRAIN_SAMPLES, seed: int = 0,

@@ -258,23 +258,30 @@ def _read(path: Path, name: str, version: int) -> Suite:
 
 def run(policy, suite: Suite, batch: int = 256, progress=None) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
-    contest judge: one dict per episode, the judged episode's fields (policy, episode,
-    target_x, success, ttrtp, broken, ...) plus the episode's ground, `reference_ttrtp`,
-    `regret` (ttrtp / reference, inf on failure) and `score` (reference / ttrtp, 0 on
-    failure)."""
+    contest judge: `judged` rows (one dict per episode)."""
     from agents.evaluation import run_episodes
-    from .scores import episode_regrets, episode_scores
     results = run_episodes(policy, suite.targets, env_kwargs={"episode_time": EPISODE_TIME},
                            batch=batch, progress=progress, terrain=suite.terrain())
+    return judged(results, suite)
+
+
+def judged(results, suite: Suite) -> list[dict]:
+    """Judged episodes (objects with `as_dict()`, `success` and `ttrtp`, one per episode
+    of `suite`, in order) as dicts with the episode's ground, `reference_ttrtp`,
+    `regret` (ttrtp / reference, inf on failure) and `score` (reference / ttrtp, 0 on
+    failure) added."""
+    from .scores import episode_regrets, episode_scores
+    if len(results) != len(suite):
+        raise ValueError(f"{len(results)} results for the {len(suite)} episodes of "
+                         f"{suite.name}-v{suite.version}")
     ttrtp = [r.ttrtp if r.success else None for r in results]
-    ref = suite.reference_ttrtp
-    scores = episode_scores(ttrtp, ref)
-    regrets = episode_regrets(ttrtp, ref)
+    scores = episode_scores(ttrtp, suite.reference_ttrtp)
+    regrets = episode_regrets(ttrtp, suite.reference_ttrtp)
     out = []
-    for r, ep, s, g in zip(results, suite.episodes, scores, regrets):
+    for r, ep, sc, g in zip(results, suite.episodes, scores, regrets):
         row = r.as_dict()
         row.update(suite=f"{suite.name}-v{suite.version}", slope=ep.slope,
                    roughness=ep.roughness, terrain_seed=ep.terrain_seed,
-                   reference_ttrtp=ep.reference_ttrtp, regret=float(g), score=float(s))
+                   reference_ttrtp=ep.reference_ttrtp, regret=float(g), score=float(sc))
         out.append(row)
     return out

@@ -74,3 +74,28 @@ def test_a_modified_file_fails_its_checksum(tmp_path):
         suites._read(bad, "contest", 1)
     shutil.copy(src, tmp_path / "ok.npz")
     assert suites._read(tmp_path / "ok.npz", "contest", 1).checksum
+
+
+def test_evaluate_suite_prints_scores_and_writes_the_fields(tmp_path, capsys):
+    import json
+    import evaluate
+    out = tmp_path / "rows.json"
+    assert evaluate.main(["--suite", "--env", "HopRoverContest-v0", "--policy", "scripted",
+                          "--no-progress", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "contest-v1 suite" in text and "median regret" in text and "IQM score" in text
+    row = json.loads(out.read_text())["episodes"][0]
+    ref = suites.load("HopRoverContest-v0")[0].reference_ttrtp
+    assert row["reference_ttrtp"] == ref
+    assert row["regret"] == row["ttrtp"] / ref and row["score"] == ref / row["ttrtp"]
+    assert row["ttrtp"] >= ref                      # the reference beats the scripted hopper
+
+
+def test_evaluate_suite_bad_input(capsys):
+    import evaluate
+    assert evaluate.main(["--suite", "7", "--policy", "scripted"]) == 2
+    assert "unknown version 7" in capsys.readouterr().err
+    assert evaluate.main(["--suite", "--policy", "no-such-agent"]) == 2
+    assert "unknown policy 'no-such-agent'" in capsys.readouterr().err
+    assert evaluate.main(["--suite", "--targets", "0.5"]) == 2
+    assert "--suite fixes the episodes" in capsys.readouterr().err
