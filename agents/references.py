@@ -99,7 +99,7 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
     """An agent's applied torque per 0.5 s interval on each episode, recorded in the
     vector env (an agent acting every 2 s holds its torque over four intervals)."""
     from gymnasium.vector import AutoresetMode
-    from hoprover_env import core, vector_env_class
+    from hoprover_env import vector_env_class
     if name == "mpc":
         from hoprover_env.mpc import MPCPolicy
         policy = MPCPolicy()
@@ -111,18 +111,27 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
     kwargs = {**getattr(policy, "env_kwargs", {}), "episode_time": T_END}
     n = len(cols["target_x"])
     venv = vector_env_class(env_id)(n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    cfg = venv.config
+    if getattr(cfg, "action_map", "linear") != "linear" or getattr(cfg, "action_scale", 1.0) != 1.0:
+        raise ValueError(f"{name}: only the linear action map is recorded")
     ground = {"slope": np.asarray(cols["slope"]), "roughness": np.asarray(cols["roughness"])}
     if seeds_of(cols) is not None:
         ground["terrain_seed"] = np.asarray(cols["terrain_seed"])
     obs, _ = venv.reset(seed=0, options={"target_x": np.asarray(cols["target_x"]), **ground})
     policy.reset(n)
-    reps = int(round(venv.config.control_dt / CONTROL_DT))
+    reps = int(round(cfg.control_dt / CONTROL_DT))
     torques = [[] for _ in range(n)]
     done = np.zeros(n, dtype=bool)
     while not done.all():
-        obs, _, term, trunc, _ = venv.step(policy.act(obs, venv))
+        action = np.asarray(policy.act(obs, venv), dtype=np.float64).reshape(n)
+        # the env's linear map (tasks/torque.py action_to_torque), the same arithmetic;
+        # read from the action because a sub-env that ends in this step is reset in it
         for i in np.flatnonzero(~done):
-            torques[i].extend([float(venv.S[i][core.S_TORQUE])] * reps)
+            p = venv.params[i]
+            a = min(max(float(action[i]), -1.0), 1.0)
+            torques[i].extend([p.torque_min + 0.5 * (a + 1.0) * (p.torque_max - p.torque_min)]
+                              * reps)
+        obs, _, term, trunc, _ = venv.step(action.reshape(n, 1))
         done |= term | trunc
     venv.close()
     return [np.array(t) for t in torques]
@@ -170,7 +179,6 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
         sources = [e.reference_source for e in old]
         budget, wall, evals = old.meta["budget"], old.meta["search_s"], old.meta["candidates"]
         agents_before = list(old.meta.get("agents", []))
-        agents = [a for a in agents if a not in agents_before]
     else:
         scheds, best, wall, evals = search_references(name, problems, cols, budget, check,
                                                       entry)
@@ -196,7 +204,7 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     if not np.array_equal(final, best):
         raise RuntimeError(f"[{name}] trimmed schedules do not replay their TTRTP")
     cols["reference_ttrtp"] = final
-    meta = {"budget": budget, "agents": agents_before + agents, "search_s": wall,
+    meta = {"budget": budget, "agents": sorted(set(agents_before + agents)), "search_s": wall,
             "candidates": evals, "created": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "env_ids": sorted(k for k, v in suites.SUITE_OF.items() if v == name)}
     path = suites.save(name, version, cols, scheds, sources, meta)
