@@ -187,7 +187,9 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
                    options: Mapping[str, Any] | None = None):
     """Target, parameters and rough-terrain seed of a new episode, and its initial kernel
     state and parameter vectors: (target, params, S, P, terrain_seed). `options` may fix
-    'target_x', 'initial_state', 'slope' [rad] and 'roughness' [rad].
+    'target_x', 'initial_state', 'slope' [rad], 'roughness' [rad] and 'terrain_seed' (an
+    integer in [0, 2^63): the seed of the bumps, to replay an episode such as a frozen
+    test suite's; ignored on smooth ground).
 
     The draws come from `rng` in a fixed order whatever the options say (target, the
     randomised parameters, the slope of a terrain task), so seeded streams stay aligned;
@@ -213,11 +215,18 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
     else:
         target = cfg.target_x if cfg.target_x is not None else drawn
     seed = int(rng.integers(2**63)) if params.roughness > 0.0 else None
+    if seed is not None and "terrain_seed" in options:     # drawn all the same: aligned
+        seed = options["terrain_seed"]
+        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
+                or not 0 <= int(seed) < 2**63:
+            raise ValueError(f"options['terrain_seed'] must be an integer in [0, 2**63), got "
+                             f"{seed!r}")
+        seed = int(seed)
     state = make_state(params, target, options.get("initial_state"), seed=seed)
     return target, params, state, params.as_array(), seed
 
 
-RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness")
+RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness", "terrain_seed")
 
 
 @dataclasses.dataclass(frozen=True)

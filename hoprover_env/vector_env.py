@@ -28,7 +28,7 @@ from gymnasium.vector.utils import batch_space
 
 from . import _compile, core, reward
 from .env import NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_actions
-from .env_config import EnvConfig, sample_episode
+from .env_config import RESET_OPTIONS, EnvConfig, sample_episode
 from .params import N_PARAMS, P_SLOPE
 from .tasks import torque
 
@@ -122,8 +122,9 @@ class HopRoverVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
-        (sub-env i gets seed + i) or one per sub-env; options "target_x", "slope" and
-        "roughness" take a value or one per sub-env. Returns (observations, infos)."""
+        (sub-env i gets seed + i) or one per sub-env; the options of
+        env_config.RESET_OPTIONS ("target_x", "initial_state", "slope", "roughness",
+        "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
         if seed is None:
@@ -139,16 +140,26 @@ class HopRoverVectorEnv(VectorEnv):
         if mask.shape != (n,):
             raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
         per_env = {}
-        for key in ("target_x", "slope", "roughness"):     # a value, or one per sub-env
-            if key in options:
-                per_env[key] = np.broadcast_to(np.asarray(options.pop(key), float), (n,))
+        for key in RESET_OPTIONS:           # a value, or one per sub-env
+            if key not in options:
+                continue
+            value = np.asarray(options.pop(key))
+            width = (6,) if key == "initial_state" else ()
+            if value.shape not in (width, (n, *width)):
+                raise ValueError(f"options[{key!r}] must have shape {width or '()'} or "
+                                 f"{(n, *width)} (one per sub-env), got {value.shape}")
+            if key == "terrain_seed" and value.dtype.kind not in "iu":
+                raise ValueError(f"options['terrain_seed'] must be integers, got {value.dtype}")
+            per_env[key] = np.broadcast_to(value, (n, *width))
         if options:
             raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
-                             "['reset_mask', 'roughness', 'slope', 'target_x']")
+                             f"{sorted(('reset_mask',) + RESET_OPTIONS)}")
         for i in np.flatnonzero(mask):
             if seeds[i] is not None or self._rngs[i] is None:
                 self._rngs[i], _ = seeding.np_random(seeds[i])
-            opt = {k: float(v[i]) for k, v in per_env.items()}
+            opt = {k: (v[i] if k == "initial_state" else
+                       int(v[i]) if k == "terrain_seed" else float(v[i]))
+                   for k, v in per_env.items()}
             self._reset_one(i, opt)
         self._autoreset[mask] = False
         self._ready = True

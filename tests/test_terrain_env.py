@@ -133,3 +133,49 @@ def test_bad_terrain_input_is_refused_by_name():
         env.reset(seed=0, options={"tilt": 0.1})
     with pytest.raises(ValueError, match="slope"):
         gym.make("HopRover-v0", params={"slope": 0.6})
+
+
+def test_reset_option_terrain_seed_replays_an_episode_in_simulate_and_the_vector_env():
+    """reset(options={"terrain_seed": k}) fixes the bumps: the episode equals simulate(...,
+    seed=k) under the same torques, and sub-env 0 of a vector env given the same option;
+    the env's own draws stay aligned (the next episode is the one it always was)."""
+    from hoprover_env import RoverParams, simulate
+    from hoprover_env.terrain_env import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
+    opts = {"target_x": 0.4, "slope": 0.1, "roughness": 0.1, "terrain_seed": 12345}
+    env = HopRoverTerrainEnv()
+    _, info = env.reset(seed=3, options=opts)
+    assert info["terrain_seed"] == 12345
+    acts = np.random.default_rng(0).uniform(-1, 1, 120)
+    for a in acts:
+        env.step(np.array([a]))
+    p = RoverParams(slope=0.1, roughness=0.1)
+    torques = [p.torque_min + 0.5 * (a + 1) * (p.torque_max - p.torque_min) for a in acts]
+    roll = simulate(torques, t_end=60.0, control_dt=0.5, target_x=0.4, params=p, seed=12345)
+    assert roll.x[-1] == env.unwrapped._s[0] and roll.theta[-1] == env.unwrapped._s[2]
+    venv = HopRoverTerrainVectorEnv(2)
+    _, vinfo = venv.reset(seed=0, options={**opts, "terrain_seed": np.array([12345, 9])})
+    assert list(vinfo["terrain_seed"]) == [12345, 9]
+    for a in acts:
+        venv.step(np.full((2, 1), a))
+    assert venv.S[0][0] == env.unwrapped._s[0]
+    # the option does not move the env's own stream: the next draws are unchanged
+    a, b = HopRoverTerrainEnv(), HopRoverTerrainEnv()
+    a.reset(seed=5, options={"terrain_seed": 1})
+    b.reset(seed=5)
+    assert a.reset()[1]["terrain_seed"] == b.reset()[1]["terrain_seed"]
+
+
+def test_bad_terrain_seed_and_initial_state_options_are_named():
+    from hoprover_env.terrain_env import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
+    with pytest.raises(ValueError, match="terrain_seed"):
+        HopRoverTerrainEnv().reset(options={"terrain_seed": -1})
+    venv = HopRoverTerrainVectorEnv(2)
+    with pytest.raises(ValueError, match="terrain_seed.*integers"):
+        venv.reset(options={"terrain_seed": 1.5})
+    with pytest.raises(ValueError, match="initial_state"):
+        venv.reset(options={"initial_state": [0.0, 0.05]})
+    # initial_state is honoured per sub-env, not ignored
+    obs, _ = venv.reset(options={"initial_state": [[0.3, 0.05, 0, 0, 0, 0],
+                                                   [-0.2, 0.05, 0, 0, 0, 0]],
+                                 "slope": 0.0})
+    assert venv.S[0][0] == 0.3 and venv.S[1][0] == -0.2
