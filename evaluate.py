@@ -33,10 +33,12 @@ import numpy as np
 from agents.evaluation import run_episodes, seeded_targets, summarize
 from agents.files import atomic_write, write_json
 from agents.policies import load_controller, load_policy
-from hoprover_env import ENVS
+from hoprover_env import ENVS, config_class
+from hoprover_env.env_config import TerrainEnvConfig
 
-TERRAIN_SLOPES = (-0.2, 0.2)     # HopRoverTerrain-v0's default slope_range [rad]
-TERRAIN_ROUGHNESS = 0.05         # and roughness [rad]
+# the ground a terrain task draws by default: its config's slope range and roughness [rad]
+TERRAIN_SLOPES = TerrainEnvConfig.slope_range
+TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
 
 
 def terrain_conditions(args, n: int) -> dict:
@@ -45,7 +47,7 @@ def terrain_conditions(args, n: int) -> dict:
     on their own stream, so the targets are those of the flat evaluation), and the
     roughness (--roughness, or the terrain task's default)."""
     ground = {}
-    terrain = args.env == "HopRoverTerrain-v0"
+    terrain = args.env is not None and issubclass(config_class(args.env), TerrainEnvConfig)
     if args.slope is not None:
         ground["slope"] = np.full(n, args.slope)
     elif terrain:

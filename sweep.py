@@ -105,14 +105,13 @@ def section_keys(cfg: dict, section: str) -> set:
     import dataclasses
     import inspect
     from agents.sb3_agents import POLICY_KEYS, algo_class
-    from hoprover_env.env_config import EnvConfig, HopEnvConfig
     if section == "hyperparams":
         return set(inspect.signature(algo_class(cfg["algo"]).__init__).parameters) - {
             "self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
             "_init_setup_model"}
     if section == "env":
-        cls = HopEnvConfig if cfg["env_id"] == "HopRoverHop-v0" else EnvConfig
-        return {f.name for f in dataclasses.fields(cls)}
+        from hoprover_env import config_class
+        return {f.name for f in dataclasses.fields(config_class(cfg["env_id"]))}
     return set(POLICY_KEYS)
 
 

@@ -27,8 +27,7 @@ from hoprover_env import suites
 from hoprover_env.scores import format_table, summarize
 
 ROOT = Path(__file__).resolve().parent.parent
-SUITES = {"level": "HopRover-v0", "terrain": "HopRoverTerrain-v0",
-          "contest": "HopRoverContest-v0"}
+SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}
 AGENTS = {
     "level": ["mpc", "scratch", "hop", "bundled", "scripted", "random"],
     "terrain": ["mpc", "terrain", "scripted", "scratch", "random"],

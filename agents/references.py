@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+import hoprover_env
 from hoprover_env import RoverParams, simulate, simulate_batch, suites
 from hoprover_env.planning import CONTROL_DT, Problem, plan_controller, search
 
@@ -106,7 +107,7 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
     else:
         from agents.policies import load_policy
         policy = load_policy(name, control_dt=CONTROL_DT)
-    if getattr(policy, "env_id", "HopRover-v0") == "HopRoverHop-v0":
+    if hoprover_env.task(getattr(policy, "env_id", "HopRover-v0")).hops:
         raise ValueError(f"{name}: a hop-level agent's torques are not seen step by step")
     kwargs = {**getattr(policy, "env_kwargs", {}), "episode_time": T_END}
     n = len(cols["target_x"])
@@ -169,8 +170,7 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     compete, trim, verify by replay and save the suite."""
     cols = suites.draw_episodes(name)
     problems = problems_of(cols)
-    env_id = {"level": "HopRover-v0", "terrain": "HopRoverTerrain-v0",
-              "contest": "HopRoverContest-v0"}[name]
+    env_id = suites.TASK_OF[name]
     entry = report.setdefault(name, {})
     if stored:
         old = suites._read(suites.path_of(name, version), name, version)

@@ -26,7 +26,6 @@ from typing import Any
 import numpy as np
 import yaml
 
-from hoprover_env.env_config import EnvConfig, HopEnvConfig
 
 ALGOS = ("ppo", "sac", "td3")
 TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
@@ -109,11 +108,11 @@ def validate(cfg: dict) -> None:
     if "algo" not in cfg:
         raise ConfigError("config key 'algo' is missing (ppo, sac or td3)")
     cls = algo_class(cfg["algo"])
-    from hoprover_env import ENVS
+    from hoprover_env import ENVS, config_class
     if cfg.get("env_id") not in ENVS:
         raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
                           f"got {cfg.get('env_id')!r}")
-    env_cls = HopEnvConfig if cfg["env_id"] == "HopRoverHop-v0" else EnvConfig
+    env_cls = config_class(cfg["env_id"])
     env_fields = {f.name for f in dataclasses.fields(env_cls)}
     _check_keys("env", cfg["env"], env_fields)
     try:
@@ -221,11 +220,10 @@ def _check_value(key: str, value, kind) -> None:
 
 
 def env_kwargs(cfg: dict) -> dict:
-    """HopRoverEnv arguments of a config (the contest id fixes the target)."""
-    kw = dict(cfg["env"])
-    if cfg["env_id"] == "HopRoverContest-v0":
-        kw.setdefault("target_x", 0.5)
-    return kw
+    """Env arguments of a config: what its id fixes (the contest's target), then its
+    `env:` section."""
+    from hoprover_env import task
+    return {**task(cfg["env_id"]).kwargs, **cfg["env"]}
 
 
 def policy_kwargs(cfg: dict) -> dict:

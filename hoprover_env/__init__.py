@@ -6,6 +6,8 @@ Contest (2015) as an exact, fast simulator and a Gymnasium environment.
     env = gym.make("HopRover-v0")                           # random targets in [-1, 1] m
     envs = gym.make_vec("HopRover-v0", num_envs=1024)       # native batched vector env
 """
+from dataclasses import dataclass, field
+
 from gymnasium.envs.registration import register, registry
 
 from .params import RoverParams
@@ -16,35 +18,71 @@ from .batch import BatchRollout, simulate_batch
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",
            "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv",
-           "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "ENVS",
-           "vector_env_class"]
+           "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "ENVS", "Task",
+           "task", "env_class", "vector_env_class", "config_class"]
 __version__ = "0.1.0"
 
-# id -> (single env, native vector env, fixed kwargs)
+@dataclass(frozen=True)
+class Task:
+    """A registered task: where its env classes live, what its id fixes, and what the
+    drivers need to know of it, so that nothing compares an id as a string. `env` and
+    `vector_env` are "module:Class" entry points (imported only when used); `kwargs` are
+    the env arguments the id fixes; `suite` names its frozen test suite
+    (hoprover_env.suites); `hops` says whether one action is a whole hop (its launch
+    torque) rather than a torque held over a control interval."""
+    env: str
+    vector_env: str
+    kwargs: dict = field(default_factory=dict)
+    suite: str = "level"
+    hops: bool = False
+
+
 ENVS = {
-    "HopRover-v0": ("hoprover_env.env:HopRoverEnv",
-                    "hoprover_env.vector_env:HopRoverVectorEnv", {}),
-    "HopRoverContest-v0": ("hoprover_env.env:HopRoverEnv",
-                           "hoprover_env.vector_env:HopRoverVectorEnv", {"target_x": 0.5}),
-    "HopRoverHop-v0": ("hoprover_env.hop_env:HopRoverHopEnv",
-                       "hoprover_env.hop_env:HopRoverHopVectorEnv", {}),
-    "HopRoverTerrain-v0": ("hoprover_env.terrain_env:HopRoverTerrainEnv",
-                           "hoprover_env.terrain_env:HopRoverTerrainVectorEnv", {}),
+    "HopRover-v0": Task("hoprover_env.env:HopRoverEnv",
+                        "hoprover_env.vector_env:HopRoverVectorEnv"),
+    "HopRoverContest-v0": Task("hoprover_env.env:HopRoverEnv",
+                               "hoprover_env.vector_env:HopRoverVectorEnv",
+                               {"target_x": 0.5}, suite="contest"),
+    "HopRoverHop-v0": Task("hoprover_env.hop_env:HopRoverHopEnv",
+                           "hoprover_env.hop_env:HopRoverHopVectorEnv", hops=True),
+    "HopRoverTerrain-v0": Task("hoprover_env.terrain_env:HopRoverTerrainEnv",
+                               "hoprover_env.terrain_env:HopRoverTerrainVectorEnv",
+                               suite="terrain"),
 }
-for _id, (_entry, _vector_entry, _kwargs) in ENVS.items():
+for _id, _task in ENVS.items():
     if _id not in registry:
-        register(id=_id, entry_point=_entry, vector_entry_point=_vector_entry,
-                 kwargs=_kwargs)
+        register(id=_id, entry_point=_task.env, vector_entry_point=_task.vector_env,
+                 kwargs=_task.kwargs)
+
+
+def task(env_id: str) -> Task:
+    """The registry entry of a hoprover id (ValueError naming an unknown id)."""
+    if env_id not in ENVS:
+        raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")
+    return ENVS[env_id]
+
+
+def _load(entry: str):
+    import importlib
+    module, name = entry.split(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def env_class(env_id: str):
+    """The single env class of a registered hoprover id (ValueError for an unknown id)."""
+    return _load(task(env_id).env)
 
 
 def vector_env_class(env_id: str):
     """The native vector env class of a registered hoprover id (ValueError for an
     unknown id)."""
-    import importlib
-    if env_id not in ENVS:
-        raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")
-    module, name = ENVS[env_id][1].split(":")
-    return getattr(importlib.import_module(module), name)
+    return _load(task(env_id).vector_env)
+
+
+def config_class(env_id: str):
+    """The config dataclass of a registered hoprover id (EnvConfig, HopEnvConfig,
+    TerrainEnvConfig): the env arguments a YAML's `env:` section may set."""
+    return env_class(env_id).config_class
 
 
 def __getattr__(name):          # the envs import gymnasium spaces etc. only when used

@@ -33,7 +33,6 @@ The result is a best-known plan within this family and budget, not an optimum.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 from numba import njit

@@ -9,23 +9,25 @@ from __future__ import annotations
 
 from ray.rllib.callbacks.callbacks import RLlibCallback
 
-from .env import HopRoverEnv
-from .vector_env import HopRoverVectorEnv
+from . import env_class, task, vector_env_class
 
 
 def make_env(env_config):
-    """RLlib's env creator. `env_config` (an EnvContext: a dict of HopRoverEnv keyword
-    arguments, with worker_index etc. as attributes) becomes the env's kwargs; with
-    `num_envs` in it (RLlib's vector_entry_point mode) one HopRoverVectorEnv steps all
-    of a runner's sub-envs in one numba call.
+    """RLlib's env creator. `env_config` (an EnvContext: a dict of env keyword arguments,
+    with worker_index etc. as attributes) becomes the env's kwargs; its "env_id" (default
+    "HopRover-v0", any registered hoprover id) picks the task, whose fixed arguments (the
+    contest's target) come first. With `num_envs` in it (RLlib's vector_entry_point mode)
+    the task's native vector env steps all of a runner's sub-envs in one numba call.
 
-    Returns a HopRoverEnv, or a HopRoverVectorEnv of `num_envs` sub-envs. Raises
-    ValueError/TypeError for a bad or unknown env argument, naming it."""
+    Returns the task's env, or its vector env of `num_envs` sub-envs. Raises
+    ValueError/TypeError for an unknown id or a bad env argument, naming it."""
     kwargs = dict(env_config)
+    env_id = kwargs.pop("env_id", "HopRover-v0")
     num_envs = kwargs.pop("num_envs", None)
+    kwargs = {**task(env_id).kwargs, **kwargs}
     if num_envs is None:
-        return HopRoverEnv(**kwargs)
-    return HopRoverVectorEnv(num_envs=num_envs, **kwargs)
+        return env_class(env_id)(**kwargs)
+    return vector_env_class(env_id)(num_envs=num_envs, **kwargs)
 
 
 class HopRoverMetrics(RLlibCallback):

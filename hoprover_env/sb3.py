@@ -49,7 +49,7 @@ class HopRoverSB3VecEnv(VecEnv):
                  render_mode: str | None = None, env_id: str = "HopRover-v0",
                  **env_kwargs: Any):
         cls = vector_env_class(env_id)
-        env_kwargs = {**ENVS[env_id][2], **env_kwargs}
+        env_kwargs = {**ENVS[env_id].kwargs, **env_kwargs}
         self.venv = cls(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
                         threads=threads, render_mode=render_mode, **env_kwargs)
         self.config = self.venv.config

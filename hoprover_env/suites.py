@@ -46,20 +46,25 @@ from pathlib import Path
 
 import numpy as np
 
+from . import ENVS
+from .env_config import TerrainEnvConfig
 from .params import RoverParams
 
 DATA_DIR = Path(__file__).resolve().parent / "suite_data"
 EPISODE_TIME = 600.0
 CONTROL_DT = 0.5
 NO_TERRAIN_SEED = -1
-# env id -> suite name
-SUITE_OF = {"HopRover-v0": "level", "HopRoverHop-v0": "level",
-            "HopRoverTerrain-v0": "terrain", "HopRoverContest-v0": "contest"}
+# env id -> suite name (the registry's), and suite -> the torque task that runs it
+SUITE_OF = {env_id: spec.suite for env_id, spec in ENVS.items()}
+TASK_OF = {}
+for _env_id, _spec in ENVS.items():
+    if not _spec.hops:
+        TASK_OF.setdefault(_spec.suite, _env_id)
 # the seed each suite's episodes are drawn from (never used for training or validation)
 SUITE_SEEDS = {"level": 1_000_001, "terrain": 1_000_002}
 SIZES = {"level": 200, "terrain": 200}
-TERRAIN_SLOPES = (-0.2, 0.2)
-TERRAIN_ROUGHNESS = 0.05
+TERRAIN_SLOPES = TerrainEnvConfig.slope_range      # the terrain task's default ground
+TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
 CONTEST_TARGET = 0.5
 FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt",
           "reference_ttrtp")

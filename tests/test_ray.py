@@ -175,3 +175,18 @@ def test_policy_files_travel_with_the_tasks(tmp_path):
     obs = np.zeros((2, a.model.observation_space.shape[0]), dtype=np.float32)
     assert np.array_equal(a.model.predict(obs, deterministic=True)[0],
                           b.model.predict(obs, deterministic=True)[0])
+
+
+def test_rllib_creator_builds_every_registered_task():
+    import gymnasium as gym
+    from hoprover_env import ENVS, env_class, vector_env_class
+    from hoprover_env.rllib import make_env
+    for env_id, spec in ENVS.items():
+        single = make_env({"env_id": env_id})
+        vec = make_env({"env_id": env_id, "num_envs": 2})
+        assert type(single) is env_class(env_id) and type(vec) is vector_env_class(env_id)
+        assert single.observation_space == gym.make(env_id).observation_space
+        for key, value in spec.kwargs.items():      # the contest's fixed target
+            assert getattr(single.config, key) == value
+    with pytest.raises(ValueError, match="unknown hoprover env id 'HopRover-v9'"):
+        make_env({"env_id": "HopRover-v9"})

@@ -61,6 +61,35 @@ def test_train_tiny_then_resume(tmp_path):
     assert meta2["wall_s"] > meta["wall_s"]
 
 
+def test_terrain_yaml_sets_its_ground_and_trains(tmp_path):
+    """The env section is the task's config class (TerrainEnvConfig here): steeper,
+    rougher ground than the default trains, and the run records what it trained on."""
+    cfg = {**TINY, "env_id": "HopRoverTerrain-v0", "pretrain": None,
+           "env": {**TINY["env"], "slope_range": [-0.3, 0.3], "roughness": 0.1}}
+    out = tmp_path / "run"
+    assert train.main(["--config", write_cfg(tmp_path, cfg), "--out", str(out),
+                       "--timesteps", "1024", "--no-progress"]) == 0
+    saved = yaml.safe_load((out / "config.yaml").read_text())
+    assert saved["env_id"] == "HopRoverTerrain-v0"
+    assert saved["env"]["slope_range"] == [-0.3, 0.3] and saved["env"]["roughness"] == 0.1
+    from agents.sb3_agents import env_kwargs
+    from hoprover_env import vector_env_class
+    venv = vector_env_class(saved["env_id"])(4, **env_kwargs(saved))
+    assert venv.config.slope_range == (-0.3, 0.3) and venv.config.roughness == 0.1
+
+
+@pytest.mark.parametrize("env_id, bad, words", [
+    ("HopRoverTerrain-v0", {"slope_range": [0.3, -0.3]}, "slope_range must be (low, high)"),
+    ("HopRover-v0", {"roughness": 0.1}, "env.roughness"),     # not a key of EnvConfig
+    ("HopRoverHop-v0", {"slope_range": [0, 0.1]}, "env.slope_range"),
+])
+def test_env_keys_are_the_tasks(tmp_path, capsys, env_id, bad, words):
+    cfg = {**TINY, "env_id": env_id, "pretrain": None, "env": {**TINY["env"], **bad}}
+    assert train.main(["--config", write_cfg(tmp_path, cfg), "--out", str(tmp_path / "r"),
+                       "--no-progress"]) == 2
+    assert words in capsys.readouterr().err
+
+
 def test_train_interrupted_saves_a_checkpoint(tmp_path, monkeypatch):
     out = tmp_path / "run"
     cfg = write_cfg(tmp_path, {**TINY, "pretrain": None})

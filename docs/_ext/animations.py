@@ -32,8 +32,8 @@ def make_animation(env_id: str, policy: str, target_x: float, out: Path) -> dict
     t0 = time.perf_counter()
     pol = load_policy(policy)
     own = getattr(pol, "env_id", "HopRover-v0")
-    fixed = hoprover_env.ENVS[env_id][2]
-    if own != env_id and not (own == "HopRover-v0" and env_id == "HopRoverContest-v0"):
+    fixed = hoprover_env.ENVS[env_id].kwargs
+    if hoprover_env.task(own).env != hoprover_env.task(env_id).env:   # another kind of env
         raise ValueError(f"policy {policy!r} acts in {own}, not in {env_id}")
     if "target_x" in fixed:
         target_x = float(fixed["target_x"])

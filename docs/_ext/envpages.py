@@ -81,7 +81,8 @@ def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
     if env_id not in hoprover_env.ENVS:
         raise ValueError(f"{{hoprover-env}}: {env_id!r} is not a hoprover env id; "
                          f"registered: {sorted(hoprover_env.ENVS)}")
-    entry, vector_entry, fixed = hoprover_env.ENVS[env_id]
+    spec = hoprover_env.ENVS[env_id]
+    entry, vector_entry, fixed = spec.env, spec.vector_env, spec.kwargs
     module_name, cls_name = entry.split(":")
     vmodule, vcls = vector_entry.split(":")
     module = importlib.import_module(module_name)
