@@ -23,6 +23,7 @@ import dataclasses
 import numpy as np
 
 METRICS = ("success", "median_regret", "mean_score", "iqm_score")
+FAILED_REGRET = 1e12
 
 
 def episode_scores(ttrtp, reference) -> np.ndarray:
@@ -45,10 +46,19 @@ def _metrics(scores: np.ndarray) -> np.ndarray:
     """The four METRICS of a score matrix (any shape)."""
     from rliable import metrics
     s = np.asarray(scores, dtype=float)
-    with np.errstate(divide="ignore"):
-        regret = np.where(s > 0, 1.0 / np.where(s > 0, s, 1.0), np.inf)
+    # a failure's regret is infinite; the bootstrap's percentiles interpolate between
+    # resamples, and inf - inf is NaN, so failures count as FAILED_REGRET here and any
+    # median that large is reported as inf (`_infinite`)
+    regret = np.where(s > 0, 1.0 / np.where(s > 0, s, 1.0), FAILED_REGRET)
     return np.array([np.mean(s > 0), np.median(regret), np.mean(s),
                      metrics.aggregate_iqm(s.reshape(s.shape[0], -1))])
+
+
+def _infinite(values) -> np.ndarray:
+    """Metrics with a median regret at or beyond a failure's made infinite."""
+    v = np.array(values, dtype=float)
+    v[1] = np.inf if v[1] >= FAILED_REGRET / 1e6 else v[1]
+    return v
 
 
 @dataclasses.dataclass
@@ -86,7 +96,7 @@ def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
         raise ValueError(f"scores must be (runs, episodes), got shape {s.shape}")
     # one run: the episodes are the samples (one stratum); several: runs within episodes
     matrix = s.T.reshape(-1, 1) if s.shape[0] == 1 else s
-    point = dict(zip(METRICS, _metrics(s)))
+    point = dict(zip(METRICS, _infinite(_metrics(s))))
     # rliable 1.x draws its resamples from numpy's global generator (its random_state
     # argument reaches arch but not the stratified resampling), so the global generator
     # is seeded for the call and restored after it: the same seed gives the same interval
@@ -97,8 +107,8 @@ def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
     finally:
         np.random.set_state(saved)
     lo, hi = intervals[name]
-    return Summary(name, s.shape[0], s.shape[1], point, dict(zip(METRICS, lo)),
-                   dict(zip(METRICS, hi)))
+    return Summary(name, s.shape[0], s.shape[1], point, dict(zip(METRICS, _infinite(lo))),
+                   dict(zip(METRICS, _infinite(hi))))
 
 
 def format_table(summaries: list[Summary]) -> str:

@@ -57,3 +57,19 @@ def test_table_and_bad_shape():
     assert "| agent x | 1 | 20 | 100.0 % [100.0, 100.0] | 1.111" in table
     with pytest.raises(ValueError, match="runs, episodes"):
         summarize("bad", np.zeros((2, 2, 2)))
+
+
+def test_failures_make_the_median_regret_infinite_never_nan():
+    """A failure's regret is infinite: a median regret that is a failure's, or a
+    bootstrap bound that reaches one, is inf, not NaN."""
+    s = np.zeros((3, 200))
+    s[:, :50] = 0.5                                    # 75 % failures in every run
+    out = summarize("mostly failing", s, reps=200)
+    assert out.point["median_regret"] == np.inf
+    assert out.low["median_regret"] == out.high["median_regret"] == np.inf
+    mixed = np.full(200, 0.5)
+    mixed[:100] = 0.0                                  # exactly half: the median straddles
+    out = summarize("half", mixed, reps=500)
+    assert out.low["median_regret"] == pytest.approx(2.0) and out.high["median_regret"] == np.inf
+    for m in ("success", "median_regret", "mean_score", "iqm_score"):
+        assert not np.isnan([out.point[m], out.low[m], out.high[m]]).any(), m

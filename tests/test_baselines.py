@@ -1,0 +1,53 @@
+"""agents/baselines.py: seeds trained one after another, resumed, and scored on the
+suite with intervals over seeds."""
+import json
+
+import pytest
+import yaml
+
+from agents import baselines
+
+TINY = {
+    "algo": "ppo", "env_id": "HopRoverHop-v0", "n_envs": 4, "timesteps": 512, "seed": 0,
+    "env": {"control_dt": 0.5},
+    "hyperparams": {"n_steps": 64, "batch_size": 128, "n_epochs": 1},
+    "evaluation": {"freq": 256, "episodes": 4, "seed": 1},
+    "checkpoint": {"freq": 256},
+}
+
+
+@pytest.mark.parametrize("text, seeds", [("0-4", [0, 1, 2, 3, 4]), ("3", [3]),
+                                         ("0,2,5", [0, 2, 5]), ("1-2,7", [1, 2, 7])])
+def test_seed_specs(text, seeds):
+    assert baselines.parse_seeds(text) == seeds
+
+
+@pytest.mark.parametrize("text", ["", "a-b", "0-1,1", "-1", "2-x"])
+def test_bad_seed_specs_are_named(text):
+    with pytest.raises(ValueError, match="--seeds"):
+        baselines.parse_seeds(text)
+
+
+def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump(TINY))
+    out = tmp_path / "runs"
+    assert baselines.main(["--config", str(cfg), "--seeds", "0-1", "--out", str(out),
+                           "--name", "tiny"]) == 0
+    for seed in (0, 1):
+        assert (out / f"s{seed}" / "done").exists()
+        assert yaml.safe_load((out / f"s{seed}" / "config.yaml").read_text())["seed"] == seed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["suite"] == "level-v1" and summary["env_id"] == "HopRoverHop-v0"
+    assert summary["summary"]["runs"] == 2 and summary["summary"]["episodes"] == 200
+    s = summary["summary"]
+    for m in ("success", "mean_score", "iqm_score"):
+        assert s[m + "_low"] <= s[m] <= s[m + "_high"]
+    assert [r["seed"] for r in summary["runs"]] == [0, 1]
+    assert (out / "curves.png").stat().st_size > 0 and "| 1 |" in (out / "summary.md").read_text()
+    # a second call trains nothing (both done) and scores the same
+    capsys.readouterr()
+    assert baselines.main(["--config", str(cfg), "--seeds", "0-1", "--out", str(out),
+                           "--name", "tiny"]) == 0
+    assert "done already" in capsys.readouterr().out
+    assert json.loads((out / "summary.json").read_text())["summary"] == summary["summary"]
