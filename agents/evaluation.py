@@ -51,7 +51,8 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
     env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
     `terrain` fixes each episode's ground: {"slope": per-episode slopes [rad],
-    "roughness": per-episode roughness [rad]} (reset options of every hoprover env).
+    "roughness": per-episode roughness [rad], "terrain_seed": per-episode seeds of the
+    bumps (integers)} (reset options of every hoprover env).
     `progress` is called with the number of finished episodes. `first_episode` numbers
     the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
     start at multiples of `batch`, so each batch is the one a local run has).
@@ -62,7 +63,9 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     kwargs.pop("target_x", None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
-    terrain = {k: np.broadcast_to(np.asarray(v, dtype=float), targets.shape)
+    # terrain seeds stay integers: up to 2^63, a float64 would round them to other bumps
+    terrain = {k: np.broadcast_to(np.asarray(v, dtype=np.int64 if k == "terrain_seed"
+                                             else float), targets.shape)
                for k, v in (terrain or {}).items()}
     for start in range(0, len(targets), batch):
         chunk = targets[start:start + batch]

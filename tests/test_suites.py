@@ -99,3 +99,44 @@ def test_evaluate_suite_bad_input(capsys):
     assert "unknown policy 'no-such-agent'" in capsys.readouterr().err
     assert evaluate.main(["--suite", "--targets", "0.5"]) == 2
     assert "--suite fixes the episodes" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("env_id", ["HopRoverTerrain-v0", "HopRover-v0"])
+def test_agents_play_the_references_ground(env_id):
+    """An agent run on a suite (suites.run's path: run_episodes with the suite's ground)
+    meets the bumps its reference was searched on: a policy that plays the reference
+    schedule as actions reaches the reference TTRTP."""
+    from agents.evaluation import run_episodes
+    from agents.policies import torque_to_action
+    from hoprover_env import RoverParams
+
+    suite = suites.load(env_id)
+    pick = [0, 1, 2]
+    eps = [suite[i] for i in pick]
+    steps = {"k": 0}
+
+    class Schedule:                       # the reference plan, one interval per step
+        env_kwargs = {"control_dt": 0.5}
+        env_id = suites.TASK_OF[suite.name]
+
+        def reset(self, n):
+            steps["k"] = 0
+
+        def act(self, obs, venv):
+            k = steps["k"]
+            steps["k"] += 1
+            out = np.zeros((len(eps), 1))
+            for i, ep in enumerate(eps):
+                torque = ep.reference_schedule[k] if k < len(ep.reference_schedule) else 0.0
+                params = RoverParams(slope=ep.slope, roughness=ep.roughness)
+                out[i, 0] = torque_to_action(torque, params)
+            return out
+
+    ground = {k: v[pick] for k, v in suite.terrain().items()}
+    if suite.name == "terrain":
+        assert ground["terrain_seed"].dtype.kind == "i" and ground["terrain_seed"].max() > 2**53
+    res = run_episodes(Schedule(), suite.targets[pick], env_kwargs={"episode_time": 600.0},
+                       terrain=ground)
+    for r, ep in zip(res, eps):
+        assert r.success
+        assert r.ttrtp == pytest.approx(ep.reference_ttrtp, rel=1e-6, abs=1e-6)
