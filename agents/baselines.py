@@ -18,7 +18,8 @@ score with 95 % stratified bootstrap intervals over seeds (rliable). Per run: su
 median and worst regret, and the wall time and environment steps to 95 % validation
 success. Written atomically into OUT: `summary.json`, `summary.md` (the tables) and
 `curves.png` (validation success against environment steps and against wall time: the
-mean over seeds with its 95 % bootstrap band, and each seed).
+mean over seeds with its 95 % bootstrap band, and each seed); with --record also into
+benchmarks/results/baselines/, where the leaderboard page reads them.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from agents.files import atomic_write
+from hoprover_env.files import atomic_write
 
 ROOT = Path(__file__).resolve().parent.parent
 SUCCESS_GOAL = 0.95
@@ -90,7 +91,7 @@ def curve(run: Path) -> dict:
 
 def score(out: Path, seeds: list[int], name: str) -> dict:
     """Every finished run on its task's suite; the summary over seeds."""
-    from agents.policies import load_sb3
+    from hoprover_env.policies import load_sb3
     from hoprover_env import suites
     from hoprover_env.scores import episode_regrets, summarize
     runs, matrix = [], []
@@ -177,6 +178,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="directory of the runs (OUT/s<seed>)")
     ap.add_argument("--name", default=None, help="the baseline's name (default: OUT's name)")
     ap.add_argument("--score-only", action="store_true", help="no training: score the runs")
+    ap.add_argument("--record", action="store_true",
+                    help="also write the summary and curves into benchmarks/results/"
+                         "baselines/ (OUT's name), where the leaderboard reads them")
     args = ap.parse_args(argv)
     try:
         seeds = parse_seeds(args.seeds)
@@ -196,6 +200,12 @@ def main(argv=None) -> int:
     atomic_write(out / "summary.json", json.dumps(
         {k: v for k, v in result.items() if not k.startswith("_")}, indent=1))
     plot(result, out / "curves.png")
+    if args.record:
+        rec = ROOT / "benchmarks" / "results" / "baselines"
+        rec.mkdir(parents=True, exist_ok=True)
+        atomic_write(rec / f"{out.resolve().name}.json", (out / "summary.json").read_text())
+        atomic_write(rec / f"{out.resolve().name}.md", md)
+        plot(result, rec / f"{out.resolve().name}.png")
     return 0
 
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.files import atomic_write
+from hoprover_env.files import atomic_write
 from hoprover_env import suites
 from hoprover_env.scores import format_table, summarize
 
@@ -45,13 +45,15 @@ PRIVILEGE = {
     "terrain": "observation only (learned)", "random": "nothing",
 }
 START, END = "<!-- leaderboard start -->", "<!-- leaderboard end -->"
+# the baselines' summaries (python -m agents.baselines ... then copy OUT/summary.json here)
+BASELINES = ROOT / "benchmarks" / "results" / "baselines"
 
 
 def load_agent(name: str):
     if name == "mpc":
         from hoprover_env.mpc import MPCPolicy
         return MPCPolicy()
-    from agents.policies import load_policy
+    from hoprover_env.policies import load_policy
     return load_policy(name, control_dt=suites.CONTROL_DT)
 
 
@@ -85,10 +87,30 @@ def tables(results: dict) -> str:
         summaries = [summarize(agent, [e["score"] for e in r["episodes"]])
                      for agent, r in res["agents"].items()]
         n = len(next(iter(res["agents"].values()))["episodes"])
-        parts.append(f"**{res['suite']}** ({SUITES[name]}"
-                     f"{', HopRoverHop-v0' if name == 'level' else ''}; {n} episodes, "
-                     f"checksum `{res['checksum'][:12]}`):\n\n" + format_table(summaries))
+        also = [i for i, s in suites.SUITE_OF.items() if s == name and i != SUITES[name]]
+        costs = [f"{agent}: {r['wall_s']:.0f} s for the suite, {r['decisions']} plans at "
+                 f"{r['ms_per_decision']:.0f} ms each" for agent, r in res["agents"].items()
+                 if "decisions" in r]
+        parts.append(f"**{res['suite']}** ({', '.join([SUITES[name], *also])}; {n} episodes, "
+                     f"checksum `{res['checksum'][:12]}`):\n\n" + format_table(summaries)
+                     + ("\n\nPlanning cost (2 cores): " + "; ".join(costs) if costs else ""))
     return "\n\n".join(parts)
+
+
+def baseline_tables(folder: Path = BASELINES) -> str:
+    """The baselines scored over seeds (agents/baselines.py's summary.json files, copied
+    into `folder`), one table per suite; "" when there are none."""
+    from hoprover_env.scores import METRICS, Summary
+    by_suite: dict = {}
+    for path in sorted(folder.glob("*.json")):
+        res = json.loads(path.read_text())
+        row = res["summary"]
+        s = Summary(row["agent"], row["runs"], row["episodes"],
+                    {m: row[m] for m in METRICS}, {m: row[m + "_low"] for m in METRICS},
+                    {m: row[m + "_high"] for m in METRICS})
+        by_suite.setdefault(res["suite"], []).append(s)
+    return "\n\n".join(f"**{suite}**, intervals over seeds:\n\n{format_table(rows)}"
+                        for suite, rows in by_suite.items())
 
 
 def privilege_table() -> str:
@@ -127,7 +149,12 @@ def main(argv=None) -> int:
     page = ROOT / "docs" / "leaderboard.md"
     atomic_write(str(page), "# Leaderboard\n\nEvery bundled agent on every frozen test suite "
                  "(`hoprover_env.suites`), scored against the suites' best-known references."
-                 f"\n\n{md}\n\n## What each agent knows\n\n{privilege_table()}\n\n{stamp}\n")
+                 f"\n\n{md}\n\n{stamp}\n\n## Baselines from scratch, over seeds\n\n"
+                 f"{baseline_tables() or 'None scored yet.'}\n\nEach trained by `python -m "
+                 "agents.baselines --config CONFIG --seeds 0-4`, its best model (chosen on "
+                 "train.py's validation episodes) scored on the suite; BENCHMARKS.md has "
+                 "the per-seed tables, learning curves and times.\n\n"
+                 f"## What each agent knows\n\n{privilege_table()}\n")
     splice(ROOT / "README.md", f"{md}\n\n{stamp}")
     return 0
 

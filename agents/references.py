@@ -105,7 +105,7 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
         from hoprover_env.mpc import MPCPolicy
         policy = MPCPolicy()
     else:
-        from agents.policies import load_policy
+        from hoprover_env.policies import load_policy
         policy = load_policy(name, control_dt=CONTROL_DT)
     if hoprover_env.task(getattr(policy, "env_id", "HopRover-v0")).hops:
         raise ValueError(f"{name}: a hop-level agent's torques are not seen step by step")

@@ -16,8 +16,8 @@ from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
-# the repository first: the tutorials and the API pages document this checkout (agents/
-# is not an installed package), and docs/_ext holds the site's own extensions
+# the repository first: the tutorials and the API pages document this checkout (not an
+# installed copy), and docs/_ext holds the site's own extensions
 sys.path[:0] = [str(ROOT), str(DOCS / "_ext")]
 os.environ.setdefault("MPLBACKEND", "Agg")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")

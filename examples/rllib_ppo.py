@@ -24,7 +24,7 @@ What RLlib needs from an environment, and how hoprover gives it:
   installed package (`hoprover_env/rllib.py`), so every runner process unpickles them.
   On a cluster the runners import the hoprover installed on their node (checked against
   this driver's before training starts), or this checkout's copy with --ship-code:
-  the same mechanism as sweep.py and evaluate.py --ray (agents/ray_utils.py).
+  the same mechanism as sweep.py and evaluate.py --ray (hoprover_env/ray_utils.py).
 * **Episode metrics.** `HopRoverMetrics.on_episode_end` reads the judge's verdict from
   the last step's info (`is_success`, `ttrtp`, `broken`) and logs it with RLlib's
   MetricsLogger: `env_runners/hoprover_success`, `hoprover_ttrtp`, `hoprover_broken` in
@@ -43,7 +43,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))           # agents/ of this checkout, run from anywhere
-from agents.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
+from hoprover_env.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
 ENV_NAME = "hoprover"
 ENV_CONFIG = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0, "gamma": 0.995}
 

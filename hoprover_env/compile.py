@@ -66,8 +66,8 @@ def warm(log=None) -> None:
                        integrator=integrator)
         say(f"  simulate, simulate_batch ({integrator}): {time.perf_counter() - t0:.1f} s")
     try:        # a checkout: its agents/ run the scripted hopper and the learned policies
-        from agents.evaluation import run_episodes
-        from agents.policies import load_policy
+        from hoprover_env.evaluation import run_episodes
+        from hoprover_env.policies import load_policy
     except ImportError:
         return
     for name in ("scripted", "scratch"):

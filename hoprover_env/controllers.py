@@ -1,7 +1,7 @@
 """Control laws shared by every controller that flies the rover.
 
 One home for each law: the hop-level task's built-in flight controller, the scripted
-hopper (agents/scripted.py), the compiled contest controllers (agents/compiled.py) and
+hopper (hoprover_env/scripted.py), the compiled contest controllers (hoprover_env/compiled.py) and
 the benchmark drivers all call these functions, so their torques agree to the bit.
 Compiled with numba and callable from Python and from jitted code alike.
 """

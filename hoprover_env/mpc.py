@@ -75,7 +75,7 @@ class MPCPolicy:
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Actions (N, 1) for the sub-envs of `venv` (a HopRoverVectorEnv)."""
-        from agents.policies import torque_to_action   # TODO: the package's, after the move
+        from hoprover_env.policies import torque_to_action   # TODO: the package's, after the move
         n = len(obs)
         if len(self.plans) != n:
             self.plans = [None] * n

@@ -25,8 +25,9 @@ def _pygame():
         os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
     try:
         import pygame
-    except ImportError as exc:  # pragma: no cover - pygame is a dependency of the package
-        raise ImportError("rendering needs pygame: pip install pygame") from exc
+    except ImportError as exc:
+        raise ImportError("rendering needs pygame, in the render extra: "
+                          "pip install 'hoprover[render]'") from exc
     return pygame
 
 

@@ -37,9 +37,10 @@ class HopRoverSB3VecEnv(VecEnv):
     environment pages: control_dt [s], episode_time [s], target_range [m], reward
     weights, ...).
 
-    Observations are float32 (num_envs, 19), rewards float32 (num_envs,), actions
-    (num_envs, 1) in [-1, 1]. `step_seconds` accumulates the wall time [s] spent in
-    `step_wait` (the env's share of training time).
+    Observations are float32 (num_envs, obs_dim) (19 for the torque task, 20 on terrain),
+    rewards float32 (num_envs,), actions (num_envs, 1) in [-1, 1]. `step_seconds`
+    accumulates the wall time [s] spent in `step_wait` (the env's share of training
+    time).
 
     Raises ValueError (an unknown `env_id`, a bad env argument, a non-finite action at
     `step_wait`) and TypeError (an unknown env argument), naming the argument.
@@ -63,7 +64,7 @@ class HopRoverSB3VecEnv(VecEnv):
     # ---- the VecEnv contract ------------------------------------------------------
     def reset(self):
         """Reset every sub-env (with the seeds of `seed()` and the `target_x` of
-        `set_options()`, if given) and return the observations (num_envs, 19). Raises
+        `set_options()`, if given) and return the observations (num_envs, obs_dim). Raises
         ValueError if `target_x` was set for some sub-envs but not all."""
         seeds = None if all(s is None for s in self._seeds) else list(self._seeds)
         targets = [o.get("target_x") for o in self._options]

@@ -264,7 +264,7 @@ def _read(path: Path, name: str, version: int) -> Suite:
 def run(policy, suite: Suite, batch: int = 256, progress=None) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
     contest judge: `judged` rows (one dict per episode)."""
-    from agents.evaluation import run_episodes
+    from hoprover_env.evaluation import run_episodes
     results = run_episodes(policy, suite.targets, env_kwargs={"episode_time": EPISODE_TIME},
                            batch=batch, progress=progress, terrain=suite.terrain())
     return judged(results, suite)

@@ -8,8 +8,8 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from gymnasium.vector import AutoresetMode
 
 import hoprover_env  # noqa: F401  (registers the envs)
-from agents.policies import ControllerPolicy, torque_to_action
-from agents.scripted import ScriptedHopper
+from hoprover_env.policies import ControllerPolicy, torque_to_action
+from hoprover_env.scripted import ScriptedHopper
 from hoprover_env import reward
 from hoprover_env.tasks import hop, torque
 from hoprover_env.env import HopRoverEnv
@@ -215,7 +215,7 @@ def test_controller_policy_uses_the_envs_action_map():
 @pytest.mark.parametrize("name", ["hop", "scratch"])
 def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
     import json
-    from agents.policies import BUNDLED, BUNDLED_DIR
+    from hoprover_env.policies import BUNDLED, BUNDLED_DIR
     path = BUNDLED_DIR / f"{BUNDLED[name]}.json"
     if name == "scratch" and not path.exists():
         pytest.skip("no bundled torque-level policy from scratch")
@@ -230,8 +230,8 @@ def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
 
 
 def test_bundled_hop_policy_runs_in_the_hop_task():
-    from agents.evaluation import run_episodes, summarize
-    from agents.policies import load_policy
+    from hoprover_env.evaluation import run_episodes, summarize
+    from hoprover_env.policies import load_policy
     pol = load_policy("hop")
     assert pol.env_id == "HopRoverHop-v0" and pol.name == "hop"
     res = summarize(run_episodes(pol, np.linspace(-0.9, 0.9, 7)))

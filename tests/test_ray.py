@@ -26,7 +26,7 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def local_ray():
     sys.path.insert(0, str(ROOT))
-    from agents.ray_utils import init_ray
+    from hoprover_env.ray_utils import init_ray
     init_ray(num_cpus=2)
     yield ray
     ray.shutdown()
@@ -60,8 +60,8 @@ def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
 
 def _fresh_worker_evaluates():
     """In a Ray worker: evaluate every kind of policy, then count numba's compiles."""
-    from agents.evaluation import run_episodes, seeded_targets
-    from agents.policies import load_policy
+    from hoprover_env.evaluation import run_episodes, seeded_targets
+    from hoprover_env.policies import load_policy
     import numba
     from hoprover_env.compile import compile_counts
     for name in ("scratch", "hop", "scripted", "random"):
@@ -118,8 +118,8 @@ def test_evaluate_on_ray_equals_the_local_run_episode_for_episode(tmp_path):
 
 def test_evaluate_chunks_follow_the_local_batches(local_ray):
     # the split itself: chunks of one batch each, merged in target order
-    from agents.ray_eval import evaluate_on_ray
-    from agents.evaluation import seeded_targets
+    from hoprover_env.ray_eval import evaluate_on_ray
+    from hoprover_env.evaluation import seeded_targets
     targets = seeded_targets(10, 3)
     seen = []
     res = evaluate_on_ray([("policy", "random", "random")], targets, 0.5, 0, batch=4,
@@ -130,7 +130,7 @@ def test_evaluate_chunks_follow_the_local_batches(local_ray):
 
 
 def test_a_node_with_other_code_is_refused_by_name(local_ray):
-    from agents.ray_utils import ClusterCodeError, check_nodes
+    from hoprover_env.ray_utils import ClusterCodeError, check_nodes
     from hoprover_env.buildinfo import build_info
     seen = check_nodes(ray)                      # this checkout everywhere: accepted
     assert [p["source"] for p in seen.values()] == [build_info()["source"]]
@@ -143,7 +143,7 @@ def test_a_node_with_other_code_is_refused_by_name(local_ray):
 def test_trials_get_the_seeds_in_turn():
     # trial k trains with SEEDS[k mod n]; Tune's directory names count from 1 with a search
     # algorithm and from 0 without one (the names below are Ray 2.60's)
-    from sweep import trial_index
+    from hoprover_env.cli.sweep import trial_index
     searched = ["trainable_715df97f_2_learning_rate=0.0003_2026-11-23_21-47-55",
                 "trainable_afe486ee_1_learning_rate=0.0001_2026-11-23_21-47-52"]
     assert [trial_index(d, d.split("_")[1], 1) for d in searched] == [1, 0]
@@ -154,8 +154,8 @@ def test_trials_get_the_seeds_in_turn():
 
 def test_policy_files_travel_with_the_tasks(tmp_path):
     # a run directory on the driver only: its model files are read here, rebuilt there
-    from agents.policies import BUNDLED_DIR, BUNDLED
-    from agents.ray_eval import _materialize, policy_files
+    from hoprover_env.policies import BUNDLED_DIR, BUNDLED
+    from hoprover_env.ray_eval import _materialize, policy_files
     run = tmp_path / "myrun"
     run.mkdir()
     stem = BUNDLED_DIR / BUNDLED["scratch"]
@@ -169,7 +169,7 @@ def test_policy_files_travel_with_the_tasks(tmp_path):
     assert relspec == "myrun" and "myrun/evaluations.csv" not in files
     where = _materialize((relspec, files))
     assert Path(where).name == "myrun" and Path(where) != run
-    from agents.policies import load_policy
+    from hoprover_env.policies import load_policy
     a, b = load_policy(str(run)), load_policy(where)
     assert a.name == b.name == "myrun"
     obs = np.zeros((2, a.model.observation_space.shape[0]), dtype=np.float32)

@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-import evaluate
-import train
-from agents.policies import BUNDLED_DIR, BUNDLED_NAME
+from hoprover_env.cli import evaluate
+from hoprover_env.cli import train
+from hoprover_env.policies import BUNDLED_DIR, BUNDLED_NAME
 
 TINY = {
     "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
@@ -72,7 +72,7 @@ def test_terrain_yaml_sets_its_ground_and_trains(tmp_path):
     saved = yaml.safe_load((out / "config.yaml").read_text())
     assert saved["env_id"] == "HopRoverTerrain-v0"
     assert saved["env"]["slope_range"] == [-0.3, 0.3] and saved["env"]["roughness"] == 0.1
-    from agents.sb3_agents import env_kwargs
+    from hoprover_env.sb3_agents import env_kwargs
     from hoprover_env import vector_env_class
     venv = vector_env_class(saved["env_id"])(4, **env_kwargs(saved))
     assert venv.config.slope_range == (-0.3, 0.3) and venv.config.roughness == 0.1
@@ -140,7 +140,7 @@ def test_killed_run_resumes_from_its_wall_clock_checkpoint(tmp_path, capsys):
     cfg = write_cfg(tmp_path, {**TINY, "pretrain": None, "timesteps": never,
                                "evaluation": {"freq": never, "episodes": 2, "seed": 1},
                                "checkpoint": {"freq": never}})
-    root = Path(train.__file__).resolve().parent
+    root = Path(__file__).resolve().parent.parent          # the checkout: train.py
     proc = subprocess.Popen([sys.executable, str(root / "train.py"), "--config", cfg, "--out",
                              str(out), "--no-progress", "--checkpoint-seconds", "1"],
                             cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -101,9 +101,9 @@ def test_the_landing_point_is_computed_on_the_slope():
 
 @pytest.mark.parametrize("phi", [-0.2, 0.2])
 def test_the_scripted_hopper_plans_on_the_slope_it_is_given(phi):
-    from agents.evaluation import run_episodes
-    from agents.policies import ControllerPolicy, load_policy
-    from agents.scripted import ScriptedHopper
+    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.policies import ControllerPolicy, load_policy
+    from hoprover_env.scripted import ScriptedHopper
 
     class FlatPlanner(ScriptedHopper):       # keeps planning for the level ground
         def use_params(self, params):

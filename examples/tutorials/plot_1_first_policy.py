@@ -26,8 +26,8 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-from agents.evaluation import run_episodes, seeded_targets, summarize
-from agents.policies import SB3Policy, load_policy
+from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
+from hoprover_env.policies import SB3Policy, load_policy
 from hoprover_env.sb3 import HopRoverSB3VecEnv
 
 torch.set_num_threads(1)
@@ -85,9 +85,9 @@ fig.tight_layout()
 # %%
 # Score it with the contest judge
 # -------------------------------
-# :func:`agents.evaluation.run_episodes` runs one episode per target, all side by side in
+# :func:`hoprover_env.evaluation.run_episodes` runs one episode per target, all side by side in
 # one vector env, deterministic actions, and the judge's TTRTP. The trained model and its
-# observation statistics become an :class:`agents.policies.SB3Policy`; the bundled
+# observation statistics become an :class:`hoprover_env.policies.SB3Policy`; the bundled
 # ``hop`` policy (200 k hops of the same config) is the reference.
 venv.training = False
 mine = SB3Policy(model, venv.obs_rms, cfg["normalize"]["clip_obs"], name="this run",

@@ -30,8 +30,8 @@ import matplotlib.pyplot as plt
 import numba
 import numpy as np
 
-from agents.evaluation import run_episodes, seeded_targets, summarize
-from agents.policies import ControllerPolicy
+from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
+from hoprover_env.policies import ControllerPolicy
 from hoprover_env import RoverParams, simulate, simulate_batch
 from hoprover_env.controllers import attitude_hold
 

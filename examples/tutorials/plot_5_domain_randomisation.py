@@ -19,8 +19,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the env ids)
-from agents.evaluation import run_episodes, seeded_targets, summarize
-from agents.policies import load_policy
+from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
+from hoprover_env.policies import load_policy
 
 env = gym.make("HopRover-v0", randomize={"gravity": 0.3, "mu_static": 0.2})
 for seed in range(3):

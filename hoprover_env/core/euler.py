@@ -4,7 +4,7 @@ section 10), over the same forces, transitions and impact law."""
 
 from .._compile import kernel
 from ..params import P_M, P_I, P_GC, P_GS, P_MUD
-from .layout import (H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
+from .layout import (ERR_BUDGET, H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
                      MODE_E, MODE_F, MODE_G, O_EULER_DT, O_INTEGRATOR, PH_BROKEN, PH_NONE,
                      PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_ERROR, S_MODE, S_SIGMA,
                      S_STOPPED, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL)
@@ -107,7 +107,7 @@ def advance_euler(S, P, O, t_stop, ev, n, W):
             S[S_T] = t_stop
             break
         if n - n_start > budget:
-            S[S_ERROR] = 1.0
+            S[S_ERROR] = ERR_BUDGET
             break
         dt = min(dt0, remaining)
         mode = int(S[S_MODE])

@@ -7,7 +7,7 @@ import numpy as np
 
 from .._compile import kernel, F64, I64, VEC
 from ..params import P_TMIN, P_TMAX, P_DWELL
-from .layout import (ERR_BUDGET, ERR_STEP, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
+from .layout import (ERR_BUDGET, ERR_STEP, ERR_TORQUE, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
                      MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, N_STATE,
                      N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN, S_ERROR, S_INBAND,
                      S_MIN_HEIGHT, S_MODE, S_SIGMA, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN,
@@ -70,7 +70,7 @@ def _advance_begin(S, P, torque_cmd, t_stop, ev, W):
     """What both integrators do first: refuse a non-finite torque, apply the clipped
     torque and resolve the transitions it causes at once. Returns (integrate?, events)."""
     if not math.isfinite(torque_cmd):
-        S[S_ERROR] = 2.0
+        S[S_ERROR] = ERR_TORQUE
         return False, 0
     if S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0 or S[S_T] >= t_stop:
         return False, 0
@@ -99,7 +99,7 @@ def advance(S, P, O, torque_cmd, t_stop, ev, W):
     Returns the number of events.
     If S[S_STOP_ON] names an event kind, the call returns right after the first such
     event, with S[S_STOPPED] = 1 and the time S[S_T] of the event.
-    A non-finite torque sets S[S_ERROR] = 2 and leaves the state untouched.
+    A non-finite torque sets S[S_ERROR] = ERR_TORQUE and leaves the state untouched.
     """
     go, n = _advance_begin(S, P, torque_cmd, t_stop, ev, W)
     if not go:

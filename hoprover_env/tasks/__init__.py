@@ -7,6 +7,8 @@
 ``common``         the end of every step (`finish`), the batched loops, `build`
 ``torque``         the torque task: action -> torque held for one control period
 ``hop``            the hop-level task: action -> one hop flown by a built-in controller
+``terrain``        the torque task on sloped, rough ground: its step, the observation
+                   plus the slope
 =================  ==================================================================
 
 A new task is one module with a step template calling ``ADVANCE`` and

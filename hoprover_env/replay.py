@@ -5,7 +5,7 @@ through `hoprover_env.simulate` with extra samples between control instants
 (`sample_dt`), which gives the same physics at plotting resolution. A policy of the
 hop-level task (`HopRoverHop-v0`, one action per hop) runs in that task's env; its hops
 are replayed by the scripted hopper's launch / attitude-hold / settle controller
-(`agents.scripted.ScriptedHopper`) fed with the launch torques the policy chose.
+(`hoprover_env.scripted.ScriptedHopper`) fed with the launch torques the policy chose.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import dataclasses
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from agents.scripted import ScriptedHopper
+from hoprover_env.scripted import ScriptedHopper
 import hoprover_env
 from hoprover_env import Rollout, core, simulate, vector_env_class
 from hoprover_env.tasks.hop import hop_torque
@@ -41,13 +41,13 @@ class Recording:
 
 def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
                    sample_dt: float = 0.1, terrain: dict | None = None) -> Recording:
-    """Run `policy` (see `agents.policies`) for one episode towards `target_x` [m] in the
+    """Run `policy` (see `hoprover_env.policies`) for one episode towards `target_x` [m] in the
     vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
     samples every `sample_dt` [s] (at most one control period).
 
     `env_kwargs` configure the env; the policy's own `env_kwargs` take precedence.
     `terrain` fixes this episode's ground, {"slope": rad, "roughness": rad} (either may
-    be left out), as `agents.evaluation.run_episodes` does per episode; the replay flies
+    be left out), as `hoprover_env.evaluation.run_episodes` does per episode; the replay flies
     the same slope and, on rough ground, the same bumps (the env's seed of the draws).
     Returns a `Recording`; its TTRTP is the judge's of the env that ran the episode.
     Raises ValueError for bad env arguments (as the env does).
@@ -118,7 +118,11 @@ def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20)
     """Write the recording `rec` as a GIF (Pillow) or MP4 (imageio-ffmpeg) at `path`:
     at most `max_frames` frames spread over the run, shown at `fps` frames per second.
     Raises RuntimeError for an MP4 without imageio-ffmpeg."""
-    import imageio.v2 as imageio
+    try:
+        import imageio.v2 as imageio
+    except ImportError as exc:
+        raise ImportError("writing a video needs imageio, in the render extra: "
+                          "pip install 'hoprover[render]'") from exc
     from hoprover_env.rendering import Renderer
     roll = rec.rollout
     idx = np.unique(np.linspace(0, len(roll.t) - 1, min(max_frames, len(roll.t))).astype(int))

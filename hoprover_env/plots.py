@@ -145,7 +145,7 @@ def position_figure(rec):
 
 def nine_figures(rec, out_dir: str) -> list[str]:
     """The contest sample program's nine figures of the recording `rec`
-    (`agents.replay.record_episode`) as PNG files in `out_dir` (created if missing):
+    (`hoprover_env.replay.record_episode`) as PNG files in `out_dir` (created if missing):
     position, attitude, velocity, rate, corner A, corner B, state, forces, torque.
     Returns the nine paths, in that order (file names 1_position.png ... 9_torque.png).
     On a slope, titles give it and positions are along / normal to the ground."""

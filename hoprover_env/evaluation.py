@@ -13,7 +13,7 @@ import time
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
-from agents.policies import RandomPolicy
+from hoprover_env.policies import RandomPolicy
 from hoprover_env import vector_env_class
 
 

@@ -65,6 +65,28 @@ def _check_keys(section: str, given: dict, valid: set):
         raise ConfigError(f"unknown config key '{section}.{bad[0]}' (valid: {sorted(valid)})")
 
 
+PACKAGED_CONFIGS = Path(__file__).resolve().parent / "configs"
+
+
+def packaged_configs() -> list[str]:
+    """The names of the configs that travel with the package (configs/*.yaml)."""
+    return sorted(p.stem for p in PACKAGED_CONFIGS.glob("*.y*ml"))
+
+
+def config_path(spec: str | Path) -> Path:
+    """A config file: a path, or the name of a packaged config ("ppo_hop" or
+    "ppo_hop.yaml"). FileNotFoundError names the missing file and the packaged names."""
+    path = Path(spec)
+    if path.is_file():
+        return path
+    if path.name == str(spec):                      # a bare name: the packaged configs
+        for cand in (PACKAGED_CONFIGS / path.name, PACKAGED_CONFIGS / f"{path.name}.yaml"):
+            if cand.is_file():
+                return cand
+    raise FileNotFoundError(f"config file not found: {spec} (packaged configs, usable by "
+                            f"name: {', '.join(packaged_configs())})")
+
+
 def load_config(path: str | Path | None, overrides: dict | None = None,
                 section_overrides: dict | None = None) -> dict:
     """Read, fill in defaults, apply command-line overrides (top-level keys, and keys of
@@ -72,9 +94,7 @@ def load_config(path: str | Path | None, overrides: dict | None = None,
     validate a config."""
     raw: dict = {}
     if path is not None:
-        path = Path(path)
-        if not path.exists():
-            raise FileNotFoundError(f"config file not found: {path}")
+        path = config_path(path)
         try:
             raw = yaml.safe_load(path.read_text()) or {}
         except yaml.YAMLError as exc:

@@ -1,9 +1,9 @@
 """A scripted contest entry: plan each hop with the simulator, fly it flat, repeat.
 
 The controller has the contest signature, so it runs through `hoprover_env.simulate`,
-through the environments (see `agents.policies`), or in the 2015 contest runner:
+through the environments (see `hoprover_env.policies`), or in the 2015 contest runner:
 
-    from agents.scripted import ScriptedHopper
+    from hoprover_env.scripted import ScriptedHopper
     from hoprover_env import simulate
     roll = simulate(ScriptedHopper(control_dt=0.5), t_end=600, control_dt=0.5, target_x=0.5)
 

@@ -20,14 +20,14 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.evaluation import EpisodeResult
+from hoprover_env.evaluation import EpisodeResult
 
 
 def policy_files(kind: str, spec: str) -> tuple[str, dict[str, bytes]] | None:
     """The files a policy spec names, read on the driver: (spec relative to the folder
     they will be written to, {relative name: bytes}); None for a spec that names no
     file (bundled, scripted, random)."""
-    from agents.policies import BUNDLED
+    from hoprover_env.policies import BUNDLED
     if kind == "policy" and (spec in BUNDLED or spec in ("scripted", "random")):
         return None
     if kind == "controller" or spec.endswith(".py") or ".py:" in spec:
@@ -69,8 +69,8 @@ def _run_chunk(kind: str, spec: str, shipped, targets, first: int, control_dt: f
                seed: int, batch: int, expected: dict):
     from hoprover_env.buildinfo import require
     require(expected)
-    from agents.evaluation import run_episodes
-    from agents.policies import load_controller, load_policy
+    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.policies import load_controller, load_policy
     if shipped is not None:
         spec = _materialize(shipped)
     policy = load_controller(spec, control_dt) if kind == "controller" else \
@@ -85,7 +85,7 @@ def evaluate_on_ray(jobs: list[tuple[str, str, str]], targets, control_dt: float
                     ship_code: bool = False) -> dict[str, list]:
     """jobs: (kind 'policy' | 'controller', spec, row name). Returns row name -> the
     EpisodeResults in target order. `progress(name, episodes_done)` after each chunk."""
-    from agents.ray_utils import init_ray
+    from hoprover_env.ray_utils import init_ray
     from hoprover_env.buildinfo import build_info
     ray = init_ray(address, num_cpus, ship_code)
     expected = build_info()
