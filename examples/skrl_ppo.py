@@ -92,8 +92,12 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 51
     agent = PPO(models=models, memory=RandomMemory(memory_size=rollout, num_envs=num_envs),
                 cfg=cfg, observation_space=env.observation_space, state_space=env.state_space,
                 action_space=env.action_space, device=env.device)
+    # close_environment_at_exit: skrl otherwise closes the env again in an atexit hook and
+    # logs "Environment closed" to a stream that may be gone by then (pytest's capture:
+    # two "--- Logging error ---" tracebacks at exit); this function closes it itself
     SequentialTrainer(cfg={"timesteps": steps // num_envs, "headless": True,
-                           "disable_progressbar": not progress},
+                           "disable_progressbar": not progress,
+                           "close_environment_at_exit": False},
                       env=env, agents=agent).train()
     env.close()
     return models["policy"]
