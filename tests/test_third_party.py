@@ -58,7 +58,10 @@ def test_zoo_trains_and_enjoys(tmp_path):
     subprocess.run([sys.executable, "-m", "rl_zoo3.train", *common, "--conf-file", str(ZOO_FILE),
                     "-n", "4096", "--eval-freq", "2048", "--eval-episodes", "2", "--seed", "0",
                     "--eval-env-kwargs", *env_kwargs], check=True, cwd=tmp_path, timeout=600)
-    assert (tmp_path / "logs" / "ppo" / "HopRover-v0_1" / "evaluations.npz").exists()
+    evals = np.load(tmp_path / "logs" / "ppo" / "HopRover-v0_1" / "evaluations.npz")
+    # the evaluation env is the training env (control_dt 2 s: at most 300 steps in
+    # 600 s), not one built with default kwargs (0.5 s: up to 1200)
+    assert evals["ep_lengths"].size and evals["ep_lengths"].max() <= 300
     out = subprocess.run([sys.executable, "-m", "rl_zoo3.enjoy", *common, "--exp-id", "1",
                           "-n", "400", "--no-render", "--env-kwargs", *env_kwargs],
                          check=True, cwd=tmp_path, timeout=600, capture_output=True, text=True)
