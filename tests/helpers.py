@@ -44,3 +44,19 @@ def first_landing(integrator, euler_dt=1e-3, torque=3e-4, control_dt=0.1, params
             bx = 0.05 if th >= 0 else -0.05
             return sim.t, x + bx * math.cos(th) - 0.05 * math.sin(th)
     raise AssertionError("no landing")
+
+
+def batch_on_one_and_all_threads(*args, **kw):
+    """simulate_batch(*args, **kw) run on one numba thread and on all of them: the two
+    BatchRollouts, to compare (the thread count must not change a bit)."""
+    import numba
+    from hoprover_env import simulate_batch
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = simulate_batch(*args, **kw)
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        many = simulate_batch(*args, **kw)
+    finally:
+        numba.set_num_threads(before)
+    return one, many

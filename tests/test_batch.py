@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from hoprover_env import BatchRollout, RoverParams, simulate, simulate_batch
+from helpers import batch_on_one_and_all_threads
 from test_rollout import assert_identical
 
 
@@ -99,14 +100,7 @@ def test_threads_and_record_do_not_change_results():
     rng = np.random.default_rng(1)
     sched, targets = random_batch(rng, 16, 100, 0.5)
     kw = dict(t_end=100.0, control_dt=0.5)
-    before = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = simulate_batch(sched, targets, **kw)
-        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        many = simulate_batch(sched, targets, **kw)
-    finally:
-        numba.set_num_threads(before)
+    one, many = batch_on_one_and_all_threads(sched, targets, **kw)
     summary = simulate_batch(sched, targets, record=False, **kw)
     for other in (many, summary):
         assert np.array_equal(one.ttrtp, other.ttrtp, equal_nan=True)

@@ -1,5 +1,4 @@
 """`euler` approaches `event` as its step shrinks (MODEL.md section 11)."""
-import math
 
 import numpy as np
 import pytest

@@ -87,7 +87,7 @@ def test_potential_is_bounded_below_by_phi_min():
     env = HopRoverEnv(**GAMED)
     e = env.config.reward_vector()
     m = reward.new_memory()
-    s = np.array(env.reset(seed=0)[0])          # noqa: F841 - sets env._s
+    env.reset(seed=0)                            # sets env._s
     S = env.unwrapped._s.copy()
     P = env.unwrapped._p
     S[hoprover_env.core.S_MODE] = hoprover_env.core.MODE_A

@@ -13,7 +13,7 @@ import pytest
 
 from agents import stress_families as families
 from agents.stress import CTRL_SCHEDULE, TARGET_X
-from hoprover_env import RoverParams, rollout, simulate
+from hoprover_env import RoverParams, simulate
 from hoprover_env.controllers import attitude_hold
 
 

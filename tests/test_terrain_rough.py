@@ -3,7 +3,6 @@ generator, the tilted impact law, seeds and bit-reproducibility."""
 import dataclasses
 import math
 
-import numba
 import numpy as np
 import pytest
 from scipy import stats
@@ -11,6 +10,7 @@ from scipy import stats
 from hoprover_env import RoverParams, RoverSim, core, simulate, simulate_batch
 from hoprover_env.simulate import make_state
 from flat_cases import HopSequence
+from helpers import batch_on_one_and_all_threads
 
 U = np.uint64
 ROUGH = RoverParams(roughness=0.1, slope=0.15)
@@ -156,14 +156,7 @@ def test_same_seed_same_bits_across_threads_batch_positions_and_simulate():
     plist = [dataclasses.replace(ROUGH, slope=float(v)) for v in rng.uniform(-0.3, 0.3, n)]
     targets = np.linspace(-0.5, 0.5, n)
     kw = dict(t_end=150.0, params=plist, seed=2**63 + 12345)
-    old = numba.get_num_threads()
-    try:
-        numba.set_num_threads(1)
-        one = simulate_batch(sched, targets, **kw)
-        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-        many = simulate_batch(sched, targets, **kw)
-    finally:
-        numba.set_num_threads(old)
+    one, many = batch_on_one_and_all_threads(sched, targets, **kw)
     prefix = simulate_batch(sched[:3], targets[:3], t_end=150.0, params=plist[:3],
                             seed=2**63 + 12345)
     assert one.seed == many.seed == 2**63 + 12345

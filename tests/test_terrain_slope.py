@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hoprover_env import RoverParams, RoverSim, core, simulate
-from helpers import first_landing, launch_then_hold
+from helpers import first_landing
 from hoprover_env.reference import Ref
 
 SLOPES = [-0.3, -0.1, 0.1, 0.3]

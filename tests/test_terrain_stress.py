@@ -6,10 +6,8 @@ import dataclasses
 import numpy as np
 from hypothesis import given, strategies as st
 
-from hoprover_env import simulate
-from helpers import attitude_hold
 from hoprover_env.testing import kinematic_violations
-from test_stress import scenario
+from test_stress import run, scenario
 
 
 @st.composite
@@ -19,19 +17,6 @@ def terrain_scenario(draw):
                             roughness=draw(st.sampled_from([0.0, 0.05, 0.3])))
     seed = draw(st.integers(0, 2**64 - 1))
     return p, state, control_dt, torques, hold, integrator, law, min(t_end, 600.0), seed
-
-
-def run(p, state, control_dt, torques, hold, integrator, law, t_end, seed):
-    sched = np.array(torques)
-
-    def control(pos, vel, the, omg, posT, t, smt, st):
-        if hold and st == "A":
-            return attitude_hold(the, omg, inertia=p.inertia)
-        return sched[int(round(t / control_dt)) % sched.size]
-
-    return simulate(control, t_end=t_end, control_dt=control_dt, target_x=0.3,
-                    integrator=integrator, impact_law=law, params=p, initial_state=state,
-                    euler_dt=5e-3, seed=seed)
 
 
 @given(terrain_scenario())
