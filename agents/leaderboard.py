@@ -45,7 +45,7 @@ PRIVILEGE = {
     "terrain": "observation only (learned)", "random": "nothing",
 }
 START, END = "<!-- leaderboard start -->", "<!-- leaderboard end -->"
-# the baselines' summaries (python -m agents.baselines ... then copy OUT/summary.json here)
+# the baselines' summaries, written by python -m agents.baselines ... --record
 BASELINES = ROOT / "benchmarks" / "results" / "baselines"
 
 

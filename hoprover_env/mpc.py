@@ -20,16 +20,19 @@ after every landing, so a bump that throws a hop off is corrected by the next pl
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
 from . import core
 from .planning import CONTROL_DT, Problem, plan_end, plan_torque, search
+from .policies import torque_to_action
 
 DEFAULT_BUDGET = 3000        # candidates per decision on smooth ground (see BENCHMARKS.md)
 DEFAULT_ROUGH_BUDGET = 1500  # on rough ground, each candidate flown over the samples
 DEFAULT_TERRAIN_SAMPLES = 4
+GROUND_WAIT = 10.0           # s on the ground without coming to rest before replanning
 
 
 class MPCPolicy:
@@ -61,26 +64,42 @@ class MPCPolicy:
         self.plans: list = []
         self.decisions = 0
         self.planning_seconds = 0.0
-        self.rng = np.random.default_rng(seed)
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         """Start `n` episodes: no plans yet."""
         self.plans = [None] * n
-        # the agent's own terrain samples, a stream per batch of episodes
-        self.rng = np.random.default_rng([self.seed, first_episode])
+        self.grounded_since = [0.0] * n
 
-    def needs_plan(self, S: np.ndarray) -> bool:
-        """At rest, outside the band, with the current plan (if any) run out."""
-        return int(S[core.S_MODE]) == core.MODE_F and S[core.S_INBAND] == 0.0
+    def decision_rng(self, state: np.ndarray, target: float) -> np.random.Generator:
+        """The random stream of one decision, keyed by the agent's seed and the exact
+        state and target it plans from: a plan is a function of what the agent sees, so
+        an episode plays the same alone or at any position of any batch."""
+        key = np.append(np.asarray(state, dtype=np.float64), float(target))
+        return np.random.default_rng([self.seed, *key.view(np.uint64).tolist()])
+
+    def needs_plan(self, i: int, S: np.ndarray) -> bool:
+        """Outside the band with the current plan (if any) run out, and at rest or on
+        the ground for `GROUND_WAIT` s without a flight: on a slope of rough ground a
+        landing can end in small bounces that creep for minutes without coming to rest
+        (the suite's terrain episode 50 crept 0.6 m in 380 s); the plan is made from
+        wherever the rover is, the simulator starting from that exact state."""
+        t = float(S[core.S_T])
+        mode = int(S[core.S_MODE])
+        if mode == core.MODE_A:
+            self.grounded_since[i] = math.inf
+        elif self.grounded_since[i] > t:
+            self.grounded_since[i] = t
+        if S[core.S_INBAND] != 0.0 or (self.plans[i] is not None
+                                        and t < plan_end(self.plans[i])):
+            return False
+        return mode == core.MODE_F or t - self.grounded_since[i] >= GROUND_WAIT
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Actions (N, 1) for the sub-envs of `venv` (a HopRoverVectorEnv)."""
-        from hoprover_env.policies import torque_to_action   # TODO: the package's, after the move
         n = len(obs)
         if len(self.plans) != n:
-            self.plans = [None] * n
-        todo = [i for i in range(n) if self.needs_plan(venv.S[i]) and (
-            self.plans[i] is None or venv.S[i][core.S_T] >= plan_end(self.plans[i]))]
+            self.reset(n)
+        todo = [i for i in range(n) if self.needs_plan(i, venv.S[i])]
         if todo:
             self._replan(todo, venv)
         out = np.zeros((n, 1))
@@ -99,20 +118,20 @@ class MPCPolicy:
         for i in todo:
             s = venv.S[i]
             p = venv.params[i]
+            rng = self.decision_rng(s[:core.S_T + 1], float(venv.targets[i]))
             seeds = None
             if p.roughness > 0.0:
-                seeds = tuple(int(k) for k in self.rng.integers(0, 2**63,
-                                                                self.terrain_samples))
+                seeds = tuple(int(k) for k in rng.integers(0, 2**63, self.terrain_samples))
             prob = Problem(state=np.array(s[:core.S_T]), target=float(venv.targets[i]),
                            params=p, t0=float(s[core.S_T]),
                            t_total=float(venv.config.episode_time), seeds=seeds)
-            (rough if seeds else smooth).append((i, prob))
+            (rough if seeds else smooth).append((i, prob, int(rng.integers(1, 2**28))))
         for group, budget in ((smooth, self.budget), (rough, self.rough_budget)):
             if not group:
                 continue
-            problems = [p for _, p in group]
-            result = search(problems, budget=budget, seed=self.decisions)
-            for k, (i, prob) in enumerate(group):
+            problems = [p for _, p, _ in group]
+            result = search(problems, budget=budget, seed=[k for _, _, k in group])
+            for k, (i, prob, _) in enumerate(group):
                 # a target out of reach within the episode still gets the plan that
                 # ends nearest to it
                 self.plans[i] = result.plan(k, prob)

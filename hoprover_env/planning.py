@@ -33,6 +33,7 @@ The result is a best-known plan within this family and budget, not an optimum.
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 from numba import njit
@@ -151,20 +152,27 @@ def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
     if any(p.seeds for p in problems):
         seeds = np.concatenate([np.asarray(problems[j].seeds or (0,), dtype=np.uint64)
                                 for j in which])
-    t_end = float(cap[prob].max())
-    b = simulate_batch(plan_controller, np.array([problems[j].target for j in prob]),
-                       t_end=t_end, control_dt=CONTROL_DT,
-                       params=[problems[j].params for j in prob],
-                       initial_states=np.array([problems[j].state for j in prob]),
-                       controller_args=plans, seed=seeds, record=False)
     params = [problems[j].params for j in prob]
-    half = np.array([p.half_width + p.band_half_width for p in params])
     targets = np.array([problems[j].target for j in prob])
-    miss = np.maximum(np.abs(b.final[:, 0] - targets) - half, 0.0)
-    ok = b.success & (b.ttrtp <= cap[prob])
-    run_cost = np.where(ok, b.ttrtp, cap[prob] + MISS_COST_PER_M * miss
-                        + BROKEN_COST * b.broken)
-    run_ttrtp = np.where(ok, b.ttrtp, np.inf)
+    states = np.array([problems[j].state for j in prob])
+    final_x, ttrtp_run = np.empty(len(rows)), np.empty(len(rows))
+    success, broken = np.empty(len(rows), bool), np.empty(len(rows), bool)
+    # one batch per horizon: each run ends at its own problem's horizon, so a candidate's
+    # cost (its miss and break at the horizon) does not depend on what is searched beside it
+    for t_end in np.unique(cap[prob]):
+        at = np.flatnonzero(cap[prob] == t_end)
+        b = simulate_batch(plan_controller, targets[at], t_end=float(t_end),
+                           control_dt=CONTROL_DT, params=[params[k] for k in at],
+                           initial_states=states[at], controller_args=plans[at],
+                           seed=None if seeds is None else seeds[at], record=False)
+        final_x[at], ttrtp_run[at] = b.final[:, 0], b.ttrtp
+        success[at], broken[at] = b.success, b.broken
+    half = np.array([p.half_width + p.band_half_width for p in params])
+    miss = np.maximum(np.abs(final_x - targets) - half, 0.0)
+    ok = success & (ttrtp_run <= cap[prob])
+    run_cost = np.where(ok, ttrtp_run, cap[prob] + MISS_COST_PER_M * miss
+                        + BROKEN_COST * broken)
+    run_ttrtp = np.where(ok, ttrtp_run, np.inf)
     cost = np.bincount(rows, weights=run_cost, minlength=len(which)) / reps
     worst = np.full(len(which), -np.inf)
     np.maximum.at(worst, rows, run_ttrtp)
@@ -203,16 +211,33 @@ def launch_grid(n_torque: int, n_window: int) -> np.ndarray:
     return grid
 
 
+def cma_seed(seed, i: int, r: int) -> int:
+    """CMA-ES seed of start r of problem i, from one search seed or per-problem seeds."""
+    if isinstance(seed, (int, np.integer)):
+        return int(seed) * 1000 + 10 * i + r + 1
+    return int(seed[i]) * 10 + r + 1
+
+
+def normal_sampler(seed: int):
+    """randn(*shape) from a generator of its own. pycma draws from numpy's global
+    generator by default, which every CMA-ES run of a search would share (asked in
+    turn), so that a problem's search would depend on the problems searched beside it."""
+    rng = np.random.default_rng(seed)
+    return lambda *shape: rng.standard_normal(shape)
+
+
 def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
            popsize: int = 16, sigma: float = 0.12, grid: tuple = (16, 4),
-           seed: int = 0, warm: np.ndarray | None = None,
+           seed: int | list = 0, warm: np.ndarray | None = None,
            horizon_slack: float = 1.25) -> SearchResult:
     """The best plan per problem within `budget` simulated candidates each (a candidate
     flown over k terrain seeds counts once): a launch grid, then `starts` CMA-ES runs
     per problem from its best grid points of distinct launch torques (or from the rows
     of `warm`, points to start from), each population of every problem in one batch.
     Candidates are simulated only up to `horizon_slack` times the best TTRTP found so
-    far (plus 20 s): a plan that cannot beat it by then is not worth finishing."""
+    far (plus 20 s): a plan that cannot beat it by then is not worth finishing.
+    `seed`: one integer for the whole search, or one per problem (then a problem's
+    search does not depend on the others searched beside it)."""
     import cma
     n = len(problems)
     g = launch_grid(*grid)
@@ -245,7 +270,8 @@ def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
                 chosen.append(g[k])
         for r, x0 in enumerate(chosen):
             es = cma.CMAEvolutionStrategy(list(x0), sigma, {
-                "bounds": [0.0, 1.0], "popsize": popsize, "seed": seed * 1000 + 10 * i + r + 1,
+                "bounds": [0.0, 1.0], "popsize": popsize, "seed": math.nan,
+                "randn": normal_sampler(cma_seed(seed, i, r)),
                 "maxfevals": each, "verbose": -9, "tolfun": 1e-4, "tolx": 1e-6})
             strategies.append((i, es))
     while strategies:

@@ -79,3 +79,27 @@ def test_mpc_rejects_bad_budgets():
         MPCPolicy(budget=10)
     with pytest.raises(ValueError, match="terrain_samples"):
         MPCPolicy(terrain_samples=0)
+
+
+def test_mpc_plays_an_episode_alike_alone_and_in_any_batch():
+    # the agent's random streams (its CMA-ES seeds, its own terrain samples) are keyed by
+    # the state it plans from, not by the episodes planned beside it or before it
+    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.mpc import MPCPolicy
+    targets = np.array([0.35, -0.3, 0.6])
+    ground = {"slope": np.array([0.1, -0.05, 0.0]), "roughness": np.full(3, 0.05),
+              "terrain_seed": np.array([11, 22, 33])}
+    kw = {"env_kwargs": {"episode_time": 300.0}}
+
+    def agent():
+        return MPCPolicy(budget=200, rough_budget=200, terrain_samples=2)
+    together = run_episodes(agent(), targets, terrain=ground, **kw)
+    order = [2, 0, 1]
+    shuffled = run_episodes(agent(), targets[order],
+                            terrain={k: v[order] for k, v in ground.items()}, **kw)
+    alone = run_episodes(agent(), targets[1:2],
+                         terrain={k: v[1:2] for k, v in ground.items()}, **kw)
+    ttrtp = [r.ttrtp for r in together]
+    assert [r.ttrtp for r in shuffled] == [ttrtp[k] for k in order]
+    assert alone[0].ttrtp == ttrtp[1]
+    assert any(r.success for r in together)
