@@ -134,18 +134,35 @@ def main(argv=None) -> int:
     ap.add_argument("--agents", nargs="+", default=None, help="default: every bundled agent")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results" / "leaderboard.json"))
     ap.add_argument("--no-write", action="store_true", help="print the tables only")
+    ap.add_argument("--pages-only", action="store_true",
+                    help="evaluate nothing: rewrite docs/leaderboard.md and the README's table "
+                         "from the stored results in --out (after new baselines are recorded)")
     args = ap.parse_args(argv)
+    if args.pages_only:
+        out = Path(args.out)
+        if not out.is_file():
+            raise SystemExit(f"--pages-only: no stored results at {out}; run without it first")
+        stored = json.loads(out.read_text())
+        write_pages(stored["results"], stored["stamp"])
+        return 0
     results = evaluate(args.suite, args.agents)
-    md = tables(results)
-    print(md)
+    print(tables(results))
     if args.no_write:
         return 0
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(args.out, json.dumps(results, indent=1, default=float))
     stamp = (f"Command: `python -m agents.leaderboard` ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}). "
              "Score = reference TTRTP / TTRTP (0 for a failure), regret = TTRTP / reference; "
              "intervals: 95 % bootstrap over the episodes (rliable). The references are "
              "best-known plans, not optima.")
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(args.out, json.dumps({"stamp": stamp, "results": results}, indent=1,
+                                      default=float))
+    write_pages(results, stamp)
+    return 0
+
+
+def write_pages(results: dict, stamp: str) -> None:
+    """docs/leaderboard.md (agents, baselines over seeds, privileges) and the README's table."""
+    md = tables(results)
     page = ROOT / "docs" / "leaderboard.md"
     atomic_write(str(page), "# Leaderboard\n\nEvery bundled agent on every frozen test suite "
                  "(`hoprover_env.suites`), scored against the suites' best-known references."
@@ -156,7 +173,6 @@ def main(argv=None) -> int:
                  "the per-seed tables, learning curves and times.\n\n"
                  f"## What each agent knows\n\n{privilege_table()}\n")
     splice(ROOT / "README.md", f"{md}\n\n{stamp}")
-    return 0
 
 
 if __name__ == "__main__":
