@@ -194,6 +194,9 @@ def main(argv=None) -> int:
     if not args.score_only:
         train(args.config, seeds, out, args.timesteps)
     result = score(out, seeds, args.name or out.resolve().name)
+    budget = f" --timesteps {args.timesteps}" if args.timesteps else ""
+    result["command"] = (f"python -m agents.baselines --config {args.config} --seeds "
+                         f"{args.seeds}{budget} --out runs/baselines/{out.resolve().name}")
     md = markdown(result)
     print("\n" + md)
     atomic_write(out / "summary.md", md)

@@ -108,9 +108,12 @@ def baseline_tables(folder: Path = BASELINES) -> str:
         s = Summary(row["agent"], row["runs"], row["episodes"],
                     {m: row[m] for m in METRICS}, {m: row[m + "_low"] for m in METRICS},
                     {m: row[m + "_high"] for m in METRICS})
-        by_suite.setdefault(res["suite"], []).append(s)
-    return "\n\n".join(f"**{suite}**, intervals over seeds:\n\n{format_table(rows)}"
-                        for suite, rows in by_suite.items())
+        by_suite.setdefault(res["suite"], []).append((s, res))
+    return "\n\n".join(
+        f"**{suite}**, intervals over seeds:\n\n{format_table([s for s, _ in rows])}\n\n"
+        + "\n".join(f"- {res['name']}: {res['env_id']}, `{res.get('command', '?')}`"
+                    for s, res in rows)
+        for suite, rows in by_suite.items())
 
 
 def privilege_table() -> str:
