@@ -29,9 +29,10 @@ from hoprover_env.scores import format_table, summarize
 ROOT = Path(__file__).resolve().parent.parent
 SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}
 AGENTS = {
-    "level": ["mpc", "scratch", "hop", "bundled", "scripted", "random"],
-    "terrain": ["mpc", "terrain", "scripted", "scratch", "random"],
-    "contest": ["mpc", "scratch", "hop", "bundled", "scripted", "random"],
+    # every bundled agent on every suite, each task's own learned policy first
+    "level": ["mpc", "scratch", "hop", "bundled", "terrain", "scripted", "random"],
+    "terrain": ["mpc", "terrain", "scratch", "hop", "bundled", "scripted", "random"],
+    "contest": ["mpc", "scratch", "hop", "bundled", "terrain", "scripted", "random"],
 }
 # what each agent knows beyond the observation
 PRIVILEGE = {
@@ -140,6 +141,8 @@ def main(argv=None) -> int:
     ap.add_argument("--pages-only", action="store_true",
                     help="evaluate nothing: rewrite docs/leaderboard.md and the README's table "
                          "from the stored results in --out (after new baselines are recorded)")
+    ap.add_argument("--merge", action="store_true",
+                    help="keep the stored results of the agents not evaluated now")
     args = ap.parse_args(argv)
     if args.pages_only:
         out = Path(args.out)
@@ -149,13 +152,29 @@ def main(argv=None) -> int:
         write_pages(stored["results"], stored["stamp"])
         return 0
     results = evaluate(args.suite, args.agents)
-    print(tables(results))
-    if args.no_write:
-        return 0
-    stamp = (f"Command: `python -m agents.leaderboard` ({time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}). "
+    now = time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())
+    stamp = (f"Command: `python -m agents.leaderboard` ({now}). "
              "Score = reference TTRTP / TTRTP (0 for a failure), regret = TTRTP / reference; "
              "intervals: 95 % bootstrap over the episodes (rliable). The references are "
              "best-known plans, not optima.")
+    if args.merge:
+        stored_all = json.loads(Path(args.out).read_text())
+        stored = stored_all["results"]
+        stamp = (f"{stored_all['stamp']} Added with `--merge` ({now}): "
+                 + ", ".join(f"{a} on {s}" for s in results for a in results[s]["agents"]) + ".")
+        for suite, res in results.items():
+            if suite in stored and stored[suite]["checksum"] == res["checksum"]:
+                stored[suite]["agents"].update(res["agents"])
+                order = AGENTS[suite]
+                stored[suite]["agents"] = dict(sorted(
+                    stored[suite]["agents"].items(),
+                    key=lambda kv: order.index(kv[0]) if kv[0] in order else len(order)))
+            else:
+                stored[suite] = res
+        results = stored
+    print(tables(results))
+    if args.no_write:
+        return 0
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     atomic_write(args.out, json.dumps({"stamp": stamp, "results": results}, indent=1,
                                       default=float))
