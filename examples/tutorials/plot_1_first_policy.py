@@ -17,7 +17,6 @@ same config.
 # native batched env. The settings come from the repository's config file, so this
 # tutorial trains exactly what ``python train.py --config configs/ppo_hop.yaml`` trains.
 import time
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -29,12 +28,12 @@ from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
 from hoprover_env.policies import SB3Policy, load_policy
 from hoprover_env.sb3 import HopRoverSB3VecEnv
+from hoprover_env.sb3_agents import config_path
 
 torch.set_num_threads(1)
-root = Path.cwd()
-while not (root / "configs").is_dir():          # the repository root (the build runs in docs/)
-    root = root.parent
-cfg = yaml.safe_load((root / "configs" / "ppo_hop.yaml").read_text())
+# configs/ppo_hop.yaml, by its name: it travels with the package, so this also runs from
+# a wheel install outside a checkout
+cfg = yaml.safe_load(config_path("ppo_hop").read_text())
 print("env:", cfg["env"])
 print("PPO:", cfg["hyperparams"])
 
