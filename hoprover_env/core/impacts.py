@@ -3,13 +3,14 @@ the post-impact classification."""
 
 import math
 
+import numpy as np
+
 
 from .._compile import kernel, I64, VEC, MAT
 from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
-from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, MODE_B, MODE_C, MODE_D,
-                     MODE_E, O_LAW, S_MAXGAIN, S_MODE, S_NGAIN, S_NIMPACT, S_SIGMA, S_T,
-                     S_TH, S_VX, S_VY, S_W, S_Y, V_TOL, W_IMP)
-from .forces import (pin_corner, set_double_contact, set_single_contact, turn_flat_about,
+from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, O_LAW, S_MAXGAIN, S_MODE,
+                     S_NGAIN, S_NIMPACT, S_SIGMA, S_T, S_TH, S_VX, S_VY, S_W, S_Y, V_TOL, W_IMP)
+from .forces import (pin_or_slide, set_double_contact, set_single_contact, turn_flat_about,
                      corner_offset, kinetic_energy, wrap_angle)
 from .judge import log_event
 from .terrain import impact_tilt
@@ -269,15 +270,9 @@ def resolve_impact_tilted(S, P, law, W, psi):
         _, dyo = corner_offset(P, 1 - k, S[S_TH])
         if S[S_Y] + dyo < 0.0:
             turn_flat_about(S, P, k)
-        _, dyk = corner_offset(P, k, S[S_TH])
-        vpk = S[S_VX] + S[S_W] * dyk
-        if abs(vpk) < P[P_VXMIN]:
-            pin_corner(S, P, k)
-            S[S_MODE] = MODE_B if k == 0 else MODE_D
-            S[S_SIGMA] = 0.0
-        else:
-            S[S_MODE] = MODE_C if k == 0 else MODE_E
-            S[S_SIGMA] = 1.0 if vpk > 0.0 else -1.0
+        # pinned when the corner slides slower than v_xmin (strictly: for floats,
+        # |v| < v_xmin is |v| <= the float just below v_xmin)
+        pin_or_slide(S, P, k, np.nextafter(P[P_VXMIN], 0.0))
     else:
         S[S_MODE] = MODE_A
         S[S_SIGMA] = 0.0

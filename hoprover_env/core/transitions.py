@@ -7,9 +7,9 @@ from ..params import P_M, P_G, P_GC, P_GS, P_MUS
 from .layout import (A_TOL, EV_LIFTOFF, EV_RESUME, EV_REVERSE, EV_SLIP, EV_STICK, EV_TIP,
                      F_TOL, H_TOL, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
                      S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_Y, V_TOL)
-from .forces import (pin_corner, set_double_contact, set_single_contact, contact_corner,
-                     corner_offset, corner_offset_cs, double_contact_forces, pivot_dynamics,
-                     slide_dynamics, wrap_angle)
+from .forces import (pin_corner, pin_or_slide, pinned_mode, sliding_mode, set_double_contact,
+                     set_single_contact, contact_corner, corner_offset_cs, double_contact_forces,
+                     pivot_dynamics, slide_dynamics, wrap_angle)
 from .flight import resting_corner_driven_down
 from .judge import log_event
 
@@ -57,10 +57,10 @@ def settle(S, P, ev, n):
                 # rest, C/E slide when already sliding).
                 k = 0 if fby < -ftol else 1
                 if mode == MODE_F:
-                    new = MODE_B if k == 0 else MODE_D
+                    new = pinned_mode(k)
                     S[S_SIGMA] = 0.0
                 else:
-                    new = MODE_C if k == 0 else MODE_E
+                    new = sliding_mode(k)
                 S[S_MODE] = new
                 n = log_event(S, ev, n, t, EV_TIP, mode, new, 0.0)
                 continue
@@ -90,13 +90,13 @@ def settle(S, P, ev, n):
                     S[S_SIGMA] = 0.0
                     n = log_event(S, ev, n, t, EV_LIFTOFF, mode, MODE_A, 0.0)
                 else:
-                    new = MODE_C if k == 0 else MODE_E
+                    new = sliding_mode(k)
                     S[S_MODE] = new
                     S[S_SIGMA] = sigma
                     n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
                 continue
             if abs(fx) > P[P_MUS] * fy + ftol:
-                new = MODE_C if k == 0 else MODE_E
+                new = sliding_mode(k)
                 S[S_MODE] = new
                 S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
                 n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
@@ -159,16 +159,7 @@ def settle(S, P, ev, n):
             k = 0 if down0 else 1
             S[S_TH] = wrap_angle(S[S_TH])
             set_single_contact(S, P, k)
-            dx, dy = corner_offset(P, k, S[S_TH])
-            vpx = S[S_VX] + S[S_W] * dy
-            if abs(vpx) <= V_TOL:
-                pin_corner(S, P, k)
-                new = MODE_B if k == 0 else MODE_D
-                S[S_SIGMA] = 0.0
-            else:
-                new = MODE_C if k == 0 else MODE_E
-                S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
-            S[S_MODE] = new
+            new = pin_or_slide(S, P, k, V_TOL)
             n = log_event(S, ev, n, t, EV_RESUME, MODE_A, new, 0.0)
             continue
         return n
