@@ -46,12 +46,12 @@ import math
 import warnings
 
 import numpy as np
-from numba import get_thread_id, njit, prange, types as nt
+from numba import get_thread_id, prange, types as nt
 from numba.experimental.function_type import WrapperAddressProtocol
 from numba.extending import is_jitted
 
 from . import core
-from ._compile import OPTIONS, drop_stale_cache
+from ._compile import compile_now, kernel
 from .params import P_TMIN, P_TMAX, RoverParams
 from .validate import check_torque
 
@@ -74,6 +74,17 @@ _I = nt.int64
 _B = nt.boolean
 CONTROL_SIG = _F(_V, _V, _F, _F, _V, _F, _F, _I)
 CONTROL_TYPE = nt.FunctionType(CONTROL_SIG)
+
+
+@kernel(nt.void(_V, _I, _I, _I, _I, _I), inner=True)
+def _save_progress(prog, k, j, nr, nl, status):
+    """Record where a run stands (control instant k, sub-step j, rows and log rows
+    written) and why it returned, so that the next call goes on from there."""
+    prog[G_K] = k
+    prog[G_J] = j
+    prog[G_ROWS] = nr
+    prog[G_LOG] = nl
+    prog[G_STATUS] = status
 
 
 def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
@@ -99,11 +110,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
             t_next = t_end
         if j == 0 and prog[G_CMD_K] != k:
             if source == CTRL_PYTHON:
-                prog[G_K] = k
-                prog[G_J] = 0
-                prog[G_ROWS] = nr
-                prog[G_LOG] = nl
-                prog[G_STATUS] = ST_NEED_COMMAND
+                _save_progress(prog, k, 0, nr, nl, ST_NEED_COMMAND)
                 return
             if source == CTRL_COMPILED:
                 cbuf[0] = S[core.S_X]
@@ -149,11 +156,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                 if nl + m > log.shape[0]:
                     for c in range(core.N_STATE):
                         S[c] = backup[c]
-                    prog[G_K] = k
-                    prog[G_J] = j
-                    prog[G_ROWS] = nr
-                    prog[G_LOG] = nl
-                    prog[G_STATUS] = ST_ROOM
+                    _save_progress(prog, k, j, nr, nl, ST_ROOM)
                     return
                 for c in range(ROW_COLS):
                     rows[nr, c] = backup[c]
@@ -177,11 +180,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
         cmds[nr] = cmds[nr - 1]
         applied[nr] = applied[nr - 1]
         nr += 1
-    prog[G_K] = k
-    prog[G_J] = j
-    prog[G_ROWS] = nr
-    prog[G_LOG] = nl
-    prog[G_STATUS] = ST_DONE
+    _save_progress(prog, k, j, nr, nl, ST_DONE)
 
 
 def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
@@ -235,12 +234,13 @@ def _fixed_address(dispatcher):
         return dispatcher
 
 
-def _compiled(func, signature, **options):
-    """func compiled for `signature` (or loaded from numba's cache), after the kernel
-    sources' check of this module's cache; nothing else compiles later."""
-    dispatcher = njit(**OPTIONS, **options)(func)
-    drop_stale_cache(dispatcher)        # cached code here embeds the core's
-    dispatcher.compile(signature)
+def _compiled(func, signature, parallel=False):
+    """func compiled by `kernel` for `signature` (or loaded from numba's cache) now;
+    nothing else compiles later."""
+    dispatcher = kernel(signature, parallel=parallel)(func)
+    compile_now(dispatcher)
+    if not dispatcher.overloads:     # kernel's plain-numba fallback keeps no signature
+        dispatcher.compile(signature)
     dispatcher.disable_compile()
     return dispatcher
 
