@@ -197,7 +197,8 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
         gr[GUARD_FRICTION] = sigma * (du[3] + du[1] * dyk - w * w * dxk)
         gr[GUARD_BAND] = -sigma * (u[3] + w * dyk)
     else:
-        gr[GUARD_FRICTION] = (b_tp - b_tm) / (2 * eps_t) * du[0] + (b_wp - b_wm) / (2 * eps_w) * du[1]
+        gr[GUARD_FRICTION] = ((b_tp - b_tm) / (2 * eps_t) * du[0]
+                              + (b_wp - b_wm) / (2 * eps_w) * du[1])
         gr[GUARD_BAND] = 0.0
     # the heights' rates: GUARD_TOUCH (the other bottom corner), GUARD_TOP_R (corner
     # 2), GUARD_TOP_L (corner 3) in turn

@@ -66,6 +66,21 @@ W_FLT = 24       # flight: 8
 W_RK = 32        # contact phases: 134 (sub-layout W_U ... below)
 W_WORK = 176     # integration steps (flight + DOP853) taken in the current advance
 
+# The impacts' part (impacts.py), from W_IMP: per bottom corner (2 floats each) its
+# offset, point velocity, flags (1.0 / 0.0), restitution target and impulse.
+W_IMP_DX = W_IMP                # offsets (dx, dy) of corners A, B (in the impact frame)
+W_IMP_DY = W_IMP_DX + 2
+W_IMP_VPX = W_IMP_DY + 2        # point velocities before the impact
+W_IMP_VPY = W_IMP_VPX + 2
+W_IMP_ON = W_IMP_VPY + 2        # on the ground (within H_IMPACT)
+W_IMP_PART = W_IMP_ON + 2       # on the ground and not separating: takes part
+W_IMP_DV = W_IMP_PART + 2       # velocity change the law asks of each corner (x, y)
+W_IMP_TGT_Y = W_IMP_DV + 4      # normal target speed after the impact
+W_IMP_LX = W_IMP_TGT_Y + 2      # impulses (x, y) at each corner
+W_IMP_LY = W_IMP_LX + 2
+W_IMP_END = W_IMP_LY + 2
+assert W_IMP_END <= W_FLT
+
 # The contact phases' part (contact_phases.py), from W_RK: vectors of the reduced state
 # u = (theta, omega, x, vx) (N_U floats) and of the guards (N_GUARDS floats).
 N_U = 4
