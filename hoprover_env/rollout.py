@@ -87,6 +87,36 @@ def _save_progress(prog, k, j, nr, nl, status):
     prog[G_STATUS] = status
 
 
+@kernel(inner=True)
+def _contest_arguments(S, cargs, cbuf):
+    """The contest controller's array arguments in cbuf: pos, vel, then posT = (x_T, 0)
+    followed by this run's controller_args (layout at POS_T)."""
+    cbuf[0] = S[core.S_X]
+    cbuf[1] = S[core.S_Y]
+    cbuf[2] = S[core.S_VX]
+    cbuf[3] = S[core.S_VY]
+    cbuf[POS_T] = S[core.S_XT]
+    cbuf[POS_T + 1] = 0.0
+    for a in range(cargs.shape[0]):
+        cbuf[POS_T + 2 + a] = cargs[a]
+
+
+@kernel(inner=True)
+def _record_advance(rows, cmds, applied, log, nr, nl, before, cmd, app, evbuf, m):
+    """Append one advance to a run's record: the state it started from (row nr), its
+    commanded and applied torque, and its m events (log rows from nl on). Returns the
+    new (nr, nl)."""
+    for c in range(ROW_COLS):
+        rows[nr, c] = before[c]
+    cmds[nr] = cmd
+    applied[nr] = app
+    for e in range(m):
+        for c in range(core.EV_COLS):
+            log[nl, c] = evbuf[e, c]
+        nl += 1
+    return nr + 1, nl
+
+
 def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
     """Stands in for the controller argument of a scheduled run (never called)."""
     return 0.0
@@ -113,14 +143,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                 _save_progress(prog, k, 0, nr, nl, ST_NEED_COMMAND)
                 return
             if source == CTRL_COMPILED:
-                cbuf[0] = S[core.S_X]
-                cbuf[1] = S[core.S_Y]
-                cbuf[2] = S[core.S_VX]
-                cbuf[3] = S[core.S_VY]
-                cbuf[POS_T] = S[core.S_XT]
-                cbuf[POS_T + 1] = 0.0
-                for a in range(n_args):
-                    cbuf[POS_T + 2 + a] = cargs[a]
+                _contest_arguments(S, cargs, cbuf)
                 cmd = ctrl(cbuf[0:2], cbuf[2:4], S[core.S_TH], S[core.S_W],
                            cbuf[POS_T:POS_T + 2 + n_args], S[core.S_T], t_end,
                            int(S[core.S_MODE]))
@@ -158,15 +181,8 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                         S[c] = backup[c]
                     _save_progress(prog, k, j, nr, nl, ST_ROOM)
                     return
-                for c in range(ROW_COLS):
-                    rows[nr, c] = backup[c]
-                cmds[nr] = cmd
-                applied[nr] = app
-                nr += 1
-                for e in range(m):
-                    for c in range(core.EV_COLS):
-                        log[nl, c] = evbuf[e, c]
-                    nl += 1
+                nr, nl = _record_advance(rows, cmds, applied, log, nr, nl, backup, cmd, app,
+                                         evbuf, m)
             j += 1
             if S[core.S_BROKEN] != 0.0:
                 break
