@@ -296,12 +296,11 @@ def _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W):
 
 
 @kernel(inner=True)
-def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, W):
+def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol, gv, gnew, level,
+                    f0, kst, ytmp, utry, rate0, rate1, gtry, gtmp):
     """The guard that crosses its level first inside the accepted step of length h (the
-    guards and rates at both ends in W), and the step length s where it does: (-1, h)
+    guards and rates at both ends given), and the step length s where it does: (-1, h)
     when none does."""
-    u, atol, gv, gnew, level, _, _, f0, kst, ytmp, _, utry, _, rate0, rate1, gtry, \
-        gtmp = _rk_vectors(W)
     first = -1
     s_first = h
     for i in range(N_GUARDS):
@@ -348,11 +347,9 @@ def _guard_event(guard, sliding):
 
 
 @kernel(inner=True)
-def _next_step_start(W):
+def _next_step_start(u, gv, gnew, level, tol, armed, f0, unew, f1, rate0, rate1):
     """The accepted step's end becomes the next step's start; a guard that has moved
     clear of its level is armed (it fires at 0 from now on)."""
-    u, _, gv, gnew, level, tol, armed, f0, _, _, unew, _, f1, rate0, rate1, _, \
-        _ = _rk_vectors(W)
     for j in range(N_U):
         u[j] = unew[j]
         f0[j] = f1[j]
@@ -407,7 +404,9 @@ def contact_phase(S, P, O, t_stop, W):
     kind = _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W)
     if kind != PH_NONE:
         return kind
-    u, atol, _, gnew, _, _, _, f0, kst, ytmp, unew, _, f1, _, rate1, _, _ = _rk_vectors(W)
+    # the hot loop below passes these views on (not W): one slicing per phase
+    u, atol, gv, gnew, level, tol, armed, f0, kst, ytmp, unew, utry, f1, rate0, rate1, gtry, \
+        gtmp = _rk_vectors(W)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
     if not (h_prop > 0.0 and h_prop < math.inf):
         h_prop = 1e-3
@@ -443,7 +442,9 @@ def contact_phase(S, P, O, t_stop, W):
             f1[j] = kst[RK_STAGES - 1, j]   # kst is scratch for the searches below
         _guards(P, k, sliding, sigma, T, xpiv, xt, unew, gnew)
         _guard_rates(P, k, sliding, sigma, T, unew, f1, rate1)
-        first, s_first = _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, W)
+        first, s_first = _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol,
+                                         gv, gnew, level, f0, kst, ytmp, utry, rate0, rate1,
+                                         gtry, gtmp)
         if first >= 0:
             _dop853_step(P, k, sliding, sigma, T, u, s_first, f0, kst, ytmp, unew, rtol, atol)
             for j in range(N_U):
@@ -451,7 +452,7 @@ def contact_phase(S, P, O, t_stop, W):
             t += s_first
             kind = _guard_event(first, sliding)
             break
-        _next_step_start(W)
+        _next_step_start(u, gv, gnew, level, tol, armed, f0, unew, f1, rate0, rate1)
         t = t_stop if last else t + h
         fac = RK_MAX_FACTOR if err == 0.0 else min(RK_MAX_FACTOR, max(
             RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0)))
