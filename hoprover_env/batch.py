@@ -116,6 +116,54 @@ class BatchRollout(SampledStates):
         return roll
 
 
+def _controller(controller, n):
+    """What decides the torques of n runs: (compiled?, rollout.CTRL_*, the compiled
+    controller or None, the (n, K) schedules or an (n, 0) placeholder)."""
+    use_ctrl = rollout.is_compiled(controller)
+    source = rollout.CTRL_COMPILED if use_ctrl else rollout.CTRL_SCHEDULE
+    if use_ctrl:
+        rollout.kernel_one()
+        ctrl = rollout.control_function(controller)
+        sched = np.zeros((n, 0))
+    elif callable(controller):
+        raise TypeError("simulate_batch runs a torque schedule array (N, K) or a "
+                        "numba-compiled controller; loop over simulate() for a Python "
+                        "controller")
+    else:
+        sched = real_array("torque schedules", controller)
+        if sched.ndim != 2:
+            raise ValueError(f"torque schedules must have shape (N, K), one row per run, got "
+                             f"shape {sched.shape}")
+        if sched.shape[0] != n:
+            raise ValueError(f"torque schedules have {sched.shape[0]} rows for {n} targets")
+        bad = np.argwhere(~np.isfinite(sched))
+        if bad.size:
+            i, k = bad[0]
+            raise ValueError(f"run {i}: torque schedule element {k} is {sched[i, k]!r}; "
+                             "torques must be finite")
+        ctrl = None
+    return use_ctrl, source, ctrl, sched
+
+
+def _controller_args(controller_args, use_ctrl, n):
+    """controller_args checked: an (n, M) float array (M = 0 without any)."""
+    if controller_args is None:
+        cargs = np.zeros((n, 0))
+    else:
+        if not use_ctrl:
+            raise ValueError("controller_args are passed to a compiled controller; a torque "
+                             "schedule takes none")
+        cargs = real_array("controller_args", controller_args)
+        if cargs.ndim != 2 or cargs.shape[0] != n:
+            raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
+                             f"{cargs.shape}")
+        bad = np.argwhere(~np.isfinite(cargs))
+        if bad.size:
+            raise ValueError(f"run {bad[0][0]}: controller_args element {bad[0][1]} is not "
+                             "finite")
+    return cargs
+
+
 def _run_params(params, randomize, seed, n) -> list:
     if randomize is not None:
         if params is not None and not isinstance(params, (RoverParams, Mapping)):
@@ -184,43 +232,8 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     if not isinstance(record, bool):
         raise TypeError(f"record must be True or False, got {record!r}")
 
-    use_ctrl = rollout.is_compiled(controller)
-    source = rollout.CTRL_COMPILED if use_ctrl else rollout.CTRL_SCHEDULE
-    if use_ctrl:
-        rollout.kernel_one()
-        ctrl = rollout.control_function(controller)
-        sched = np.zeros((n, 0))
-    elif callable(controller):
-        raise TypeError("simulate_batch runs a torque schedule array (N, K) or a "
-                        "numba-compiled controller; loop over simulate() for a Python "
-                        "controller")
-    else:
-        sched = real_array("torque schedules", controller)
-        if sched.ndim != 2:
-            raise ValueError(f"torque schedules must have shape (N, K), one row per run, got "
-                             f"shape {sched.shape}")
-        if sched.shape[0] != n:
-            raise ValueError(f"torque schedules have {sched.shape[0]} rows for {n} targets")
-        bad = np.argwhere(~np.isfinite(sched))
-        if bad.size:
-            i, k = bad[0]
-            raise ValueError(f"run {i}: torque schedule element {k} is {sched[i, k]!r}; "
-                             "torques must be finite")
-        ctrl = None
-    if controller_args is None:
-        cargs = np.zeros((n, 0))
-    else:
-        if not use_ctrl:
-            raise ValueError("controller_args are passed to a compiled controller; a torque "
-                             "schedule takes none")
-        cargs = real_array("controller_args", controller_args)
-        if cargs.ndim != 2 or cargs.shape[0] != n:
-            raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
-                             f"{cargs.shape}")
-        bad = np.argwhere(~np.isfinite(cargs))
-        if bad.size:
-            raise ValueError(f"run {bad[0][0]}: controller_args element {bad[0][1]} is not "
-                             "finite")
+    use_ctrl, source, ctrl, sched = _controller(controller, n)
+    cargs = _controller_args(controller_args, use_ctrl, n)
 
     per_run = isinstance(seed, (np.ndarray, list, tuple))
     if per_run:
@@ -261,6 +274,25 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     buf = rollout.Buffers(n, n_ctrl * sub + 1, 64, record)
     threads = numba.config.NUMBA_NUM_THREADS
     evbuf, w, backup, cbuf = rollout.scratch(threads, cargs.shape[1])
+    _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control_dt, t_end,
+                  n_ctrl, sub, record, evbuf, w, backup, cbuf)
+    result = _result(buf, S, targets, plist, record, dict(
+        record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
+        schedules=None if use_ctrl else sched, initial=initial, cargs=cargs,
+        seeds=seeds, rovers=rovers,
+        kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
+                    impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
+                    sample_dt=sample_dt)))
+    result.seed = (np.array(seeds, dtype=np.uint64) if per_run else seed) if rough else None
+    result.rovers = rovers
+    return result
+
+
+def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control_dt, t_end,
+                  n_ctrl, sub, record, evbuf, w, backup, cbuf) -> None:
+    """Every run to its end on numba's threads, growing the event log and calling again
+    for the runs that ran out of room in it; a run that failed raises (check_status)."""
+    n = S.shape[0]
     active = np.ones(n, dtype=bool)
     while True:
         # runs differ in cost (a rover at rest is cheap, a bouncing one is not): hand
@@ -280,16 +312,6 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         if not active.any():
             break
         buf.grow_log()
-    result = _result(buf, S, targets, plist, record, dict(
-        record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
-        schedules=None if use_ctrl else sched, initial=initial, cargs=cargs,
-        seeds=seeds, rovers=rovers,
-        kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
-                    impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
-                    sample_dt=sample_dt)))
-    result.seed = (np.array(seeds, dtype=np.uint64) if per_run else seed) if rough else None
-    result.rovers = rovers
-    return result
 
 
 def _per_run_seeds(seed, n) -> list:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from hoprover_env._compile import kernel
 from hoprover_env.controllers import attitude_hold
 
 FLIGHT = 0                   # state code of state A
@@ -26,7 +27,7 @@ PLAN_HEAD = 3                # inertia, kp, kd
 PLAN_HOP = 3                 # start, duration, torque
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def plan_torque(plan, the, omg, t, state_code):
     """The torque of a hop plan (layout in the module docstring) at this instant; `plan`
     is an array or a tuple of floats."""
@@ -39,7 +40,7 @@ def plan_torque(plan, the, omg, t, state_code):
     return 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def planned_hops(pos, vel, the, omg, posT, t, smt, state_code):
     """Contest controller reading its hop plan from posT[2:] (simulate_batch's
     controller_args)."""
@@ -57,6 +58,7 @@ def hop_plan(args) -> "njit function":
                          f"per hop, all finite; got {args!r}")
     frozen = tuple(float(v) for v in plan)
 
+    # plain njit, not `kernel`: a closure over this plan's constants cannot be cached
     @njit(error_model="numpy")
     def control(pos, vel, the, omg, posT, t, smt, state_code):
         return plan_torque(frozen, the, omg, t, state_code)

@@ -3,14 +3,15 @@
 One home for each law: the hop-level task's built-in flight controller, the scripted
 hopper (hoprover_env/scripted.py), the compiled contest controllers (hoprover_env/compiled.py) and
 the benchmark drivers all call these functions, so their torques agree to the bit.
-Compiled with numba and callable from Python and from jitted code alike.
+Compiled with `kernel` (hoprover_env/_compile.py) and callable from Python and from
+jitted code alike.
 """
 import math
 
-from numba import njit
+from ._compile import kernel
 
 
-@njit(cache=True, error_model="numpy", _nrt=False)
+@kernel
 def attitude_hold(theta, omega, inertia, kp, kd):
     """PD attitude hold, theta -> 0 and omega -> 0: the torque
     ``-inertia (kp wrap(theta) + kd omega)`` [N m], with theta wrapped to [-pi, pi).

@@ -36,8 +36,8 @@ import dataclasses
 import math
 
 import numpy as np
-from numba import njit
 
+from ._compile import kernel
 from .controllers import attitude_hold
 from .params import RoverParams
 
@@ -50,7 +50,7 @@ MISS_COST_PER_M = 100.0         # s per metre of final miss, for plans that fail
 BROKEN_COST = 200.0             # s added for a rover that breaks
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def plan_torque(plan, the, omg, t, state_code):
     """The torque [N m] a plan (layout in the module docstring) commands at time `t`
     [s] in contact state `state_code` (0..6 = A..G) with attitude `the` [rad] and rate
@@ -65,7 +65,7 @@ def plan_torque(plan, the, omg, t, state_code):
     return 0.0
 
 
-@njit(cache=True, error_model="numpy")
+@kernel
 def plan_controller(pos, vel, the, omg, posT, t, smt, state_code):
     """Contest controller flying the plan in posT[2:] (simulate_batch's controller_args)."""
     return plan_torque(posT[2:], the, omg, t, state_code)

@@ -46,12 +46,12 @@ import math
 import warnings
 
 import numpy as np
-from numba import get_thread_id, njit, prange, types as nt
+from numba import get_thread_id, prange, types as nt
 from numba.experimental.function_type import WrapperAddressProtocol
 from numba.extending import is_jitted
 
 from . import core
-from ._compile import OPTIONS, drop_stale_cache
+from ._compile import compile_now, kernel
 from .params import P_TMIN, P_TMAX, RoverParams
 from .validate import check_torque
 
@@ -74,6 +74,47 @@ _I = nt.int64
 _B = nt.boolean
 CONTROL_SIG = _F(_V, _V, _F, _F, _V, _F, _F, _I)
 CONTROL_TYPE = nt.FunctionType(CONTROL_SIG)
+
+
+@kernel(nt.void(_V, _I, _I, _I, _I, _I), inner=True)
+def _save_progress(prog, k, j, nr, nl, status):
+    """Record where a run stands (control instant k, sub-step j, rows and log rows
+    written) and why it returned, so that the next call goes on from there."""
+    prog[G_K] = k
+    prog[G_J] = j
+    prog[G_ROWS] = nr
+    prog[G_LOG] = nl
+    prog[G_STATUS] = status
+
+
+@kernel(inner=True)
+def _contest_arguments(S, cargs, cbuf):
+    """The contest controller's array arguments in cbuf: pos, vel, then posT = (x_T, 0)
+    followed by this run's controller_args (layout at POS_T)."""
+    cbuf[0] = S[core.S_X]
+    cbuf[1] = S[core.S_Y]
+    cbuf[2] = S[core.S_VX]
+    cbuf[3] = S[core.S_VY]
+    cbuf[POS_T] = S[core.S_XT]
+    cbuf[POS_T + 1] = 0.0
+    for a in range(cargs.shape[0]):
+        cbuf[POS_T + 2 + a] = cargs[a]
+
+
+@kernel(inner=True)
+def _record_advance(rows, cmds, applied, log, nr, nl, before, cmd, app, evbuf, m):
+    """Append one advance to a run's record: the state it started from (row nr), its
+    commanded and applied torque, and its m events (log rows from nl on). Returns the
+    new (nr, nl)."""
+    for c in range(ROW_COLS):
+        rows[nr, c] = before[c]
+    cmds[nr] = cmd
+    applied[nr] = app
+    for e in range(m):
+        for c in range(core.EV_COLS):
+            log[nl, c] = evbuf[e, c]
+        nl += 1
+    return nr + 1, nl
 
 
 def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
@@ -99,21 +140,10 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
             t_next = t_end
         if j == 0 and prog[G_CMD_K] != k:
             if source == CTRL_PYTHON:
-                prog[G_K] = k
-                prog[G_J] = 0
-                prog[G_ROWS] = nr
-                prog[G_LOG] = nl
-                prog[G_STATUS] = ST_NEED_COMMAND
+                _save_progress(prog, k, 0, nr, nl, ST_NEED_COMMAND)
                 return
             if source == CTRL_COMPILED:
-                cbuf[0] = S[core.S_X]
-                cbuf[1] = S[core.S_Y]
-                cbuf[2] = S[core.S_VX]
-                cbuf[3] = S[core.S_VY]
-                cbuf[POS_T] = S[core.S_XT]
-                cbuf[POS_T + 1] = 0.0
-                for a in range(n_args):
-                    cbuf[POS_T + 2 + a] = cargs[a]
+                _contest_arguments(S, cargs, cbuf)
                 cmd = ctrl(cbuf[0:2], cbuf[2:4], S[core.S_TH], S[core.S_W],
                            cbuf[POS_T:POS_T + 2 + n_args], S[core.S_T], t_end,
                            int(S[core.S_MODE]))
@@ -149,21 +179,10 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                 if nl + m > log.shape[0]:
                     for c in range(core.N_STATE):
                         S[c] = backup[c]
-                    prog[G_K] = k
-                    prog[G_J] = j
-                    prog[G_ROWS] = nr
-                    prog[G_LOG] = nl
-                    prog[G_STATUS] = ST_ROOM
+                    _save_progress(prog, k, j, nr, nl, ST_ROOM)
                     return
-                for c in range(ROW_COLS):
-                    rows[nr, c] = backup[c]
-                cmds[nr] = cmd
-                applied[nr] = app
-                nr += 1
-                for e in range(m):
-                    for c in range(core.EV_COLS):
-                        log[nl, c] = evbuf[e, c]
-                    nl += 1
+                nr, nl = _record_advance(rows, cmds, applied, log, nr, nl, backup, cmd, app,
+                                         evbuf, m)
             j += 1
             if S[core.S_BROKEN] != 0.0:
                 break
@@ -177,11 +196,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
         cmds[nr] = cmds[nr - 1]
         applied[nr] = applied[nr - 1]
         nr += 1
-    prog[G_K] = k
-    prog[G_J] = j
-    prog[G_ROWS] = nr
-    prog[G_LOG] = nl
-    prog[G_STATUS] = ST_DONE
+    _save_progress(prog, k, j, nr, nl, ST_DONE)
 
 
 def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
@@ -235,12 +250,13 @@ def _fixed_address(dispatcher):
         return dispatcher
 
 
-def _compiled(func, signature, **options):
-    """func compiled for `signature` (or loaded from numba's cache), after the kernel
-    sources' check of this module's cache; nothing else compiles later."""
-    dispatcher = njit(**OPTIONS, **options)(func)
-    drop_stale_cache(dispatcher)        # cached code here embeds the core's
-    dispatcher.compile(signature)
+def _compiled(func, signature, parallel=False):
+    """func compiled by `kernel` for `signature` (or loaded from numba's cache) now;
+    nothing else compiles later."""
+    dispatcher = kernel(signature, parallel=parallel)(func)
+    compile_now(dispatcher)
+    if not dispatcher.overloads:     # kernel's plain-numba fallback keeps no signature
+        dispatcher.compile(signature)
     dispatcher.disable_compile()
     return dispatcher
 

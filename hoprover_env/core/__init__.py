@@ -63,7 +63,8 @@ from .layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TO
 from .forces import (corner_body, corner_offset_cs, corner_offset, wrap_angle,
                      kinetic_energy, total_energy, contact_corner, pivot_dynamics,
                      slide_dynamics, double_contact_forces, contact_forces,
-                     set_single_contact, pin_corner, turn_flat_about, set_double_contact)
+                     set_single_contact, pin_corner, pinned_mode, sliding_mode, pin_or_slide,
+                     turn_flat_about, set_double_contact)
 from .flight import flight_at, flight_rise, resting_corner_driven_down, flight_phase
 from .judge import log_event, in_band, judge_check, judge_set, judge_update
 from .transitions import settle

@@ -6,13 +6,16 @@ import math
 import numpy as np
 
 from .._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
-from .._compile import kernel, F64, I64, VEC
+from .._compile import kernel, BOOL, F64, I64, VEC
 from ..params import P_M, P_R, P_G, P_GC, P_GS, P_MUS, P_MUD, P_BAND
 from .layout import (ERR_STEP, ERR_WORK, F_TOL, H_TOL, MAX_RK_STEPS, MAX_WORK, MODE_C,
                      MODE_E, O_RTOL, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
                      PH_STICK, PH_STOP, PH_TOUCH, RK_MAX_FACTOR, RK_MIN_FACTOR, RK_SAFETY,
                      S_ERROR, S_HSTEP, S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY,
-                     S_W, S_X, S_XT, S_Y, V_TOL, W_RK, W_WORK)
+                     S_W, S_X, S_XT, S_Y, V_TOL, W_WORK, N_U, N_GUARDS, RK_STAGES, W_U,
+                     W_ATOL, W_GV, W_GNEW, W_LEVEL, W_GTOL, W_ARMED, W_F0, W_KST, W_YTMP,
+                     W_UNEW, W_UTRY, W_F1, W_RATE0, W_RATE1, W_GTRY, W_GTMP, GUARD_LIFTOFF,
+                     GUARD_FRICTION, GUARD_TOUCH, GUARD_TOP_R, GUARD_TOP_L, GUARD_BAND)
 from .forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics
 
 
@@ -73,7 +76,7 @@ def g_phase(S, P, t_stop):
 # Event integrator: single-contact phases (B-E) by DOP853 with event location
 # ----------------------------------------------------------------------------------
 # Reduced state u = (theta, omega, x, vx); y and vy follow from the contact constraint.
-N_GUARDS = 6
+# Its vectors and the guards' live in the workspace (layout.py: W_U ..., GUARD_*).
 
 
 @kernel(inner=True)
@@ -132,11 +135,11 @@ def _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
 def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
     """Guard functions of a single-contact phase (positive = no event yet).
 
-    0 lift-off: f_y / (m g)
-    1 pivot: (mu_s f_y - |f_x|) / (m g) (slip); slide: sigma * v_Px (stick)
-    2 the other bottom corner's height (it closes onto both corners: impact)
-    3, 4 the top corners' heights (broken)
-    5 slide only: distance to the next band boundary ahead (band crossing)
+    GUARD_LIFTOFF: f_y / (m g)
+    GUARD_FRICTION: pivot: (mu_s f_y - |f_x|) / (m g) (slip); slide: sigma * v_Px (stick)
+    GUARD_TOUCH: the other bottom corner's height (it closes onto both corners: impact)
+    GUARD_TOP_R, GUARD_TOP_L: the top corners' heights (broken)
+    GUARD_BAND: slide only: distance to the next band boundary ahead (band crossing)
     """
     m = P[P_M]
     mg = m * P[P_G]
@@ -146,22 +149,22 @@ def _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv):
         _, fx, fy, dx, dy = slide_dynamics(P, k, sigma, T, th, w)
     else:
         _, fx, fy, dx, dy = pivot_dynamics(P, k, T, th, w)
-    gv[0] = fy / mg
+    gv[GUARD_LIFTOFF] = fy / mg
     y = -dy
     if sliding:
-        gv[1] = sigma * (u[3] + w * dy)
+        gv[GUARD_FRICTION] = sigma * (u[3] + w * dy)
         xp = u[2] + dx
         b = _next_band_boundary(xpiv, sigma, xt, P[P_BAND], 0.0)
-        gv[5] = np.inf if math.isnan(b) else sigma * (b - xp)
+        gv[GUARD_BAND] = np.inf if math.isnan(b) else sigma * (b - xp)
     else:
-        gv[1] = (P[P_MUS] * fy - abs(fx)) / mg
-        gv[5] = np.inf
+        gv[GUARD_FRICTION] = (P[P_MUS] * fy - abs(fx)) / mg
+        gv[GUARD_BAND] = np.inf
     _, dyo = corner_offset(P, 1 - k, th)
-    gv[2] = y + dyo
+    gv[GUARD_TOUCH] = y + dyo
     _, dy2 = corner_offset(P, 2, th)
     _, dy3 = corner_offset(P, 3, th)
-    gv[3] = y + dy2
-    gv[4] = y + dy3
+    gv[GUARD_TOP_R] = y + dy2
+    gv[GUARD_TOP_L] = y + dy3
 
 
 @kernel(inner=True)
@@ -187,18 +190,21 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
     a_tm, b_tm = _force_guards(P, k, sliding, sigma, T, th - eps_t, w)
     a_wp, b_wp = _force_guards(P, k, sliding, sigma, T, th, w + eps_w)
     a_wm, b_wm = _force_guards(P, k, sliding, sigma, T, th, w - eps_w)
-    gr[0] = (a_tp - a_tm) / (2 * eps_t) * du[0] + (a_wp - a_wm) / (2 * eps_w) * du[1]
+    gr[GUARD_LIFTOFF] = (a_tp - a_tm) / (2 * eps_t) * du[0] + (a_wp - a_wm) / (2 * eps_w) * du[1]
     dxk, dyk = corner_offset(P, k, th)
     if sliding:
         # sigma * d/dt v_Px = sigma * (ax + thdd dy - w^2 dx)
-        gr[1] = sigma * (du[3] + du[1] * dyk - w * w * dxk)
-        gr[5] = -sigma * (u[3] + w * dyk)
+        gr[GUARD_FRICTION] = sigma * (du[3] + du[1] * dyk - w * w * dxk)
+        gr[GUARD_BAND] = -sigma * (u[3] + w * dyk)
     else:
-        gr[1] = (b_tp - b_tm) / (2 * eps_t) * du[0] + (b_wp - b_wm) / (2 * eps_w) * du[1]
-        gr[5] = 0.0
+        gr[GUARD_FRICTION] = ((b_tp - b_tm) / (2 * eps_t) * du[0]
+                              + (b_wp - b_wm) / (2 * eps_w) * du[1])
+        gr[GUARD_BAND] = 0.0
+    # the heights' rates: GUARD_TOUCH (the other bottom corner), GUARD_TOP_R (corner
+    # 2), GUARD_TOP_L (corner 3) in turn
     for c in range(3):
         dxc, _ = corner_offset(P, (1 - k) if c == 0 else c + 1, th)
-        gr[2 + c] = w * (dxk - dxc)       # vertical speed of that corner (vy = w dx_k)
+        gr[GUARD_TOUCH + c] = w * (dxk - dxc)   # that corner's vertical speed (vy = w dx_k)
 
 
 @kernel(inner=True)
@@ -235,6 +241,146 @@ def _hermite_dip(g0, g1, d0, d1):
     return best_t, best_v
 
 
+@kernel(inner=True)
+def _rk_vectors(W):
+    """The contact phases' vectors in the workspace (layout W_U ... in layout.py)."""
+    return (W[W_U:W_U + N_U], W[W_ATOL:W_ATOL + N_U], W[W_GV:W_GV + N_GUARDS],
+            W[W_GNEW:W_GNEW + N_GUARDS], W[W_LEVEL:W_LEVEL + N_GUARDS],
+            W[W_GTOL:W_GTOL + N_GUARDS], W[W_ARMED:W_ARMED + N_GUARDS],
+            W[W_F0:W_F0 + N_U], W[W_KST:W_KST + RK_STAGES * N_U].reshape((RK_STAGES, N_U)),
+            W[W_YTMP:W_YTMP + N_U], W[W_UNEW:W_UNEW + N_U], W[W_UTRY:W_UTRY + N_U],
+            W[W_F1:W_F1 + N_U], W[W_RATE0:W_RATE0 + N_GUARDS],
+            W[W_RATE1:W_RATE1 + N_GUARDS], W[W_GTRY:W_GTRY + N_GUARDS],
+            W[W_GTMP:W_GTMP + N_GUARDS])
+
+
+@kernel(inner=True)
+def _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W):
+    """Load u from S, set the tolerances, evaluate the guards and arm them. Returns
+    PH_TOUCH or PH_BROKEN when the phase ends before it starts, else PH_NONE."""
+    u, atol, gv, _, level, tol, armed, f0, _, _, _, _, _, rate0, _, _, _ = _rk_vectors(W)
+    u[0] = S[S_TH]
+    u[1] = S[S_W]
+    u[2] = S[S_X]
+    u[3] = S[S_VX]
+    # absolute tolerances from the problem's natural scales
+    atol[0] = rtol * 1.0
+    atol[1] = rtol * 0.1
+    atol[2] = rtol * 1.0
+    atol[3] = rtol * 0.01
+    tol[GUARD_LIFTOFF] = F_TOL
+    tol[GUARD_FRICTION] = V_TOL if sliding else F_TOL
+    tol[GUARD_TOUCH] = H_TOL
+    tol[GUARD_TOP_R] = H_TOL
+    tol[GUARD_TOP_L] = H_TOL
+    tol[GUARD_BAND] = 0.0
+    _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv)
+    # the other bottom corner already down and moving down: impact now
+    dxo, dyo = corner_offset(P, 1 - k, u[0])
+    vyo = S[S_W] * dx0 - S[S_W] * dxo      # vy = w dx_k, minus w dx_other
+    if gv[GUARD_TOUCH] <= H_TOL and vyo < -V_TOL:
+        return PH_TOUCH
+    if gv[GUARD_TOP_R] <= 0.0 or gv[GUARD_TOP_L] <= 0.0:
+        return PH_BROKEN
+    _rhs(P, k, sliding, sigma, T, u, f0)
+    _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
+    for i in range(N_GUARDS):
+        armed[i] = 1.0 if gv[i] > tol[i] else 0.0
+        level[i] = 0.0 if armed[i] != 0.0 else min(gv[i], 0.0) - tol[i]
+    if armed[GUARD_TOUCH] == 0.0 and rate0[GUARD_TOUCH] > V_TOL:
+        # the other corner leaves the ground at first order (it bounced): its next
+        # touchdown is at the height it starts from, not H_TOL lower (see flight_phase)
+        armed[GUARD_TOUCH] = 1.0
+        level[GUARD_TOUCH] = min(gv[GUARD_TOUCH], 0.0)
+    return PH_NONE
+
+
+@kernel(inner=True)
+def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol, gv, gnew, level,
+                    f0, kst, ytmp, utry, rate0, rate1, gtry, gtmp):
+    """The guard that crosses its level first inside the accepted step of length h (the
+    guards and rates at both ends given), and the step length s where it does: (-1, h)
+    when none does."""
+    first = -1
+    s_first = h
+    for i in range(N_GUARDS):
+        if gnew[i] - level[i] <= 0.0:
+            s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp,
+                          utry, gtmp, rtol, atol, i, level[i], gv[i] - level[i],
+                          gnew[i] - level[i])
+            if first < 0 or s_i < s_first:
+                first = i
+                s_first = s_i
+    # A guard positive at both ends may still have dipped through its level inside
+    # the step (the body rocking through theta = 0 and back): look where its cubic
+    # Hermite interpolant is lowest and confirm there with the step itself.
+    for i in range(N_GUARDS):
+        if gnew[i] - level[i] > 0.0 and rate0[i] * rate1[i] < 0.0 and rate0[i] < 0.0:
+            tau, low = _hermite_dip(gv[i] - level[i], gnew[i] - level[i],
+                                    rate0[i] * h, rate1[i] * h)
+            if low < 0.0:
+                _dop853_step(P, k, sliding, sigma, T, u, tau * h, f0, kst, ytmp, utry,
+                             rtol, atol)
+                _guards(P, k, sliding, sigma, T, xpiv, xt, utry, gtry)
+                if gtry[i] - level[i] <= 0.0:
+                    s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, tau * h, f0, kst,
+                                  ytmp, utry, gtmp, rtol, atol, i, level[i],
+                                  gv[i] - level[i], gtry[i] - level[i])
+                    if first < 0 or s_i < s_first:
+                        first = i
+                        s_first = s_i
+    return first, s_first
+
+
+@kernel(I64(I64, BOOL), inner=True)
+def _guard_event(guard, sliding):
+    """The phase end (PH_*) a guard's crossing means."""
+    if guard == GUARD_LIFTOFF:
+        return PH_LIFTOFF
+    if guard == GUARD_FRICTION:
+        return PH_STICK if sliding else PH_SLIP
+    if guard == GUARD_TOUCH:
+        return PH_TOUCH
+    if guard == GUARD_BAND:
+        return PH_BAND
+    return PH_BROKEN
+
+
+@kernel(inner=True)
+def _next_step_start(u, gv, gnew, level, tol, armed, f0, unew, f1, rate0, rate1):
+    """The accepted step's end becomes the next step's start; a guard that has moved
+    clear of its level is armed (it fires at 0 from now on)."""
+    for j in range(N_U):
+        u[j] = unew[j]
+        f0[j] = f1[j]
+    for i in range(N_GUARDS):
+        gv[i] = gnew[i]
+        rate0[i] = rate1[i]
+        if armed[i] == 0.0 and gv[i] > tol[i]:
+            armed[i] = 1.0
+            level[i] = 0.0
+
+
+@kernel(inner=True)
+def _write_back(S, P, k, sliding, u, xpiv, t):
+    """Write the reduced state u back to S at time t; the contact constraint gives y and
+    vy (and x, vx when pivoting about xpiv)."""
+    th = u[0]
+    w = u[1]
+    dx, dy = corner_offset(P, k, th)
+    S[S_TH] = th
+    S[S_W] = w
+    S[S_Y] = -dy
+    S[S_VY] = w * dx
+    if sliding:
+        S[S_X] = u[2]
+        S[S_VX] = u[3]
+    else:
+        S[S_X] = xpiv - dx
+        S[S_VX] = -w * dy
+    S[S_T] = t
+
+
 @kernel(I64(VEC, VEC, VEC, F64, VEC), inner=True)
 def contact_phase(S, P, O, t_stop, W):
     """Advance a single-contact phase (B, C, D, E) to t_stop or its first event.
@@ -255,62 +401,16 @@ def contact_phase(S, P, O, t_stop, W):
     xt = S[S_XT]
     dx0, dy0 = corner_offset(P, k, S[S_TH])
     xpiv = S[S_X] + dx0          # pivot point (fixed when pivoting)
-    o = W_RK
-    u = W[o:o + 4]
-    atol = W[o + 4:o + 8]
-    gv = W[o + 8:o + 14]
-    gnew = W[o + 14:o + 20]
-    level = W[o + 20:o + 26]
-    tol = W[o + 26:o + 32]
-    armed = W[o + 32:o + 38]               # 1.0 / 0.0 flags
-    f0 = W[o + 38:o + 42]
-    kst = W[o + 42:o + 94].reshape((13, 4))
-    ytmp = W[o + 94:o + 98]
-    unew = W[o + 98:o + 102]
-    utry = W[o + 102:o + 106]
-    f1 = W[o + 106:o + 110]
-    rate0 = W[o + 110:o + 116]
-    rate1 = W[o + 116:o + 122]
-    gtry = W[o + 122:o + 128]
-    gtmp = W[o + 128:o + 134]
-    u[0] = S[S_TH]
-    u[1] = S[S_W]
-    u[2] = S[S_X]
-    u[3] = S[S_VX]
-    # absolute tolerances from the problem's natural scales
-    atol[0] = rtol * 1.0
-    atol[1] = rtol * 0.1
-    atol[2] = rtol * 1.0
-    atol[3] = rtol * 0.01
-    tol[0] = F_TOL
-    tol[1] = V_TOL if sliding else F_TOL
-    tol[2] = H_TOL
-    tol[3] = H_TOL
-    tol[4] = H_TOL
-    tol[5] = 0.0
-    _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv)
-    # the other bottom corner already down and moving down: impact now
-    dxo, dyo = corner_offset(P, 1 - k, u[0])
-    vyo = S[S_W] * dx0 - S[S_W] * dxo      # vy = w dx_k, minus w dx_other
-    if gv[2] <= H_TOL and vyo < -V_TOL:
-        return PH_TOUCH
-    if gv[3] <= 0.0 or gv[4] <= 0.0:
-        return PH_BROKEN
-    _rhs(P, k, sliding, sigma, T, u, f0)
-    _guard_rates(P, k, sliding, sigma, T, u, f0, rate0)
-    for i in range(N_GUARDS):
-        armed[i] = 1.0 if gv[i] > tol[i] else 0.0
-        level[i] = 0.0 if armed[i] != 0.0 else min(gv[i], 0.0) - tol[i]
-    if armed[2] == 0.0 and rate0[2] > V_TOL:
-        # the other corner leaves the ground at first order (it bounced): its next
-        # touchdown is at the height it starts from, not H_TOL lower (see flight_phase)
-        armed[2] = 1.0
-        level[2] = min(gv[2], 0.0)
+    kind = _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W)
+    if kind != PH_NONE:
+        return kind
+    # the hot loop below passes these views on (not W): one slicing per phase
+    u, atol, gv, gnew, level, tol, armed, f0, kst, ytmp, unew, utry, f1, rate0, rate1, gtry, \
+        gtmp = _rk_vectors(W)
     h_prop = S[S_HSTEP]             # proposed step, remembered across phases
     if not (h_prop > 0.0 and h_prop < math.inf):
         h_prop = 1e-3
     t = S[S_T]
-    kind = PH_NONE
     n_steps = 0
     while t < t_stop:
         h = h_prop
@@ -338,63 +438,21 @@ def contact_phase(S, P, O, t_stop, W):
                 S[S_ERROR] = ERR_STEP       # step-size underflow: the field is too stiff
                 break
             continue
-        for j in range(4):
-            f1[j] = kst[12, j]          # kst is scratch for the searches below
+        for j in range(N_U):
+            f1[j] = kst[RK_STAGES - 1, j]   # kst is scratch for the searches below
         _guards(P, k, sliding, sigma, T, xpiv, xt, unew, gnew)
         _guard_rates(P, k, sliding, sigma, T, unew, f1, rate1)
-        first = -1
-        s_first = h
-        for i in range(N_GUARDS):
-            if gnew[i] - level[i] <= 0.0:
-                s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp,
-                              utry, gtmp, rtol, atol, i, level[i], gv[i] - level[i],
-                              gnew[i] - level[i])
-                if first < 0 or s_i < s_first:
-                    first = i
-                    s_first = s_i
-        # A guard positive at both ends may still have dipped through its level inside
-        # the step (the body rocking through theta = 0 and back): look where its cubic
-        # Hermite interpolant is lowest and confirm there with the step itself.
-        for i in range(N_GUARDS):
-            if gnew[i] - level[i] > 0.0 and rate0[i] * rate1[i] < 0.0 and rate0[i] < 0.0:
-                tau, low = _hermite_dip(gv[i] - level[i], gnew[i] - level[i],
-                                        rate0[i] * h, rate1[i] * h)
-                if low < 0.0:
-                    _dop853_step(P, k, sliding, sigma, T, u, tau * h, f0, kst, ytmp, utry,
-                                 rtol, atol)
-                    _guards(P, k, sliding, sigma, T, xpiv, xt, utry, gtry)
-                    if gtry[i] - level[i] <= 0.0:
-                        s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, tau * h, f0, kst,
-                                      ytmp, utry, gtmp, rtol, atol, i, level[i],
-                                      gv[i] - level[i], gtry[i] - level[i])
-                        if first < 0 or s_i < s_first:
-                            first = i
-                            s_first = s_i
+        first, s_first = _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol,
+                                         gv, gnew, level, f0, kst, ytmp, utry, rate0, rate1,
+                                         gtry, gtmp)
         if first >= 0:
             _dop853_step(P, k, sliding, sigma, T, u, s_first, f0, kst, ytmp, unew, rtol, atol)
-            for j in range(4):
+            for j in range(N_U):
                 u[j] = unew[j]
             t += s_first
-            if first == 0:
-                kind = PH_LIFTOFF
-            elif first == 1:
-                kind = PH_STICK if sliding else PH_SLIP
-            elif first == 2:
-                kind = PH_TOUCH
-            elif first == 5:
-                kind = PH_BAND
-            else:
-                kind = PH_BROKEN
+            kind = _guard_event(first, sliding)
             break
-        for j in range(4):
-            u[j] = unew[j]
-            f0[j] = f1[j]
-        for i in range(N_GUARDS):
-            gv[i] = gnew[i]
-            rate0[i] = rate1[i]
-            if armed[i] == 0.0 and gv[i] > tol[i]:
-                armed[i] = 1.0
-                level[i] = 0.0
+        _next_step_start(u, gv, gnew, level, tol, armed, f0, unew, f1, rate0, rate1)
         t = t_stop if last else t + h
         fac = RK_MAX_FACTOR if err == 0.0 else min(RK_MAX_FACTOR, max(
             RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0)))
@@ -403,21 +461,7 @@ def contact_phase(S, P, O, t_stop, W):
         else:
             h_prop = h * fac
     S[S_HSTEP] = h_prop
-    # write the reduced state back; the constraint gives y, vy (and x, vx if pivoting)
-    th = u[0]
-    w = u[1]
-    dx, dy = corner_offset(P, k, th)
-    S[S_TH] = th
-    S[S_W] = w
-    S[S_Y] = -dy
-    S[S_VY] = w * dx
-    if sliding:
-        S[S_X] = u[2]
-        S[S_VX] = u[3]
-    else:
-        S[S_X] = xpiv - dx
-        S[S_VX] = -w * dy
-    S[S_T] = t
+    _write_back(S, P, k, sliding, u, xpiv, t)
     return kind
 
 

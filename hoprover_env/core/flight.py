@@ -153,6 +153,49 @@ def flight_phase(S, P, t_stop, W):
     w0 = S[S_W]
     level = W[W_FLT:W_FLT + 4]
     armed = W[W_FLT + 4:W_FLT + 8]        # 1.0 / 0.0 flags
+    kind, corner = _arm_corners(S, P, level, armed)
+    if kind != PH_NONE:
+        return kind, corner
+    tau = 0.0
+    # capped so that w_max^2 stays finite for a t_stop of 1e300 (an infinite K made
+    # every step NaN, and the flight jumped to t_stop through the ground)
+    window = min(tau_end, FLIGHT_WINDOW_MAX)
+    for _ in range(MAX_CA_ITER):
+        x, y, th, vx, vy, w = flight_at(S, P, tau)
+        # |omega| is linear in time, so its bound over [tau, tau + window] is at an end
+        window = min(window, tau_end - tau)
+        W[W_WORK] += 1.0
+        if W[W_WORK] > MAX_WORK:
+            S[S_ERROR] = ERR_WORK
+            _commit_flight(S, P, tau)
+            return PH_NONE, -1
+        wmax = max(abs(w), abs(w0 + beta * (tau + window)))
+        kbound = g + ell * (abs(beta) + wmax * wmax)
+        if not kbound < math.inf:
+            S[S_ERROR] = ERR_STEP
+            _commit_flight(S, P, tau)
+            return PH_NONE, -1
+        hit, hit_f, hit_v, step = _nearest_touchdown(P, y, th, vy, w, kbound, level, armed)
+        if hit >= 0:
+            tau = _polish_touchdown(S, P, hit, tau, tau_end, level[hit], armed[hit],
+                                    hit_f, hit_v)
+            _commit_flight(S, P, tau)
+            return (PH_BROKEN if hit >= 2 else PH_TOUCH), hit
+        step = min(step, window)
+        if tau + step >= tau_end:
+            _commit_flight(S, P, tau_end)
+            S[S_T] = t_stop
+            return PH_NONE, -1
+        tau += step
+        window = min(4.0 * step, FLIGHT_WINDOW_MAX)
+    return _budget_spent(S, P, tau)
+
+
+@kernel(inner=True)
+def _arm_corners(S, P, level, armed):
+    """The corners at the flight's start: (PH_BROKEN or PH_TOUCH, corner) if one is
+    already through the ground or moving into it, else (PH_NONE, -1) with each corner's
+    level and armed flag set."""
     for k in range(4):
         level[k] = 0.0
         armed[k] = 1.0
@@ -176,66 +219,50 @@ def flight_phase(S, P, t_stop, W):
             # else it leaves at first order (a bounce): armed at once. The conservative
             # step 2 v / K lands exactly on the earliest possible return; arming only
             # above H_TOL let a pressed corner touch down H_TOL low and gain energy.
-    tau = 0.0
-    # capped so that w_max^2 stays finite for a t_stop of 1e300 (an infinite K made
-    # every step NaN, and the flight jumped to t_stop through the ground)
-    window = min(tau_end, FLIGHT_WINDOW_MAX)
-    for _ in range(MAX_CA_ITER):
-        x, y, th, vx, vy, w = flight_at(S, P, tau)
-        # |omega| is linear in time, so its bound over [tau, tau + window] is at an end
-        window = min(window, tau_end - tau)
-        W[W_WORK] += 1.0
-        if W[W_WORK] > MAX_WORK:
-            S[S_ERROR] = ERR_WORK
-            _commit_flight(S, P, tau)
-            return PH_NONE, -1
-        wmax = max(abs(w), abs(w0 + beta * (tau + window)))
-        kbound = g + ell * (abs(beta) + wmax * wmax)
-        if not kbound < math.inf:
-            S[S_ERROR] = ERR_STEP
-            _commit_flight(S, P, tau)
-            return PH_NONE, -1
-        c = math.cos(th)
-        s = math.sin(th)
-        step = np.inf
-        hit = -1
-        hit_f = np.inf
-        hit_v = 0.0
-        for k in range(4):
-            bx, by = corner_body(P, k)
-            dx = bx * c + by * s
-            hk = y - bx * s + by * c
-            vk = vy - w * dx
-            if armed[k] == 0.0 and hk > H_TOL:
-                armed[k] = 1.0
-                level[k] = 0.0
-            fk = hk - level[k]
-            if fk <= CA_TOL and vk <= V_TOL:
-                if fk < hit_f:
-                    hit = k
-                    hit_f = fk
-                    hit_v = vk
-            else:
-                fpos = max(fk, 0.0)
-                sk = (vk + math.sqrt(vk * vk + 2.0 * kbound * fpos)) / kbound
-                if sk < step:
-                    step = sk
-        if hit >= 0:
-            tau = _polish_touchdown(S, P, hit, tau, tau_end, level[hit], armed[hit],
-                                    hit_f, hit_v)
-            _commit_flight(S, P, tau)
-            return (PH_BROKEN if hit >= 2 else PH_TOUCH), hit
-        step = min(step, window)
-        if tau + step >= tau_end:
-            _commit_flight(S, P, tau_end)
-            S[S_T] = t_stop
-            return PH_NONE, -1
-        tau += step
-        window = min(4.0 * step, FLIGHT_WINDOW_MAX)
-    # Iteration budget spent. Creeping along a grazing approach, the lowest bottom
-    # corner is within a round-off distance of the ground: it touches. Anywhere else
-    # nothing happened: hand back the time reached (never report a touchdown that did
-    # not happen; the caller's phase bound keeps this finite).
+    return PH_NONE, -1
+
+
+@kernel(inner=True)
+def _nearest_touchdown(P, y, th, vy, w, kbound, level, armed):
+    """One conservative-advancement look at the four corners (c.m. height y, attitude
+    th, speeds vy, w; |h''| <= kbound): (corner, its height above its level, its
+    vertical speed, step) for the lowest corner at its level and not rising, else
+    corner -1 and the longest step no corner's height can reach its level in (a corner
+    clear of H_TOL is armed on the way)."""
+    c = math.cos(th)
+    s = math.sin(th)
+    step = np.inf
+    hit = -1
+    hit_f = np.inf
+    hit_v = 0.0
+    for k in range(4):
+        bx, by = corner_body(P, k)
+        dx = bx * c + by * s
+        hk = y - bx * s + by * c
+        vk = vy - w * dx
+        if armed[k] == 0.0 and hk > H_TOL:
+            armed[k] = 1.0
+            level[k] = 0.0
+        fk = hk - level[k]
+        if fk <= CA_TOL and vk <= V_TOL:
+            if fk < hit_f:
+                hit = k
+                hit_f = fk
+                hit_v = vk
+        else:
+            fpos = max(fk, 0.0)
+            sk = (vk + math.sqrt(vk * vk + 2.0 * kbound * fpos)) / kbound
+            if sk < step:
+                step = sk
+    return hit, hit_f, hit_v, step
+
+
+@kernel(inner=True)
+def _budget_spent(S, P, tau):
+    """The flight's iteration budget is spent at tau. Creeping along a grazing
+    approach, the lowest bottom corner is within a round-off distance of the ground: it
+    touches. Anywhere else nothing happened: hand back the time reached (never report a
+    touchdown that did not happen; the caller's phase bound keeps this finite)."""
     _commit_flight(S, P, tau)
     h0 = S[S_Y] + corner_offset(P, 0, S[S_TH])[1]
     h1 = S[S_Y] + corner_offset(P, 1, S[S_TH])[1]

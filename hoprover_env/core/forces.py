@@ -7,9 +7,9 @@ import math
 from numba import types as nt
 
 from .._compile import kernel, F64, I64, VEC, F64x2, F64x5
-from ..params import P_M, P_I, P_R, P_H, P_G, P_GC, P_GS, P_MUD, P_VXMIN
-from .layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_F, MODE_G, S_MODE, S_SIGMA, S_TH,
-                     S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, TWO_PI)
+from ..params import P_M, P_I, P_R, P_H, P_GC, P_GS, P_MUD, P_VXMIN
+from .layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, S_MODE,
+                     S_SIGMA, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, TWO_PI)
 
 
 # ----------------------------------------------------------------------------------
@@ -59,6 +59,18 @@ def total_energy(S, P):
 def contact_corner(mode):
     """Corner index in contact for the single-contact modes (A for B/C, B for D/E)."""
     return 0 if (mode == MODE_B or mode == MODE_C) else 1
+
+
+@kernel(I64(I64), inner=True)
+def pinned_mode(k):
+    """The state pivoting on bottom corner k: B on A (k = 0), D on B (k = 1)."""
+    return MODE_B if k == 0 else MODE_D
+
+
+@kernel(I64(I64), inner=True)
+def sliding_mode(k):
+    """The state sliding on bottom corner k: C on A (k = 0), E on B (k = 1)."""
+    return MODE_C if k == 0 else MODE_E
 
 
 # ----------------------------------------------------------------------------------
@@ -189,6 +201,25 @@ def pin_corner(S, P, k):
     S[S_VY] += ly / m
     S[S_W] += (dy * lx - dx * ly) * inv_i
     S[S_Y] = -dy
+
+
+@kernel(I64(VEC, VEC, I64, F64), inner=True)
+def pin_or_slide(S, P, k, v_pin):
+    """Put the rover, already on corner k's constraint (set_single_contact), in the
+    single-contact state its velocity says: pinned (B/D, corner brought to rest) when the
+    corner's sliding speed |v_Px| is at most v_pin, else sliding (C/E) the way the corner
+    moves. Sets S_MODE and S_SIGMA; returns the new mode."""
+    _, dy = corner_offset(P, k, S[S_TH])
+    vpx = S[S_VX] + S[S_W] * dy
+    if abs(vpx) <= v_pin:
+        pin_corner(S, P, k)
+        mode = pinned_mode(k)
+        S[S_SIGMA] = 0.0
+    else:
+        mode = sliding_mode(k)
+        S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
+    S[S_MODE] = mode
+    return mode
 
 
 @kernel(nt.void(VEC, VEC, I64), inner=True)

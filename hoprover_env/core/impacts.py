@@ -3,13 +3,16 @@ the post-impact classification."""
 
 import math
 
+import numpy as np
+
 
 from .._compile import kernel, I64, VEC, MAT
 from ..params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
-from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, MODE_B, MODE_C, MODE_D,
-                     MODE_E, O_LAW, S_MAXGAIN, S_MODE, S_NGAIN, S_NIMPACT, S_SIGMA, S_T,
-                     S_TH, S_VX, S_VY, S_W, S_Y, V_TOL, W_IMP)
-from .forces import (pin_corner, set_double_contact, set_single_contact, turn_flat_about,
+from .layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, O_LAW, S_MAXGAIN, S_MODE,
+                     S_NGAIN, S_NIMPACT, S_SIGMA, S_T, S_TH, S_VX, S_VY, S_W, S_Y, V_TOL,
+                     W_IMP, W_IMP_DX, W_IMP_DY, W_IMP_VPX, W_IMP_VPY, W_IMP_ON, W_IMP_PART,
+                     W_IMP_DV, W_IMP_TGT_Y, W_IMP_LX, W_IMP_LY, W_IMP_END)
+from .forces import (pin_or_slide, set_double_contact, set_single_contact, turn_flat_about,
                      corner_offset, kinetic_energy, wrap_angle)
 from .judge import log_event
 from .terrain import impact_tilt
@@ -169,19 +172,8 @@ def resolve_impact_tilted(S, P, law, W, psi):
     """
     S[S_TH] = wrap_angle(S[S_TH])
     th = S[S_TH]
-    o = W_IMP
-    dxs = W[o:o + 2]
-    dys = W[o + 2:o + 4]
-    vpx = W[o + 4:o + 6]
-    vpy = W[o + 6:o + 8]
-    on = W[o + 8:o + 10]          # 1.0 / 0.0 flags
-    part = W[o + 10:o + 12]
-    dv = W[o + 12:o + 16]
-    tgt_y = W[o + 16:o + 18]
-    lx = W[o + 18:o + 20]
-    ly = W[o + 20:o + 22]
-    for j in range(22):
-        W[o + j] = 0.0
+    for j in range(W_IMP_END - W_IMP):
+        W[W_IMP + j] = 0.0
     tilted = psi != 0.0
     ct = 1.0
     st = 0.0
@@ -189,6 +181,40 @@ def resolve_impact_tilted(S, P, law, W, psi):
         ct = math.cos(psi)
         st = math.sin(psi)
         _rotate_velocity(S, ct, st)
+    _impact_targets(S, P, th, tilted, ct, st, W)
+    ke0 = kinetic_energy(S, P)
+    _, _, _, _, _, part, _, _, _, _ = _impact_vectors(W)
+    if part[0] != 0.0 or part[1] != 0.0:
+        _apply_law(S, P, law, ke0, W)
+    if tilted:
+        _rotate_velocity(S, ct, -st)
+        _stop_on_mean_plane(S, P, th, W)
+    _classify_after_impact(S, P, W)
+    ke1 = kinetic_energy(S, P)
+    ratio = ke1 / ke0 if ke0 > 0.0 else 1.0
+    S[S_NIMPACT] += 1.0
+    if ratio > 1.0 + 1e-12:
+        S[S_NGAIN] += 1.0
+        if ratio - 1.0 > S[S_MAXGAIN]:
+            S[S_MAXGAIN] = ratio - 1.0
+    return ratio
+
+
+@kernel(inner=True)
+def _impact_vectors(W):
+    """The impacts' vectors in the workspace (layout W_IMP_* in layout.py)."""
+    return (W[W_IMP_DX:W_IMP_DX + 2], W[W_IMP_DY:W_IMP_DY + 2], W[W_IMP_VPX:W_IMP_VPX + 2],
+            W[W_IMP_VPY:W_IMP_VPY + 2], W[W_IMP_ON:W_IMP_ON + 2],
+            W[W_IMP_PART:W_IMP_PART + 2], W[W_IMP_DV:W_IMP_DV + 4],
+            W[W_IMP_TGT_Y:W_IMP_TGT_Y + 2], W[W_IMP_LX:W_IMP_LX + 2],
+            W[W_IMP_LY:W_IMP_LY + 2])
+
+
+@kernel(inner=True)
+def _impact_targets(S, P, th, tilted, ct, st, W):
+    """Per bottom corner, in the (tilted) impact frame: its offset and point velocity,
+    whether it is on the ground and takes part, and the law's targets for it."""
+    dxs, dys, vpx, vpy, on, part, dv, tgt_y, _, _ = _impact_vectors(W)
     for k in range(2):
         dx, dy = corner_offset(P, k, th)
         on[k] = 1.0 if S[S_Y] + dy <= H_IMPACT else 0.0
@@ -209,55 +235,71 @@ def resolve_impact_tilted(S, P, law, W, psi):
             dv[2 * k] = tx - vpx[k]
             dv[2 * k + 1] = ty - vpy[k]
             tgt_y[k] = ty
-    ke0 = kinetic_energy(S, P)
-    if part[0] != 0.0 or part[1] != 0.0:
-        v0x = S[S_VX]
-        v0y = S[S_VY]
-        w0 = S[S_W]
-        contest_impulses(P, dxs, dys, part, dv, lx, ly)
+
+
+@kernel(inner=True)
+def _apply_law(S, P, law, ke0, W):
+    """The contest impulses, or the frictionless fallbacks where they would pull on the
+    ground, leave a grounded corner moving down or (dissipative law) leave the friction
+    cone or add energy."""
+    dxs, dys, _, vpy, on, part, dv, tgt_y, lx, ly = _impact_vectors(W)
+    v0x = S[S_VX]
+    v0y = S[S_VY]
+    w0 = S[S_W]
+    contest_impulses(P, dxs, dys, part, dv, lx, ly)
+    _apply_impulses(S, P, dxs, dys, lx, ly)
+    lam_scale = abs(lx[0]) + abs(lx[1]) + abs(ly[0]) + abs(ly[1])
+    ok = True
+    for k in range(2):
+        if part[k] != 0.0 and ly[k] < -1e-12 * lam_scale:
+            ok = False               # the exact law would pull on the ground
+        if on[k] != 0.0 and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
+            ok = False               # a grounded corner would end moving down
+        if law == LAW_DISSIPATIVE and part[k] != 0.0 and \
+                abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale:
+            ok = False               # outside the friction cone
+    if ok and law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
+        ok = False
+    if not ok:
+        S[S_VX] = v0x
+        S[S_VY] = v0y
+        S[S_W] = w0
+        frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
+        lx[0] = 0.0
+        lx[1] = 0.0
         _apply_impulses(S, P, dxs, dys, lx, ly)
-        lam_scale = abs(lx[0]) + abs(lx[1]) + abs(ly[0]) + abs(ly[1])
-        ok = True
-        for k in range(2):
-            if part[k] != 0.0 and ly[k] < -1e-12 * lam_scale:
-                ok = False               # the exact law would pull on the ground
-            if on[k] != 0.0 and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
-                ok = False               # a grounded corner would end moving down
-            if law == LAW_DISSIPATIVE and part[k] != 0.0 and \
-                    abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale:
-                ok = False               # outside the friction cone
-        if ok and law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
-            ok = False
-        if not ok:
+        if law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
+            # Multi-contact restitution can add energy; the perfectly inelastic
+            # frictionless impact (an M-orthogonal projection) never does.
             S[S_VX] = v0x
             S[S_VY] = v0y
             S[S_W] = w0
+            tgt_y[0] = 0.0
+            tgt_y[1] = 0.0
             frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
-            lx[0] = 0.0
-            lx[1] = 0.0
             _apply_impulses(S, P, dxs, dys, lx, ly)
-            if law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
-                # Multi-contact restitution can add energy; the perfectly inelastic
-                # frictionless impact (an M-orthogonal projection) never does.
-                S[S_VX] = v0x
-                S[S_VY] = v0y
-                S[S_W] = w0
-                tgt_y[0] = 0.0
-                tgt_y[1] = 0.0
-                frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
-                _apply_impulses(S, P, dxs, dys, lx, ly)
-    if tilted:
-        _rotate_velocity(S, ct, -st)
-        for k in range(2):
-            dxs[k], dys[k] = corner_offset(P, k, th)
-            vpy[k] = S[S_VY] - S[S_W] * dxs[k]
-            tgt_y[k] = 0.0
-        if (on[0] != 0.0 and vpy[0] < -V_TOL) or (on[1] != 0.0 and vpy[1] < -V_TOL):
-            frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
-            lx[0] = 0.0
-            lx[1] = 0.0
-            _apply_impulses(S, P, dxs, dys, lx, ly)
-    # Post-impact classification: a grounded corner slower than v_ymin is in contact.
+
+
+@kernel(inner=True)
+def _stop_on_mean_plane(S, P, th, W):
+    """After a tilted impact (velocities turned back): a grounded corner still moving
+    into the mean plane is stopped there by a plastic frictionless impact."""
+    dxs, dys, _, vpy, on, _, _, tgt_y, lx, ly = _impact_vectors(W)
+    for k in range(2):
+        dxs[k], dys[k] = corner_offset(P, k, th)
+        vpy[k] = S[S_VY] - S[S_W] * dxs[k]
+        tgt_y[k] = 0.0
+    if (on[0] != 0.0 and vpy[0] < -V_TOL) or (on[1] != 0.0 and vpy[1] < -V_TOL):
+        frictionless_impulses(P, dxs, on, vpy, tgt_y, ly)
+        lx[0] = 0.0
+        lx[1] = 0.0
+        _apply_impulses(S, P, dxs, dys, lx, ly)
+
+
+@kernel(inner=True)
+def _classify_after_impact(S, P, W):
+    """Post-impact classification: a grounded corner slower than v_ymin is in contact."""
+    dxs, dys, _, _, on, _, _, _, _, _ = _impact_vectors(W)
     c0 = on[0] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[0]) < P[P_VYMIN]
     c1 = on[1] != 0.0 and abs(S[S_VY] - S[S_W] * dxs[1]) < P[P_VYMIN]
     if c0 and c1:
@@ -269,15 +311,9 @@ def resolve_impact_tilted(S, P, law, W, psi):
         _, dyo = corner_offset(P, 1 - k, S[S_TH])
         if S[S_Y] + dyo < 0.0:
             turn_flat_about(S, P, k)
-        _, dyk = corner_offset(P, k, S[S_TH])
-        vpk = S[S_VX] + S[S_W] * dyk
-        if abs(vpk) < P[P_VXMIN]:
-            pin_corner(S, P, k)
-            S[S_MODE] = MODE_B if k == 0 else MODE_D
-            S[S_SIGMA] = 0.0
-        else:
-            S[S_MODE] = MODE_C if k == 0 else MODE_E
-            S[S_SIGMA] = 1.0 if vpk > 0.0 else -1.0
+        # pinned when the corner slides slower than v_xmin (strictly: for floats,
+        # |v| < v_xmin is |v| <= the float just below v_xmin)
+        pin_or_slide(S, P, k, np.nextafter(P[P_VXMIN], 0.0))
     else:
         S[S_MODE] = MODE_A
         S[S_SIGMA] = 0.0
@@ -285,14 +321,6 @@ def resolve_impact_tilted(S, P, law, W, psi):
         low = min(S[S_Y] + dys[0], S[S_Y] + dys[1])
         if low < 0.0:
             S[S_Y] -= low
-    ke1 = kinetic_energy(S, P)
-    ratio = ke1 / ke0 if ke0 > 0.0 else 1.0
-    S[S_NIMPACT] += 1.0
-    if ratio > 1.0 + 1e-12:
-        S[S_NGAIN] += 1.0
-        if ratio - 1.0 > S[S_MAXGAIN]:
-            S[S_MAXGAIN] = ratio - 1.0
-    return ratio
 
 
 @kernel(I64(VEC, VEC, VEC, MAT, I64, VEC), inner=True)

@@ -8,11 +8,10 @@ import numpy as np
 from .._compile import kernel, F64, I64, VEC
 from ..params import P_TMIN, P_TMAX, P_DWELL
 from .layout import (ERR_BUDGET, ERR_STEP, ERR_TORQUE, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
-                     MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, N_STATE,
-                     N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN, S_ERROR, S_INBAND,
-                     S_MIN_HEIGHT, S_MODE, S_SIGMA, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN,
-                     S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
-from .forces import (pin_corner, set_double_contact, set_single_contact, corner_offset,
+                     MODE_A, MODE_F, MODE_G, N_STATE, N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN,
+                     S_ERROR, S_INBAND, S_MIN_HEIGHT, S_MODE, S_STOPPED, S_STOP_ON, S_T, S_TH,
+                     S_TIN, S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
+from .forces import (pin_or_slide, set_double_contact, set_single_contact, corner_offset,
                      wrap_angle)
 from .flight import flight_phase
 from .judge import judge_check, judge_update, in_band
@@ -178,14 +177,7 @@ def init_state(S, P, x, y, th, vx, vy, w, xt):
     elif on0 or on1:
         k = 0 if on0 else 1
         set_single_contact(S, P, k)
-        _, dy = corner_offset(P, k, S[S_TH])
-        vpx = S[S_VX] + S[S_W] * dy
-        if abs(vpx) <= INIT_GROUND_TOL:
-            pin_corner(S, P, k)
-            S[S_MODE] = MODE_B if k == 0 else MODE_D
-        else:
-            S[S_MODE] = MODE_C if k == 0 else MODE_E
-            S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
+        pin_or_slide(S, P, k, INIT_GROUND_TOL)
     S[S_INBAND] = 1.0 if in_band(S, P) else 0.0
     S[S_TIN] = 0.0
     return INIT_OK

@@ -63,8 +63,56 @@ MAX_EVENTS = 2000
 N_WORK = 192
 W_IMP = 0        # impacts: 22 floats
 W_FLT = 24       # flight: 8
-W_RK = 32        # contact phases: 134
+W_RK = 32        # contact phases: 134 (sub-layout W_U ... below)
 W_WORK = 176     # integration steps (flight + DOP853) taken in the current advance
+
+# The impacts' part (impacts.py), from W_IMP: per bottom corner (2 floats each) its
+# offset, point velocity, flags (1.0 / 0.0), restitution target and impulse.
+W_IMP_DX = W_IMP                # offsets (dx, dy) of corners A, B (in the impact frame)
+W_IMP_DY = W_IMP_DX + 2
+W_IMP_VPX = W_IMP_DY + 2        # point velocities before the impact
+W_IMP_VPY = W_IMP_VPX + 2
+W_IMP_ON = W_IMP_VPY + 2        # on the ground (within H_IMPACT)
+W_IMP_PART = W_IMP_ON + 2       # on the ground and not separating: takes part
+W_IMP_DV = W_IMP_PART + 2       # velocity change the law asks of each corner (x, y)
+W_IMP_TGT_Y = W_IMP_DV + 4      # normal target speed after the impact
+W_IMP_LX = W_IMP_TGT_Y + 2      # impulses (x, y) at each corner
+W_IMP_LY = W_IMP_LX + 2
+W_IMP_END = W_IMP_LY + 2
+assert W_IMP_END <= W_FLT
+
+# The contact phases' part (contact_phases.py), from W_RK: vectors of the reduced state
+# u = (theta, omega, x, vx) (N_U floats) and of the guards (N_GUARDS floats).
+N_U = 4
+N_GUARDS = 6
+RK_STAGES = 13                  # DOP853 stages kept for the error estimate
+W_U = W_RK                      # u at the start of the current step
+W_ATOL = W_U + N_U              # absolute tolerances per component of u
+W_GV = W_ATOL + N_U             # guard values at the step's start
+W_GNEW = W_GV + N_GUARDS        # guard values at the step's end
+W_LEVEL = W_GNEW + N_GUARDS     # level each guard fires at (0, or below a start on it)
+W_GTOL = W_LEVEL + N_GUARDS     # how far a guard must be clear of its level to arm
+W_ARMED = W_GTOL + N_GUARDS     # 1.0 once a guard has been clear of its level
+W_F0 = W_ARMED + N_GUARDS       # f(u) at the step's start
+W_KST = W_F0 + N_U              # the stages, RK_STAGES x N_U
+W_YTMP = W_KST + RK_STAGES * N_U    # a stage's argument
+W_UNEW = W_YTMP + N_U           # u at the step's end
+W_UTRY = W_UNEW + N_U           # u at a trial length (event location)
+W_F1 = W_UTRY + N_U             # f(u) at the step's end
+W_RATE0 = W_F1 + N_U            # guard rates at the step's start
+W_RATE1 = W_RATE0 + N_GUARDS    # guard rates at the step's end
+W_GTRY = W_RATE1 + N_GUARDS     # guards at a trial length (dip check)
+W_GTMP = W_GTRY + N_GUARDS      # guards at a trial length (root finding)
+W_RK_END = W_GTMP + N_GUARDS
+assert W_RK_END <= W_WORK
+
+# Guards of a single-contact phase (positive = no event yet), contact_phases._guards
+GUARD_LIFTOFF = 0    # normal force f_y / (m g)
+GUARD_FRICTION = 1   # pivot: friction-cone margin (slip); slide: sigma v_Px (stick)
+GUARD_TOUCH = 2      # the other bottom corner's height (impact)
+GUARD_TOP_R = 3      # the top corners' heights (broken)
+GUARD_TOP_L = 4
+GUARD_BAND = 5       # slide only: distance to the next band boundary ahead
 
 # ----------------------------------------------------------------------------------
 # Tolerances. Round-off must not make a contact state chatter (docs/MODEL.md section 5).

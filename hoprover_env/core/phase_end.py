@@ -6,11 +6,12 @@ import math
 
 from .._compile import kernel, I64, VEC, MAT
 from ..params import P_R, P_BAND
-from .layout import (EV_BROKEN, EV_LIFTOFF, EV_SLIP, EV_STOP, MODE_A, MODE_C, MODE_E,
-                     MODE_F, MODE_G, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
-                     PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_MIN_HEIGHT, S_MODE, S_SIGMA,
-                     S_T, S_TH, S_TORQUE, S_VX, S_W, S_X, S_XT, S_Y)
-from .forces import contact_corner, corner_offset, corner_offset_cs, pivot_dynamics
+from .layout import (EV_BROKEN, EV_LIFTOFF, EV_SLIP, EV_STOP, MODE_A, MODE_F, MODE_G, PH_BAND,
+                     PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP, PH_STICK, PH_STOP, PH_TOUCH,
+                     S_BROKEN, S_MIN_HEIGHT, S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_W, S_X,
+                     S_XT, S_Y)
+from .forces import (contact_corner, corner_offset, corner_offset_cs, pivot_dynamics,
+                     sliding_mode)
 from .judge import judge_set, judge_update, log_event
 from .transitions import settle
 from .impacts import impact_event
@@ -69,7 +70,7 @@ def after_phase(S, P, O, ev, n, kind, W):
     elif kind == PH_SLIP:
         k = contact_corner(mode)
         _, fx, _, _, _ = pivot_dynamics(P, k, S[S_TORQUE], S[S_TH], S[S_W])
-        new = MODE_C if k == 0 else MODE_E
+        new = sliding_mode(k)
         S[S_MODE] = new
         S[S_SIGMA] = -1.0 if fx > 0.0 else 1.0
         n = log_event(S, ev, n, t, EV_SLIP, mode, new, 0.0)
