@@ -50,7 +50,9 @@ velocity, attitude, rate, target, time, state); 15-18 are closed forms of them.
 
 Per step: `gamma * Phi(s') - Phi(s) - time_cost * (seconds simulated)`, plus
 `success_bonus` when the judge's TTRTP is reached and minus `break_penalty` when a top
-corner hits the ground. The potential
+corner hits the ground, minus `energy_weight` times the step's effort (the integral of
+|T| / T_limit over the step's seconds, whatever torques the task applied inside it; 0 by
+default). The potential
 
     Phi(s) = -dist_weight * min(|x_ref - x_T|, dist_cap) / 1 m
              - attitude_weight * a(s) - band_weight * (1 - d(s))
@@ -107,7 +109,7 @@ store it (TorchRL's info reader wants a `.dtype`; TorchRL and Tianshou refuse No
 `info_level="full"` adds `t` (s), `rover_state` (x, y, theta, vx, vy, omega),
 `contact_forces` (fAx, fAy, fBx, fBy; single env) and the reward's terms
 `reward_distance`, `reward_attitude`, `reward_band`, `reward_time`, `reward_bonus`,
-`reward_penalty`, which sum to the reward (up to rounding; hoprover_env/reward.py).
+`reward_penalty`, `reward_energy`, which sum to the reward (up to rounding; hoprover_env/reward.py).
 
 ## Arguments
 
@@ -127,6 +129,7 @@ store it (TorchRL's info reader wants a `.dtype`; TorchRL and Tianshou refuse No
 | `attitude_weight` | 0.0 | weight of the flight-attitude potential |
 | `band_weight` | 0.5 | weight of the judge's-clock potential |
 | `dist_cap` | 5.0 | distances beyond this [m] count as this |
+| `energy_weight` | 0.0 | weight of the effort: the integral of abs(T) / T_limit over each step [s] |
 | `action_map`, `action_scale` | "linear", 1.0 | action -> torque map and its range fraction |
 | `info_level` | "basic" | "full" adds state and forces to info |
 | `render_mode` | None | "rgb_array" or "human" |

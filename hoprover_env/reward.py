@@ -2,6 +2,7 @@
 potential it keeps, and the terms it pays.
 
     r = gamma Phi(s') - Phi(s) - time_cost dt + success_bonus [success] - break_penalty [broke]
+        - energy_weight * integral over the step of |T| / T_limit dt
 
 Phi(s) = -w_dist min(|x_ref - x_T|, cap) / 1 m - w_att a(s) - w_band (1 - d(s)), a sum
 of three bounded potentials (so Phi >= phi_min):
@@ -27,6 +28,12 @@ Arrays: the parameters ``RW`` (layout ``RW_*``, one vector per env) and the memo
 ``info_level="full"`` reports the reward's breakdown (TERMS), which sums to the reward
 up to rounding. The physics state S holds no reward.
 
+A term may charge what the whole step accumulates, not only the state it ends in: the
+hop task changes the torque many times inside one step (launch, attitude hold, rest) and
+ends it at 0, so the torque at the end says nothing of its effort. Every task's step calls
+`charge` after each advance of the physics with the torque it held and for how long;
+`begin` clears the accumulator and `pay` pays it (the energy term).
+
 Adding a term: a weight field in RewardConfig (validated in __post_init__) and its RW
 slot, its potential in `potential_terms` (or its payment in `pay`), an RM slot and a
 name in TERMS -- this module and its test (docs/ARCHITECTURE.md walks through it).
@@ -40,20 +47,22 @@ import numpy as np
 
 from ._compile import kernel, BOOL, F64, VEC
 from .core.layout import MODE_A, S_MODE, S_TH, S_W, S_XT
+from .params import P_TMAX, P_TMIN
 from .tasks.observation import (POS_SCALE, RATE_SCALE, dwell_fraction, landing_x,
                                 reference_point)
 from .validate import is_real, non_negative_real
 
 RW_W_DIST, RW_W_TIME, RW_SUCCESS, RW_BREAK, RW_GAMMA, RW_SHAPING, RW_W_ATT, RW_W_BAND, \
-    RW_DIST_CAP = range(9)
-N_RW = 9
+    RW_DIST_CAP, RW_W_ENERGY = range(10)
+N_RW = 10
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 SHAPINGS = {"contact": SHAPING_CONTACT, "landing": SHAPING_LANDING}
 
 RM_PHI, RM_PHI_DIST, RM_PHI_ATT, RM_PHI_BAND = range(4)         # potential at the state
-RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY = range(4, 10)  # last step
-N_RM = 10
-TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty")   # RM_DISTANCE on
+RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY, RM_ENERGY = range(4, 11)
+RM_EFFORT = 11          # accumulated in the current step: integral of |T| / T_limit dt [s]
+N_RM = 12
+TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty", "energy")  # RM_DISTANCE on
 
 # The spin term of a(s): quadratic up to u = U_Q (3 rad/s), logarithmic beyond, constant
 # past U_MAX (30 rad/s). A pull that weakens early lets PPO settle for spinning flights:
@@ -77,10 +86,11 @@ class RewardConfig:
     attitude_weight: float = 0.0
     band_weight: float = 0.5
     dist_cap: float = 5.0
+    energy_weight: float = 0.0
 
     def __post_init__(self):
         for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
-                     "attitude_weight", "band_weight"):
+                     "attitude_weight", "band_weight", "energy_weight"):
             non_negative_real(name, getattr(self, name))
         if not (is_real(self.gamma) and 0.0 < self.gamma <= 1.0):
             raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
@@ -102,12 +112,13 @@ class RewardConfig:
         rw[RW_W_ATT] = self.attitude_weight
         rw[RW_W_BAND] = self.band_weight
         rw[RW_DIST_CAP] = self.dist_cap
+        rw[RW_W_ENERGY] = self.energy_weight
         return rw
 
 
 def new_memory(n: int | None = None) -> np.ndarray:
     """Reward memory for a new episode (one row, or n rows): no potential computed yet
-    (NaN), nothing paid (0)."""
+    (NaN), nothing paid or accumulated (0)."""
     m = np.zeros(N_RM if n is None else (n, N_RM))
     m[..., :RM_DISTANCE] = np.nan
     return m
@@ -164,10 +175,22 @@ def phi_min(RW):
 
 @kernel(F64(VEC, VEC, VEC, VEC), inner=True)
 def begin(S, P, RW, RM):
-    """Phi at the start of a step: kept from the last step, computed on the first."""
+    """Phi at the start of a step: kept from the last step, computed on the first. The
+    step's accumulators start empty."""
+    RM[RM_EFFORT] = 0.0
     if math.isnan(RM[RM_PHI]):
         potential_terms(S, P, RW, RM)
     return RM[RM_PHI]
+
+
+@kernel(inner=True)
+def charge(P, RM, torque, seconds):
+    """Accumulate what the rover spent while it held `torque` [N m] for `seconds`: the
+    torque as a fraction of its limit in that direction, integrated over time. A task's
+    step calls it after every advance of the physics."""
+    limit = P[P_TMAX] if torque >= 0.0 else -P[P_TMIN]
+    if limit > 0.0:
+        RM[RM_EFFORT] += abs(torque) / limit * seconds
 
 
 @kernel(F64(VEC, VEC, VEC, VEC, F64, BOOL, BOOL, F64), inner=True)
@@ -207,4 +230,8 @@ def pay(S, P, RW, RM, phi0, success, broken, elapsed):
     if broken:
         reward -= RW[RW_BREAK]
         RM[RM_PENALTY] = -RW[RW_BREAK]
+    RM[RM_ENERGY] = 0.0
+    if RW[RW_W_ENERGY] != 0.0:      # a zero weight leaves the reward's bits untouched
+        RM[RM_ENERGY] = -RW[RW_W_ENERGY] * RM[RM_EFFORT]
+        reward += RM[RM_ENERGY]
     return reward

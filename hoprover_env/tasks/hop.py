@@ -78,7 +78,9 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
             cmd = 0.0                      # bouncing, sliding, or resting in the band
         # the grid of control instants is t0 + k dt, as a contest controller's
         k += 1
+        t_before = S[S_T]
         ADVANCE(S, P, O, cmd, min(t0 + k * dt, t_end), ev, W)  # noqa: F821 (bound by build)
+        reward.charge(P, RM, cmd, S[S_T] - t_before)
         if k >= MAX_SUBSTEPS:
             S[S_ERROR] = ERR_STEP
             break

@@ -41,8 +41,10 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
     had_ttrtp = not math.isnan(S[S_TTRTP])
     t0 = S[S_T]
     nev0 = S[S_NEVENTS]
-    ADVANCE(S, P, O, action_to_torque(action, P, E),  # noqa: F821 (bound by build)
-            min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]), ev, W)
+    torque = action_to_torque(action, P, E)
+    ADVANCE(S, P, O, torque, min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]),  # noqa: F821 (build)
+            ev, W)
+    reward.charge(P, RM, torque, S[S_T] - t0)
     r, terminated, truncated, success = finish(S, P, E, RW, RM, phi0, had_ttrtp,
                                                S[S_T] - t0)
     OBSERVE(S, P, E, obs)  # noqa: F821 (bound by build)
