@@ -89,9 +89,10 @@ def kernel_cost_per_sim_second(kind: str, n: int = 512, steps: int = 40) -> floa
         act[:] = action_of(6e-6)
     S0 = venv.S.copy()
     active = np.ones(n, dtype=bool)
-    args = (venv.P, venv._o, venv._e, venv._rw, venv._rm, act, active, venv._obs, venv._rew,
-            venv._term, venv._trunc, venv._succ, venv._nev, venv._log, venv._work)
-    batch = torque.KERNELS["event"].batch
+    args = (venv.P, venv._o, venv._e, venv._rw, venv._rm, venv.M, act[:, None].copy(), active,
+            venv._obs, venv._rew, venv._term, venv._trunc, venv._succ, venv._nev, venv._log,
+            venv._work)
+    batch = torque.TASK.kernels("event").batch
 
     def go():
         venv.S[:] = S0

@@ -18,7 +18,8 @@ from .batch import BatchRollout, simulate_batch
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",
            "HopRoverVectorEnv", "HopRoverHopEnv", "HopRoverHopVectorEnv",
-           "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "ENVS", "Task",
+           "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "HopRoverMissionEnv",
+           "HopRoverMissionVectorEnv", "ENVS", "Task",
            "task", "env_class", "vector_env_class", "config_class"]
 __version__ = "0.1.0"
 
@@ -47,6 +48,9 @@ ENVS = {
                            "hoprover_env.hop_env:HopRoverHopVectorEnv", hops=True),
     "HopRoverTerrain-v0": Task("hoprover_env.terrain_env:HopRoverTerrainEnv",
                                "hoprover_env.terrain_env:HopRoverTerrainVectorEnv",
+                               suite="terrain"),
+    "HopRoverMission-v0": Task("hoprover_env.mission_env:HopRoverMissionEnv",
+                               "hoprover_env.mission_env:HopRoverMissionVectorEnv",
                                suite="terrain"),
 }
 for _id, _task in ENVS.items():
@@ -82,7 +86,7 @@ def vector_env_class(env_id: str):
 def config_class(env_id: str):
     """The config dataclass of a registered hoprover id (EnvConfig, HopEnvConfig,
     TerrainEnvConfig): the env arguments a YAML's `env:` section may set."""
-    return env_class(env_id).config_class
+    return env_class(env_id).task.config
 
 
 def __getattr__(name):          # the envs import gymnasium spaces etc. only when used
@@ -98,4 +102,7 @@ def __getattr__(name):          # the envs import gymnasium spaces etc. only whe
     if name in ("HopRoverTerrainEnv", "HopRoverTerrainVectorEnv"):
         from . import terrain_env
         return getattr(terrain_env, name)
+    if name in ("HopRoverMissionEnv", "HopRoverMissionVectorEnv"):
+        from . import mission_env
+        return getattr(mission_env, name)
     raise AttributeError(name)

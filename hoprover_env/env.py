@@ -153,15 +153,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from . import _compile, core, reward
-from .env_config import EnvConfig, sample_episode
+from .env_config import sample_episode
+from .env_parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
+                        info as make_info, task_spaces)
 from .tasks import torque
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
-TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
-NO_TERRAIN_SEED = -1         # info["terrain_seed"] on smooth ground (nothing is drawn)
 # info's numpy scalars, made once (numpy scalars are immutable)
 _NOT_REACHED = np.float64(TTRTP_NOT_REACHED)
 _STATE_CODE = tuple(np.int64(code) for code in range(len(core.MODE_LETTERS)))
@@ -192,27 +191,23 @@ class HopRoverEnv(gym.Env):
     module's docstring has the tables). Keyword arguments are EnvConfig's (unknown names
     raise TypeError); render_mode is None, "rgb_array" or "human"."""
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
-    config_class = EnvConfig
-    task = torque               # its KERNELS[integrator].step advances one env, its
-    #                             observe writes the observation (bounds OBS_LOW/HIGH)
+    task = torque.TASK          # the written interface (tasks/common.py TaskSpec)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
-        self.config = self.config_class.from_kwargs(
-            f"{type(self).__name__}.__init__", **kwargs)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, "
-                             f"got {render_mode!r}")
+        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
+                                                   **kwargs)
+        check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
-        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.observation_space = spaces.Box(self.task.OBS_LOW, self.task.OBS_HIGH,
-                                            dtype=np.float32)
+        self.action_space, self.observation_space = task_spaces(self.task, self.config)
         self._o = self.config.options_vector()
-        _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
-        self._step_kernel = self.task.KERNELS[self.config.integrator].step
+        _compile.prepare(self.task.compile_extra)      # cold cache: compile on 2 cores
+        self._step_kernel = self.task.kernels(self.config.integrator).step
         self._e = self.config.task_vector()
         self._rw = self.config.reward_vector()
         self._rm = reward.new_memory()
-        self._obs = np.zeros(len(self.task.OBS_LOW), dtype=np.float32)
+        self._m = self.task.new_memory()
+        self._obs = np.zeros(self.observation_space.shape[-1], dtype=np.float32)
+        self._a = np.zeros(self.task.action_dim)
         self.terrain_seed = None
         self._w = np.zeros(core.N_WORK)
         self._s = None
@@ -233,10 +228,11 @@ class HopRoverEnv(gym.Env):
         self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
             self.config, self.np_random, options)
         self._rm[:] = reward.new_memory()
+        self.task.start(self.config, self.np_random, self._s, self._p, self._m)
         self._episode = (np.float64(self.target_x), np.float64(self.params.slope),
                          np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
                                   else self.terrain_seed))
-        self.task.observe(self._s, self._p, self._e, self._obs)
+        self.task.observe(self._s, self._p, self._e, self._m, self._obs)
         self._trace = []
         self._done = False
         if self.render_mode is not None:
@@ -254,15 +250,16 @@ class HopRoverEnv(gym.Env):
         if self._done:
             raise gym.error.ResetNeeded("the episode has ended (terminated or truncated): "
                                         "call reset() before step()")
-        if type(action) is np.ndarray and action.shape == (1,) and action.dtype.kind == "f":
-            a = float(action[0])                    # the common case, kept cheap
-            if not math.isfinite(a):
-                raise ValueError(f"action must be finite, got {a!r}")
+        a = self._a
+        if type(action) is np.ndarray and action.shape == a.shape and action.dtype.kind == "f":
+            a[:] = action                           # the common case, kept cheap
+            if not math.isfinite(a.sum()):
+                raise ValueError(f"action must be finite, got {action!r}")
         else:
-            a = float(check_actions(action, (1,))[0])
+            a[:] = check_actions(action, a.shape)
         reward, terminated, truncated, _, n_ev = self._step_kernel(
-            self._s, self._p, self._o, self._e, self._rw, self._rm, a, self._obs, _NO_LOG,
-            self._w)
+            self._s, self._p, self._o, self._e, self._rw, self._rm, self._m, a, self._obs,
+            _NO_LOG, self._w)
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
             if self.render_mode == "human":
@@ -279,17 +276,15 @@ class HopRoverEnv(gym.Env):
         s = self._s
         ttrtp = s[core.S_TTRTP]
         reached = ttrtp == ttrtp                      # not NaN
-        info = {"is_success": np.True_ if reached else np.False_,
-                "ttrtp": ttrtp if reached else _NOT_REACHED,
-                "state": _STATE_CODE[int(s[core.S_MODE])], "target_x": self._episode[0],
-                "broken": np.True_ if s[core.S_BROKEN] != 0.0 else np.False_,
-                "n_events": _COUNT[n_events] if n_events < len(_COUNT) else np.int64(n_events),
-                "slope": self._episode[1], "terrain_seed": self._episode[2]}
+        info = make_info(np.True_ if reached else np.False_,
+                         ttrtp if reached else _NOT_REACHED, _STATE_CODE[int(s[core.S_MODE])],
+                         self._episode[0], np.True_ if s[core.S_BROKEN] != 0.0 else np.False_,
+                         _COUNT[n_events] if n_events < len(_COUNT) else np.int64(n_events),
+                         self._episode[1], self._episode[2])
         if self.config.info_level == "full":
-            info["t"] = np.float64(s[core.S_T])
-            info["rover_state"] = s[:6].copy()
-            info["contact_forces"] = np.array(core.contact_forces(s, self._p))
-            info.update(reward.terms_info(self._rm))
+            info.update(full_info(s, self._p, self._rm))
+            if self.task.hidden_info is not None:
+                info.update(self.task.hidden_info(self._m))
         return info
 
     # ------------------------------------------------------------------------------

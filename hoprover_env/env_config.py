@@ -17,8 +17,11 @@ import numpy as np
 from .params import MAX_SLOPE, RoverParams
 from .reward import RewardConfig
 from .simulate import DEFAULT_RTOL, make_options, make_state
-from .tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_HOLD_KD,
-                           E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN, E_T_TOTAL, N_E)
+from .tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_ATT_NOISE,
+                           E_BIAS_WALK, E_CONTROL_DT, E_FIX_NOISE, E_FIX_REST, E_HOLD_KD,
+                           E_HISTORY, E_HOLD_KP, E_INCL_NOISE, E_LAUNCH_MAX, E_LAUNCH_MIN,
+                           E_RATE_NOISE,
+                           E_T_TOTAL, N_E)
 from .validate import finite_real, is_real, positive_real
 
 # Parameters that domain randomisation may scale, and the bounds they are clipped to.
@@ -253,3 +256,60 @@ class TerrainEnvConfig(EnvConfig):
     def draw_terrain(self, rng: np.random.Generator) -> dict:
         return {"slope": float(rng.uniform(*self.slope_range)),
                 "roughness": float(self.roughness)}
+
+
+# The ground a mission does not know: restitutions and friction drawn per episode
+# (relative half-ranges, EnvConfig.randomize), about the spread of the regolith
+# measurements Hayabusa2's MINERVA-II and MASCOT landings left open.
+MISSION_GROUND = {"restitution_x": 0.2, "restitution_y": 0.5, "mu_static": 0.25,
+                  "mu_dynamic": 0.25}
+_NOISES = ("attitude_noise", "rate_noise", "bias_walk", "fix_noise", "inclinometer_noise",
+           "actuator_error")
+
+
+@dataclasses.dataclass(frozen=True)
+class MissionEnvConfig(TerrainEnvConfig):
+    """Arguments of HopRoverMissionEnv: those of HopRoverTerrainEnv (the ground drawn
+    each episode, `randomize` defaulting to MISSION_GROUND) plus its sensors and
+    actuator (see the table in mission_env.py). `noise_scale` multiplies every noise."""
+
+    randomize: Mapping[str, float] | None = dataclasses.field(
+        default_factory=lambda: dict(MISSION_GROUND))
+    noise_scale: float = 1.0
+    attitude_noise: float = math.radians(0.5)
+    rate_noise: float = 1e-4
+    bias_walk: float = 1e-3
+    fix_noise: float = 0.01
+    fix_rest: float = 1.0
+    inclinometer_noise: float = 0.02
+    actuator_error: float = 0.05
+    history: int = 1
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (isinstance(self.history, (int, np.integer)) and not isinstance(
+                self.history, bool) and 1 <= self.history <= 64):
+            raise ValueError(f"history (readings per observation) must be an integer in "
+                             f"[1, 64], got {self.history!r}")
+        for name in _NOISES + ("noise_scale",):
+            v = getattr(self, name)
+            if not (is_real(v) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        object.__setattr__(self, "fix_rest", positive_real("fix_rest", self.fix_rest))
+        if self.actuator_error * self.noise_scale >= 1.0:
+            raise ValueError(f"actuator_error x noise_scale must be below 1 (a scale error "
+                             f"of 100 % or more reverses the torque), got "
+                             f"{self.actuator_error} x {self.noise_scale}")
+
+    def task_vector(self) -> np.ndarray:
+        e = super().task_vector()
+        k = self.noise_scale
+        e[E_ATT_NOISE] = k * self.attitude_noise
+        e[E_RATE_NOISE] = k * self.rate_noise
+        e[E_BIAS_WALK] = k * self.bias_walk
+        e[E_FIX_NOISE] = k * self.fix_noise
+        e[E_FIX_REST] = self.fix_rest
+        e[E_INCL_NOISE] = k * self.inclinometer_noise
+        e[E_HISTORY] = self.history
+        return e

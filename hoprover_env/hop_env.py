@@ -72,15 +72,13 @@ from __future__ import annotations
 from gymnasium.vector import VectorEnv
 
 from .env import HopRoverEnv
-from .env_config import HopEnvConfig
 from .tasks import hop
 from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverHopEnv(HopRoverEnv):
     """The hop-level task (HopRoverHop-v0) as a Gymnasium env: one action, one hop."""
-    config_class = HopEnvConfig
-    task = hop
+    task = hop.TASK
 
 
 # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
@@ -88,5 +86,4 @@ class HopRoverHopEnv(HopRoverEnv):
 class HopRoverHopVectorEnv(HopRoverVectorEnv, VectorEnv):
     """N hop-level envs stepped in one jitted call; sub-env i equals HopRoverHopEnv
     seeded with seed + i."""
-    config_class = HopEnvConfig
-    task = hop
+    task = hop.TASK

@@ -59,15 +59,13 @@ from __future__ import annotations
 from gymnasium.vector import VectorEnv
 
 from .env import HopRoverEnv
-from .env_config import TerrainEnvConfig
 from .tasks import terrain
 from .vector_env import HopRoverVectorEnv
 
 
 class HopRoverTerrainEnv(HopRoverEnv):
     """The terrain task (HopRoverTerrain-v0) as a Gymnasium env (tables above)."""
-    config_class = TerrainEnvConfig
-    task = terrain
+    task = terrain.TASK
 
 
 # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env by
@@ -75,5 +73,4 @@ class HopRoverTerrainEnv(HopRoverEnv):
 class HopRoverTerrainVectorEnv(HopRoverVectorEnv, VectorEnv):
     """N terrain envs stepped in one jitted call; sub-env i equals HopRoverTerrainEnv
     seeded with seed + i, bumps included."""
-    config_class = TerrainEnvConfig
-    task = terrain
+    task = terrain.TASK

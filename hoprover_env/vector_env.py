@@ -21,14 +21,15 @@ from typing import Any
 
 import numba
 import numpy as np
-from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _compile, core, reward
-from .env import NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_actions
-from .env_config import RESET_OPTIONS, EnvConfig, sample_episode
+from .env import check_actions
+from .env_config import RESET_OPTIONS, sample_episode
+from .env_parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
+                        info as make_info, task_spaces)
 from .params import N_PARAMS, P_SLOPE
 from .tasks import torque
 
@@ -40,8 +41,7 @@ class HopRoverVectorEnv(VectorEnv):
     the arguments); sub-env i equals a HopRoverEnv seeded with seed + i."""
     metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
                 "autoreset_mode": AutoresetMode.NEXT_STEP}
-    config_class = EnvConfig
-    task = torque               # its KERNELS[integrator].batch(_threaded) steps all envs
+    task = torque.TASK          # the written interface (tasks/common.py TaskSpec)
 
     def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
                  max_episode_steps: int | None = None, threads: bool | None = None,
@@ -49,9 +49,9 @@ class HopRoverVectorEnv(VectorEnv):
         if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
                 and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.config = self.config_class.from_kwargs(
-            f"{type(self).__name__}.__init__", **kwargs)
-        _compile.prepare(torque.HELPER_EXTRA)      # cold cache: compile on 2 cores
+        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
+                                                   **kwargs)
+        _compile.prepare(self.task.compile_extra)      # cold cache: compile on 2 cores
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -67,16 +67,14 @@ class HopRoverVectorEnv(VectorEnv):
             raise ValueError(f"max_episode_steps must be a positive integer or None, got "
                              f"{max_episode_steps!r}")
         self.max_episode_steps = max_episode_steps
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}")
+        check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        kernels = self.task.KERNELS[self.config.integrator]
+        kernels = self.task.kernels(self.config.integrator)
         self._kernel = kernels.batch_threaded if self.threads else kernels.batch
 
-        self.single_action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self.single_observation_space = spaces.Box(self.task.OBS_LOW, self.task.OBS_HIGH,
-                                                   dtype=np.float32)
+        self.single_action_space, self.single_observation_space = task_spaces(self.task,
+                                                                              self.config)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
@@ -85,9 +83,10 @@ class HopRoverVectorEnv(VectorEnv):
         self._e = self.config.task_vector()
         self._rw = self.config.reward_vector()
         self._rm = reward.new_memory(n)
+        self.M = self.task.new_memory(n)
         self.S = np.zeros((n, core.N_STATE))
         self.P = np.zeros((n, N_PARAMS))
-        self._obs = np.zeros((n, len(self.task.OBS_LOW)), dtype=np.float32)
+        self._obs = np.zeros((n, self.single_observation_space.shape[0]), dtype=np.float32)
         self._rew = np.zeros(n)
         self._term = np.zeros(n, dtype=np.bool_)
         self._trunc = np.zeros(n, dtype=np.bool_)
@@ -116,7 +115,8 @@ class HopRoverVectorEnv(VectorEnv):
         self.params[i] = params
         self._steps[i] = 0
         self._rm[i] = reward.new_memory()
-        self.task.observe(self.S[i], self.P[i], self._e, self._obs[i])
+        self.task.start(self.config, self._rngs[i], self.S[i], self.P[i], self.M[i])
+        self.task.observe(self.S[i], self.P[i], self._e, self.M[i], self._obs[i])
         if self.render_mode:
             self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
 
@@ -166,17 +166,18 @@ class HopRoverVectorEnv(VectorEnv):
         return self._obs.copy(), self._infos(np.zeros(n, dtype=np.int64))
 
     def step(self, actions):
-        """Step every active sub-env by one control period: actions of shape (N, 1) (or
-        (N,)). Returns (observations, rewards, terminated, truncated, infos); raises
+        """Step every active sub-env: actions of shape (N, action_dim) (or (N,) for one
+        component). Returns (observations, rewards, terminated, truncated, infos); raises
         ValueError for a non-finite or misshapen action, RuntimeError before reset."""
         if not self._ready:
             raise RuntimeError("call reset() before step()")
         n = self.num_envs
-        if type(actions) is np.ndarray and actions.shape == (n, 1) and \
-                actions.dtype == np.float64:
-            a = actions[:, 0]             # the common case; finiteness checked in the kernel
+        shape = (n, self.task.action_dim)
+        if type(actions) is np.ndarray and actions.shape == shape and \
+                actions.dtype == np.float64 and actions.flags.c_contiguous:
+            a = actions                   # the common case; finiteness checked in the kernel
         else:
-            a = check_actions(actions, (n, 1), "actions")[:, 0]
+            a = np.ascontiguousarray(check_actions(actions, shape, "actions"))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
             done = np.flatnonzero(self._autoreset)
             active = ~self._autoreset
@@ -185,11 +186,12 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
-        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, a, active,
-                           self._obs, self._rew, self._term, self._trunc, self._succ,
+        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
+                           active, self._obs, self._rew, self._term, self._trunc, self._succ,
                            self._nev, self._log, self._work)
         if bad >= 0:
-            raise ValueError(f"actions must be finite, got {a[bad]!r} for sub-env {bad}")
+            raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
+                             f"{bad}")
         if done.size:
             self._rew[done] = 0.0
             self._term[done] = False
@@ -224,15 +226,14 @@ class HopRoverVectorEnv(VectorEnv):
         ttrtp = self.S[:, core.S_TTRTP].copy()
         reached = ~np.isnan(ttrtp)
         ttrtp[~reached] = TTRTP_NOT_REACHED
-        info = {"is_success": reached, "ttrtp": ttrtp,
-                "state": self.S[:, core.S_MODE].astype(np.int64),
-                "target_x": self.targets.copy(), "broken": self.S[:, core.S_BROKEN] != 0.0,
-                "n_events": nev.astype(np.int64),
-                "slope": self.P[:, P_SLOPE].copy(), "terrain_seed": self.terrain_seeds.copy()}
+        info = make_info(reached, ttrtp, self.S[:, core.S_MODE].astype(np.int64),
+                         self.targets.copy(), self.S[:, core.S_BROKEN] != 0.0,
+                         nev.astype(np.int64), self.P[:, P_SLOPE].copy(),
+                         self.terrain_seeds.copy())
         if self.config.info_level == "full":
-            info["t"] = self.S[:, core.S_T].copy()
-            info["rover_state"] = self.S[:, :6].copy()
-            info.update(reward.terms_info(self._rm))
+            info.update(full_info(self.S, self.P, self._rm))
+            if self.task.hidden_info is not None:
+                info.update(self.task.hidden_info(self.M))
         for key in list(info):
             info["_" + key] = mask       # one mask array shared by all keys of this step
         return info

@@ -65,7 +65,7 @@ def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
 def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     seen = compiled_by_first_step(tmp_path)
     ours = [name for name, _ in seen if name.startswith("hoprover_env.")]
-    assert "hoprover_env.tasks.torque.torque_step_event" in ours and len(ours) > 40
+    assert "hoprover_env.tasks.common.torque_event_step" in ours and len(ours) > 40
     assert not [n for n in ours if "euler" in n.lower()]
     # each function once: a second specialisation (say for a literal int argument) would
     # compile the function again and relink everything above it
@@ -89,10 +89,10 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
                    "hoprover_env.core.contact_phases.g_phase",
                    "hoprover_env.core.contact_phases._dop853_step",
                    "hoprover_env.core.contact_phases._locate",
-                   "hoprover_env.tasks.common.finish", "hoprover_env.tasks.observation.observe"}
+                   "hoprover_env.tasks.common.close_step", "hoprover_env.tasks.observation.observe"}
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
-    assert "hoprover_env.tasks.torque.torque_step_event" in main
+    assert "hoprover_env.tasks.common.torque_event_step" in main
     assert len(main) == len(set(main)) and len(main) < len(everything) - 10
     # the same machine code: identical trajectories, bit for bit
     assert parallel["obs"] == serial["obs"] and parallel["reward"] == serial["reward"]
@@ -118,9 +118,9 @@ def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, m
     pc.prepare()
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
-    for d in pc._resolve(pc.HELPER_FUNCTIONS + torque.HELPER_EXTRA):  # compiled here
+    for d in pc._resolve(pc.HELPER_FUNCTIONS + torque.TASK.compile_extra):  # compiled here
         pc.compile_now(d)
-    pc.prepare(torque.HELPER_EXTRA)
+    pc.prepare(torque.TASK.compile_extra)
     assert started == []
 
 

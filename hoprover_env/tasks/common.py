@@ -1,40 +1,137 @@
-"""What every task shares: the end of a step (judge outcome, reward, observation) and
-the batched loops over the rovers of a vector env, written once.
+"""The written interface of a task, and what every task shares: the opening and the end
+of a step (judge outcome, reward), the batched loops over the rovers of a vector env,
+and `build`, which compiles them for each integrator.
 
-A task is one jitted step function with the signature
+A task is a `TaskSpec` (below): its config class, its observation (a jitted
+``observe(S, P, E, M, obs)`` and its bounds), its action size, its per-rover memory,
+and one step template
 
-    step(S, P, O, E, RW, RM, action, obs, ev, W) -> (reward, terminated, truncated,
-                                                     success, n_events)
+    step(S, P, O, E, RW, RM, M, action, ev, W) -> (reward, terminated, truncated,
+                                                   success, n_events)
 
-on one rover's rows (state S, parameters P, reward memory RM, observation obs) and the
-env's shared vectors (options O, task config E, reward parameters RW). Its module
-writes it once as a template that calls ``ADVANCE`` (the integrator) and hands it to
-`build`, which makes, for each integrator, the step and the serial and threaded batch
-loops over it: one source for every task and integrator, compiled separately (numba
-fixes a callee at compile time), so that a default env compiles no Euler code. A step
-ends with ``OBSERVE(S, P, E, obs)``, bound by `build` to the task's observation.
+on one rover's rows (state S, parameters P, reward memory RM, task memory M, action, a
+float64 row of `action_dim`) and the env's shared vectors (options O, task config E,
+reward parameters RW). A step template opens with `open_step`, moves the rover with
+``ADVANCE(S, P, O, torque, t_end, ev, W)`` (the integrator), charges the reward with
+every torque it held (`reward.charge`) and ends with `close_step`; its observation is
+written after it by the compiled step (`build`). ``ADVANCE`` and any other name in
+`TaskSpec.holes` are placeholders that `build` binds at compile time (numba fixes a
+callee when it compiles), so that one source serves every integrator and a default env
+compiles no Euler code.
 """
+from __future__ import annotations
+
+import dataclasses
 import math
 import types
+from typing import Any, Callable
 
+import numpy as np
 from numba import get_thread_id, prange, types as nt
 
 from .._compile import kernel, BOOL, F64, VEC
 from .. import core
-from ..core.layout import S_BROKEN, S_ERROR, S_T, S_TTRTP
+from ..core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TTRTP
 from .. import reward
 from .layout import E_T_TOTAL
-from .observation import observe as default_observe
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 
 
+def ADVANCE(S, P, O, torque, t_end, ev, W):
+    """Placeholder in a step template: the integrator, bound by `build`. Moves the rover
+    with `torque` held until t_end (or an end of the episode's physics)."""
+    raise NotImplementedError("ADVANCE is bound by tasks.common.build")
+
+
+def _STEP(S, P, O, E, RW, RM, M, action, ev, W):
+    """Placeholder in the loops below: the task's step template, bound by `build`."""
+    raise NotImplementedError("_STEP is bound by tasks.common.build")
+
+
+def _OBSERVE(S, P, E, M, obs):
+    """Placeholder in the loops below: the task's observe, bound by `build`."""
+    raise NotImplementedError("_OBSERVE is bound by tasks.common.build")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class TaskSpec:
+    """What a task is, all an env needs of it. One per task module, named ``TASK``.
+
+    ==================  ==============================================================
+    ``name``            prefix of its compiled functions (numba caches them by name)
+    ``config``          its EnvConfig subclass: arguments, the vector E, episode draws
+    ``step``            the step template (the module docstring has its contract)
+    ``observe``         jitted ``observe(S, P, E, M, obs)``: writes the float32
+                        observation; may update the task memory M (a sensor's state)
+    ``obs_low/high``    the observation's bounds (float32 arrays)
+    ``obs_bounds``      ``f(config) -> (low, high)`` when the config sizes the
+                        observation (None: obs_low/high)
+    ``action_dim``      the action's size: Box(-1, 1, (action_dim,))
+    ``memory``          slots of per-rover task memory M (0: none)
+    ``reset_memory``    ``f(config, rng, S, P, M)`` at every reset, after the episode's
+                        draws, from the same generator (None: M is zeroed)
+    ``holes``           further placeholders of the step template and their kernels
+    ``hidden_info``     ``f(M) -> dict``: what info_level="full" adds of the task memory
+                        (a task that hides state from the policy shows it here)
+    ``compile_extra``   inner kernels the parallel-compile helper builds on a cold cache
+    ==================  ==============================================================
+    """
+    name: str
+    config: type
+    step: Callable
+    observe: Any
+    obs_low: np.ndarray
+    obs_high: np.ndarray
+    action_dim: int = 1
+    memory: int = 0
+    reset_memory: Callable | None = None
+    holes: dict = dataclasses.field(default_factory=dict)
+    hidden_info: Callable | None = None
+    obs_bounds: Callable | None = None
+    compile_extra: tuple = ()
+
+    def kernels(self, integrator: str) -> "TaskKernels":
+        """The compiled step and batch loops for `integrator` ("event" or "euler"),
+        built once per task and integrator."""
+        cache = _BUILT.setdefault(id(self), {})
+        if integrator not in cache:
+            cache[integrator] = build(self, integrator)
+        return cache[integrator]
+
+    def bounds(self, config) -> tuple[np.ndarray, np.ndarray]:
+        """The observation's (low, high) under `config`."""
+        if self.obs_bounds is None:
+            return self.obs_low, self.obs_high
+        return self.obs_bounds(config)
+
+    @property
+    def memory_width(self) -> int:
+        """Columns of the task memory array (at least 1: numba wants one array type)."""
+        return max(self.memory, 1)
+
+    def new_memory(self, n: int | None = None) -> np.ndarray:
+        return np.zeros(self.memory_width if n is None else (n, self.memory_width))
+
+    def start(self, config, rng, S, P, M) -> None:
+        """Fill a rover's task memory at reset (after sample_episode's draws)."""
+        M[:] = 0.0
+        if self.reset_memory is not None:
+            self.reset_memory(config, rng, S, P, M)
+
+
+_BUILT: dict = {}
+
+
 @kernel(inner=True)
 def first_bad_action(actions, active):
-    """Index of the first active non-finite action, or -1: checked before any rover moves."""
+    """Index of the first active row with a non-finite action, or -1: checked before any
+    rover moves."""
     for i in range(actions.shape[0]):
-        if active[i] and not math.isfinite(actions[i]):
-            return i
+        if active[i]:
+            for j in range(actions.shape[1]):
+                if not math.isfinite(actions[i, j]):
+                    return i
     return -1
 
 
@@ -46,55 +143,72 @@ def episode_ended(S, had_ttrtp):
         or S[S_ERROR] != 0.0
 
 
-@kernel(nt.Tuple((F64, BOOL, BOOL, BOOL))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64),
-        inner=True)
-def finish(S, P, E, RW, RM, phi0, had_ttrtp, elapsed):
-    """Reward and outcome after the rover moved for `elapsed` seconds from a state of
-    potential phi0. Returns (reward, terminated, truncated, success): success or a break
-    terminate, the episode's clock truncates."""
+@kernel(nt.Tuple((F64, BOOL, F64, F64))(VEC, VEC, VEC, VEC), inner=True)
+def open_step(S, P, RW, RM):
+    """What a step records before the rover moves: (the potential, whether TTRTP was
+    already reached, the time, the event count)."""
+    phi0 = reward.begin(S, P, RW, RM)
+    return phi0, not math.isnan(S[S_TTRTP]), S[S_T], S[S_NEVENTS]
+
+
+@kernel(nt.Tuple((F64, BOOL, BOOL, BOOL, nt.int64))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64,
+                                                    F64), inner=True)
+def close_step(S, P, E, RW, RM, phi0, had_ttrtp, t0, nev0):
+    """Reward and outcome of a step opened at (phi0, had_ttrtp, t0, nev0): (reward,
+    terminated, truncated, success, events located). Success or a break terminate, the
+    episode's clock truncates."""
     success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
-    broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
+    broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0      # episode_ended's two parts
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
-    r = reward.pay(S, P, RW, RM, phi0, success, broken, elapsed)
-    return r, terminated, truncated, success
+    r = reward.pay(S, P, RW, RM, phi0, success, broken, S[S_T] - t0)
+    return r, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
 
 
-# The loop templates: STEP is bound by `build`.
-def batch_serial(S, P, O, E, RW, RM, actions, active, obs, rew, term, trunc, succ, nev, ev,
-                 W):
-    """STEP over the rows where `active` is set, one after the other. Returns the index of
-    a non-finite action (nothing stepped) or -1."""
+# The compiled step and the loop templates: _STEP and _OBSERVE are bound by `build`.
+def step_and_observe(S, P, O, E, RW, RM, M, action, obs, ev, W):
+    """The task's step, then its observation of where the rover ended."""
+    out = _STEP(S, P, O, E, RW, RM, M, action, ev, W)
+    _OBSERVE(S, P, E, M, obs)
+    return out
+
+
+def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, succ, nev,
+                 ev, W):
+    """The step over the rows where `active` is set, one after the other. Returns the
+    index of a non-finite action (nothing stepped) or -1."""
     bad = first_bad_action(actions, active)
     if bad >= 0:
         return bad
     w = W[0]
     for i in range(S.shape[0]):
         if active[i]:
-            rew[i], term[i], trunc[i], succ[i], nev[i] = STEP(  # noqa: F821 (bound by build)
-                S[i], P[i], O, E, RW, RM[i], actions[i], obs[i], ev, w)
+            rew[i], term[i], trunc[i], succ[i], nev[i] = _STEP(
+                S[i], P[i], O, E, RW, RM[i], M[i], actions[i], ev, w)
+            _OBSERVE(S[i], P[i], E, M[i], obs[i])
     return -1
 
 
-def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, actionsb, activeb, obsb, rewb, termb, truncb,
-                   succb, nevb, evb, Wb):
-    """STEP over the active rows, spread over numba's threads; each thread uses its own
-    workspace row W[thread id]. Returns as batch_serial. (Argument names differ from
+def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, termb,
+                   truncb, succb, nevb, evb, Wb):
+    """The step over the active rows, spread over numba's threads; each thread uses its
+    own workspace row W[thread id]. Returns as batch_serial. (Argument names differ from
     batch_serial's: numba's parfor outlining clashes on shared names.)"""
     bad = first_bad_action(actionsb, activeb)
     if bad >= 0:
         return bad
     for i in prange(Sb.shape[0]):
         if activeb[i]:
-            rewb[i], termb[i], truncb[i], succb[i], nevb[i] = STEP(  # noqa: F821
-                Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], actionsb[i], obsb[i], evb,
+            rewb[i], termb[i], truncb[i], succb[i], nevb[i] = _STEP(
+                Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], Mb[i], actionsb[i], evb,
                 Wb[get_thread_id()])
+            _OBSERVE(Sb[i], Pb[i], Eb, Mb[i], obsb[i])
     return -1
 
 
 class TaskKernels(types.SimpleNamespace):
     """The compiled pieces of a task for one integrator: `step` (one rover, the single
-    env), `batch` and `batch_threaded` (the vector env)."""
+    env: step_and_observe), `batch` and `batch_threaded` (the vector env)."""
 
 
 def _bind(template, name: str, **names):
@@ -108,16 +222,18 @@ def _bind(template, name: str, **names):
     return func
 
 
-def build(task: str, step_template, observe=default_observe) -> dict:
-    """{integrator: TaskKernels} for a task's step template (which calls ADVANCE and
-    OBSERVE) and its observation function (tasks/observation.py `observe` by default)."""
-    out = {}
-    for integrator, advance in INTEGRATORS.items():
-        step = kernel(_bind(step_template, f"{task}_step_{integrator}", ADVANCE=advance,
-                            OBSERVE=observe))
-        out[integrator] = TaskKernels(
-            step=step,
-            batch=kernel(_bind(batch_serial, f"{task}_batch_{integrator}", STEP=step)),
-            batch_threaded=kernel(parallel=True)(
-                _bind(batch_threaded, f"{task}_batch_threaded_{integrator}", STEP=step)))
-    return out
+def build(task: TaskSpec, integrator: str) -> TaskKernels:
+    """The kernels of `task` for one integrator: its step template with ADVANCE (and its
+    other holes) bound, followed by its observe, alone and in the two batch loops."""
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got "
+                         f"{integrator!r}")
+    name = f"{task.name}_{integrator}"
+    inner = kernel(inner=True)(_bind(task.step, f"{name}_inner",
+                                     ADVANCE=INTEGRATORS[integrator], **task.holes))
+    bound = dict(_STEP=inner, _OBSERVE=task.observe)
+    return TaskKernels(
+        step=kernel(_bind(step_and_observe, f"{name}_step", **bound)),
+        batch=kernel(_bind(batch_serial, f"{name}_batch", **bound)),
+        batch_threaded=kernel(parallel=True)(
+            _bind(batch_threaded, f"{name}_batch_threaded", **bound)))

@@ -8,18 +8,19 @@ its bottom face), zero torque on the ground while it bounces, slides and stops. 
 step returns when the rover is at rest again outside the band, when the judge's TTRTP
 is reached (a rover at rest in the band is left there until the judge's 5 s are up),
 when it breaks, or at the end of the episode. Reward, observation and outcome are every
-task's (tasks/common.py `finish`), with the time cost charged for the simulated seconds
-the hop took. KERNELS[integrator] holds the step and the batched loops over it.
+task's (tasks/common.py `close_step`), with the time cost charged for the simulated seconds
+the hop took. `TASK` is its written interface (tasks/common.py `TaskSpec`).
 """
 import math
 
 from .._compile import kernel
 from ..controllers import attitude_hold
-from ..core.layout import (ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_NEVENTS,
-                           S_T, S_TH, S_TTRTP, S_W)
+from ..core.layout import ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_T, S_TH, S_W
+from ..env_config import HopEnvConfig
 from ..params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
 from .. import reward
-from .common import build, episode_ended, finish
+from . import torque
+from .common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
 from .layout import (E_CONTROL_DT, E_HOLD_KD, E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN,
                      E_T_TOTAL)
 from .observation import OBS_HIGH, OBS_LOW, clip, observe
@@ -47,16 +48,13 @@ def hop_torque(a, P, E):
     return -mag if a < 0.0 else mag
 
 
-def step(S, P, O, E, RW, RM, action, obs, ev, W):
+def step(S, P, O, E, RW, RM, M, action, ev, W):
     """One hop (or, at rest in the band, the wait for the judge). Returns (reward,
     terminated, truncated, success, n_events)."""
-    phi0 = reward.begin(S, P, RW, RM)
-    had_ttrtp = not math.isnan(S[S_TTRTP])
-    t0 = S[S_T]
+    phi0, had_ttrtp, t0, nev0 = open_step(S, P, RW, RM)
     t_end = E[E_T_TOTAL]
     dt = E[E_CONTROL_DT]
-    nev0 = S[S_NEVENTS]
-    torque = hop_torque(action, P, E)
+    torque = hop_torque(action[0], P, E)
     # at rest in the band the judge's clock runs: the step waits it out, whatever the action
     flown = int(S[S_MODE]) == MODE_F and S[S_INBAND] == 1.0
     k = 0
@@ -79,14 +77,13 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
         # the grid of control instants is t0 + k dt, as a contest controller's
         k += 1
         t_before = S[S_T]
-        ADVANCE(S, P, O, cmd, min(t0 + k * dt, t_end), ev, W)  # noqa: F821 (bound by build)
+        ADVANCE(S, P, O, cmd, min(t0 + k * dt, t_end), ev, W)
         reward.charge(P, RM, cmd, S[S_T] - t_before)
         if k >= MAX_SUBSTEPS:
             S[S_ERROR] = ERR_STEP
             break
-    r, terminated, truncated, success = finish(S, P, E, RW, RM, phi0, had_ttrtp,
-                                               S[S_T] - t0)
-    OBSERVE(S, P, E, obs)  # noqa: F821 (bound by build)
+    r, terminated, truncated, success, n_events = close_step(S, P, E, RW, RM, phi0,
+                                                             had_ttrtp, t0, nev0)
     # The contest's 600 s belong to this task (the time is observed): running out of time
     # ends it, a terminal state with the potential it has. Declared a truncation instead,
     # learners bootstrap from the value of a rover caught mid-flight by the clock, a state
@@ -94,9 +91,9 @@ def step(S, P, O, E, RW, RM, action, obs, ev, W):
     if truncated:
         terminated = True
         truncated = False
-    return r, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
+    return r, terminated, truncated, success, n_events
 
 
-KERNELS = build("hop", step)
-# what an env reads of a task: its kernels, its observation and the observation's bounds
-__all__ = ["KERNELS", "observe", "OBS_LOW", "OBS_HIGH", "hop_torque", "step"]
+TASK = TaskSpec(name="hop", config=HopEnvConfig, step=step, observe=observe,
+                obs_low=OBS_LOW, obs_high=OBS_HIGH,
+                compile_extra=torque.TASK.compile_extra)

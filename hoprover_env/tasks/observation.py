@@ -91,9 +91,10 @@ def dwell_fraction(S, P):
     return 0.0
 
 
-@kernel(NONE(VEC, VEC, VEC, VEC32))
-def observe(S, P, E, obs):
-    """Write the float32 observation of state S into `obs` (slots OBS_*)."""
+@kernel(NONE(VEC, VEC, VEC, VEC, VEC32))
+def observe(S, P, E, M, obs):
+    """Write the float32 observation of state S into `obs` (slots OBS_*); the task
+    memory M is unused (the true state is observed)."""
     xt = S[S_XT]
     obs[OBS_DX] = clip((S[S_X] - xt) / POS_SCALE, -5.0, 5.0)
     obs[OBS_HEIGHT] = clip((S[S_Y] - P[P_H]) / HEIGHT_SCALE, -1.0, 10.0)

@@ -5,12 +5,14 @@ Each episode draws its slope (the env's config); the step is the torque task's
 slope, so that one policy can hop on any incline. KERNELS[integrator] holds the step and
 the batched loops over it.
 """
+import dataclasses
+
 import numpy as np
 
 from .._compile import kernel, NONE, VEC, VEC32
 from ..params import P_SLOPE
 from . import torque
-from .common import build
+from ..env_config import TerrainEnvConfig
 from .observation import OBS_DIM, OBS_HIGH as FLAT_HIGH, OBS_LOW as FLAT_LOW, observe as \
     flat_observe
 
@@ -20,13 +22,12 @@ OBS_LOW = np.append(FLAT_LOW, np.float32(-1.0))
 OBS_HIGH = np.append(FLAT_HIGH, np.float32(1.0))
 
 
-@kernel(NONE(VEC, VEC, VEC, VEC32))
-def observe(S, P, E, obs):
+@kernel(NONE(VEC, VEC, VEC, VEC, VEC32))
+def observe(S, P, E, M, obs):
     """The torque task's observation (slots 0..18), then the slope (slot OBS_SLOPE)."""
-    flat_observe(S, P, E, obs)
+    flat_observe(S, P, E, M, obs)
     obs[OBS_SLOPE] = P[P_SLOPE] / SLOPE_SCALE
 
 
-KERNELS = build("terrain", torque.step, observe=observe)
-HELPER_EXTRA = torque.HELPER_EXTRA
-__all__ = ["KERNELS", "observe", "OBS_LOW", "OBS_HIGH", "OBS_SLOPE"]
+TASK = dataclasses.replace(torque.TASK, name="terrain", config=TerrainEnvConfig,
+                           observe=observe, obs_low=OBS_LOW, obs_high=OBS_HIGH)

@@ -2,16 +2,19 @@
 one control period, as in the contest.
 
 `action_to_torque` maps the action; the step advances the rover by one control period
-and ends as every task does (tasks/common.py `finish`). KERNELS[integrator] holds the
-step and the batched loops over it.
+and ends as every task does (tasks/common.py `close_step`). `TASK` is its written
+interface (tasks/common.py `TaskSpec`); the step's actuator is a placeholder,
+``ACTUATE``, that a task built on this step may bind to its own (the mission task's
+carries a per-episode scale error).
 """
 import math
 
 from .._compile import kernel, F64, VEC
-from ..core.layout import S_NEVENTS, S_T, S_TTRTP
+from ..core.layout import S_T
+from ..env_config import EnvConfig
 from ..params import P_TMAX, P_TMIN
 from .. import reward
-from .common import build, finish
+from .common import ADVANCE, TaskSpec, close_step, open_step
 from .layout import ACTION_CUBIC, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_T_TOTAL
 from .observation import OBS_HIGH, OBS_LOW, clip, observe
 
@@ -34,28 +37,32 @@ def action_to_torque(a, P, E):
     return E[E_ACTION_SCALE] * t
 
 
-def step(S, P, O, E, RW, RM, action, obs, ev, W):
+def step(S, P, O, E, RW, RM, M, action, ev, W):
     """One control period with the torque `action` maps to. Returns (reward, terminated,
     truncated, success, n_events)."""
-    phi0 = reward.begin(S, P, RW, RM)
-    had_ttrtp = not math.isnan(S[S_TTRTP])
-    t0 = S[S_T]
-    nev0 = S[S_NEVENTS]
-    torque = action_to_torque(action, P, E)
-    ADVANCE(S, P, O, torque, min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]),  # noqa: F821 (build)
-            ev, W)
+    phi0, had_ttrtp, t0, nev0 = open_step(S, P, RW, RM)
+    torque = ACTUATE(action, P, E, M)
+    ADVANCE(S, P, O, torque, min(t0 + E[E_CONTROL_DT], E[E_T_TOTAL]), ev, W)
     reward.charge(P, RM, torque, S[S_T] - t0)
-    r, terminated, truncated, success = finish(S, P, E, RW, RM, phi0, had_ttrtp,
-                                               S[S_T] - t0)
-    OBSERVE(S, P, E, obs)  # noqa: F821 (bound by build)
-    return r, terminated, truncated, success, int(S[S_NEVENTS] - nev0)
+    return close_step(S, P, E, RW, RM, phi0, had_ttrtp, t0, nev0)
 
 
-KERNELS = build("torque", step)
-# Compiled by the parallel-compile helper on a cold cache (hoprover_env/_compile.py).
-HELPER_EXTRA = tuple(f"{module}:{name}" for module, name in (
-    ("hoprover_env.tasks.common", "finish"), ("hoprover_env.reward", "begin"),
-    ("hoprover_env.tasks.torque", "action_to_torque"),
-    ("hoprover_env.tasks.observation", "observe")))
-# what an env reads of a task: its kernels, its observation and the observation's bounds
-__all__ = ["KERNELS", "observe", "OBS_LOW", "OBS_HIGH", "action_to_torque", "step"]
+def ACTUATE(action, P, E, M):
+    """Placeholder in `step`: the torque [N m] an action row commands, bound per task
+    (TaskSpec.holes)."""
+    raise NotImplementedError("ACTUATE is bound by tasks.common.build")
+
+
+@kernel(inner=True)
+def commanded_torque(action, P, E, M):
+    """The torque task's actuator: exactly the torque `action_to_torque` maps to."""
+    return action_to_torque(action[0], P, E)
+
+
+TASK = TaskSpec(
+    name="torque", config=EnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
+    obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
+    compile_extra=tuple(f"{module}:{name}" for module, name in (
+        ("hoprover_env.tasks.common", "open_step"), ("hoprover_env.tasks.common", "close_step"),
+        ("hoprover_env.tasks.torque", "action_to_torque"),
+        ("hoprover_env.tasks.observation", "observe"))))
