@@ -80,7 +80,9 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
     # a policy of the hop-level task acts once per hop, in that task's vector env
     venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
         n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-    obs, _ = venv.reset(seed=0, options={"target_x": targets, **ground})
+    # episode e's sub-env is seeded with e, whatever the batch it runs in: the draws a
+    # task makes at reset (the mission's sensors and ground) belong to the episode
+    obs, _ = venv.reset(seed=offset, options={"target_x": targets, **ground})
     if isinstance(policy, RandomPolicy):
         policy.reset(n, offset)
     else:

@@ -79,7 +79,9 @@ class ControllerPolicy:
 
     `factory()` makes one controller ``Control(pos, vel, the, omg, posT, t, smt, state)
     -> torque [N m]`` per episode; it sees the exact state (no delay, as in the
-    contest). `env_kwargs` set the env (e.g. control_dt [s]).
+    contest), or on a task that hides the state (HopRoverMission-v0) the estimate of
+    hoprover_env.estimation.MissionEstimator from the rover's readings, and plans on the
+    ground the estimator knows of. `env_kwargs` set the env (e.g. control_dt [s]).
     """
 
     def __init__(self, factory: Callable[[], Callable], name: str = "controller",
@@ -90,8 +92,26 @@ class ControllerPolicy:
         self.controllers: list = []
 
     def reset(self, n: int) -> None:
-        """A fresh controller for each of `n` episodes."""
+        """A fresh controller (and, on a task that hides its state, a fresh estimator)
+        for each of `n` episodes."""
         self.controllers = [self.factory() for _ in range(n)]
+        self.estimators: list = [None] * n
+
+    def _inputs(self, i: int, obs: np.ndarray, venv):
+        """(controller inputs, the ground to plan on) of sub-env i: the exact state, or,
+        on a task that hides it (HopRoverMission-v0), the estimate from its readings."""
+        if getattr(venv.task, "hidden_info", None) is not None:
+            from hoprover_env.estimation import MissionEstimator
+            if self.estimators[i] is None:
+                self.estimators[i] = MissionEstimator(venv.config)
+            est = self.estimators[i]
+            est.update(obs[i], float(venv.targets[i]))
+            pos, vel, the, omg, post, t, state = est.controller_inputs(float(venv.targets[i]))
+            return (pos, vel, the, omg, post, t, state), est.estimated_params()
+        s = venv.S[i]
+        return (s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
+                np.array([venv.targets[i], 0.0]), float(s[core.S_T]),
+                core.MODE_LETTERS[int(s[core.S_MODE])]), venv.params[i]
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Each controller's torque for its sub-env of `venv` (a HopRoverVectorEnv), as
@@ -99,17 +119,13 @@ class ControllerPolicy:
         out = np.zeros((len(obs), 1))
         smt = venv.config.episode_time
         for i, ctrl in enumerate(self.controllers):
-            s = venv.S[i]
-            p = venv.params[i]
-            if hasattr(ctrl, "use_params"):      # a planner: this episode's ground
-                ctrl.use_params(p)
-            torque = ctrl(s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]),
-                          float(s[core.S_W]), np.array([venv.targets[i], 0.0]),
-                          float(s[core.S_T]), smt, core.MODE_LETTERS[int(s[core.S_MODE])])
-            torque = float(torque)
+            (pos, vel, the, omg, post, t, state), plan_params = self._inputs(i, obs, venv)
+            if hasattr(ctrl, "use_params"):      # a planner: the ground it knows of
+                ctrl.use_params(plan_params)
+            torque = float(ctrl(pos, vel, the, omg, post, t, smt, state))
             if not math.isfinite(torque):
                 raise ValueError(f"{self.name}: the controller returned torque {torque!r}")
-            out[i, 0] = torque_to_action(torque, p, venv.config)
+            out[i, 0] = torque_to_action(torque, plan_params, venv.config)
         return out
 
 
