@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from . import core
 from .params import RoverParams
 from .tasks import mission
 
@@ -158,3 +159,58 @@ class MissionEstimator:
         """(pos, vel, the, omg, posT, t, state) for a contest controller."""
         return (np.array([self.fix, self.params.half_height]), np.zeros(2), self.theta,
                 self.omega, np.array([target_x, 0.0]), float(self.t or 0.0), self.state)
+
+
+class EstimatorBank:
+    """One MissionEstimator per sub-env of a vector env, for a policy that acts on a
+    task hiding its state (`hides_state`); `reset(n)` with the policy's episodes."""
+
+    def __init__(self):
+        self.items: list = []
+
+    def reset(self, n: int) -> None:
+        self.items = [None] * n
+
+    def update(self, obs: np.ndarray, venv) -> list:
+        """Take every sub-env's reading of this control instant; returns the estimators."""
+        if len(self.items) != len(obs):
+            self.reset(len(obs))
+        for i in range(len(obs)):
+            if self.items[i] is None:
+                self.items[i] = MissionEstimator(venv.config)
+            self.items[i].update(obs[i], float(venv.targets[i]))
+        return self.items
+
+    def state_rows(self, venv) -> tuple[np.ndarray, list]:
+        """What a planner that reads the kernel's state sees instead: a state row per
+        sub-env built from the estimate (the last fix at rest height, the attitude
+        estimate, the measured rate, zero velocity, the estimated contact state, the
+        band as the fix places it, the time), and the ground each estimator knows of."""
+        rows = np.zeros_like(venv.S)
+        params = []
+        for i, est in enumerate(self.items):
+            p = est.estimated_params()
+            s = rows[i]
+            s[core.S_X], s[core.S_Y], s[core.S_TH] = est.fix, p.half_height, est.theta
+            s[core.S_W] = est.omega
+            if est.state == "F":             # at rest it lies flat and still
+                s[core.S_TH] = s[core.S_W] = 0.0
+            s[core.S_T] = est.t or 0.0
+            s[core.S_MODE] = core.MODE_LETTERS.index(est.state)
+            s[core.S_XT] = venv.targets[i]
+            s[core.S_INBAND] = float(est.state == "F" and in_band(est.fix, venv.targets[i], p))
+            s[core.S_TTRTP] = math.nan
+            params.append(p)
+        return rows, params
+
+
+def hides_state(venv) -> bool:
+    """Whether the env's task keeps its state from the policy (HopRoverMission-v0)."""
+    return getattr(getattr(venv, "task", None), "hidden_info", None) is not None
+
+
+def in_band(x: float, target_x: float, p: RoverParams) -> bool:
+    """Whether a bottom corner of a level rover with c.m. at `x` lies in the judge's
+    band around the target [m]."""
+    return (abs(x + p.half_width - target_x) <= p.band_half_width
+            or abs(x - p.half_width - target_x) <= p.band_half_width)

@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from . import core
+from .estimation import EstimatorBank, hides_state
 from .planning import CONTROL_DT, Problem, plan_end, plan_torque, search
 from .policies import torque_to_action
 
@@ -62,13 +63,18 @@ class MPCPolicy:
         self.name = name
         self.env_kwargs = {"control_dt": CONTROL_DT}
         self.plans: list = []
+        self.estimates = EstimatorBank()
         self.decisions = 0
         self.planning_seconds = 0.0
 
     def reset(self, n: int, first_episode: int = 0) -> None:
-        """Start `n` episodes: no plans yet."""
+        """Start `n` episodes: no plans yet (and, on a task that hides its state, fresh
+        estimators)."""
         self.plans = [None] * n
         self.grounded_since = [0.0] * n
+        self.flew = [False] * n
+        self.estimates = EstimatorBank()
+        self.estimates.reset(n)
 
     def decision_rng(self, state: np.ndarray, target: float) -> np.random.Generator:
         """The random stream of one decision, keyed by the agent's seed and the exact
@@ -99,30 +105,60 @@ class MPCPolicy:
         n = len(obs)
         if len(self.plans) != n:
             self.reset(n)
-        todo = [i for i in range(n) if self.needs_plan(i, venv.S[i])]
+        S, params = self._view(obs, venv)
+        if hides_state(venv):
+            self._end_plans_at_rest(S)
+        todo = [i for i in range(n) if self.needs_plan(i, S[i])]
         if todo:
-            self._replan(todo, venv)
+            self._replan(todo, venv, S, params)
         out = np.zeros((n, 1))
         for i in range(n):
-            s = venv.S[i]
+            s = S[i]
             plan = self.plans[i]
             torque = 0.0 if plan is None else plan_torque(
                 plan, float(s[core.S_TH]), float(s[core.S_W]), float(s[core.S_T]),
                 int(s[core.S_MODE]))
-            out[i, 0] = torque_to_action(float(torque), venv.params[i], venv.config)
+            out[i, 0] = torque_to_action(float(torque), params[i], venv.config)
         return out
 
-    def _replan(self, todo: list, venv) -> None:
+    def _end_plans_at_rest(self, S: np.ndarray) -> None:
+        """On a task that hides the state and the ground, a plan's later hops assume
+        where its first one landed, on ground the agent does not know: at rest after a
+        flight (or in the band) the plan is dropped, and the rover replans from the fix
+        (or waits out the judge)."""
+        for i in range(len(S)):
+            mode = int(S[i, core.S_MODE])
+            if mode == core.MODE_A:
+                self.flew[i] = True
+            elif mode == core.MODE_F and (self.flew[i] or S[i, core.S_INBAND] != 0.0):
+                self.plans[i] = None
+                self.flew[i] = False
+
+    def _view(self, obs: np.ndarray, venv):
+        """(state rows, ground per sub-env) the agent plans from: the exact state, or on
+        a task that hides it (HopRoverMission-v0) the estimate from the rover's readings
+        (hoprover_env.estimation) and the ground it knows of."""
+        if not hides_state(venv):
+            return venv.S, venv.params
+        if len(self.estimates.items) != len(obs):
+            self.estimates.reset(len(obs))
+        self.estimates.update(obs, venv)
+        return self.estimates.state_rows(venv)
+
+    def _replan(self, todo: list, venv, S, params) -> None:
         t_start = time.perf_counter()
         smooth, rough = [], []
         for i in todo:
-            s = venv.S[i]
-            p = venv.params[i]
+            s = S[i]
+            p = params[i]
             rng = self.decision_rng(s[:core.S_T + 1], float(venv.targets[i]))
             seeds = None
             if p.roughness > 0.0:
                 seeds = tuple(int(k) for k in rng.integers(0, 2**63, self.terrain_samples))
-            prob = Problem(state=np.array(s[:core.S_T]), target=float(venv.targets[i]),
+            start = np.array(s[:core.S_T])
+            if hides_state(venv):     # from an estimate: plan as from rest at the fix
+                start[2:] = 0.0
+            prob = Problem(state=start, target=float(venv.targets[i]),
                            params=p, t0=float(s[core.S_T]),
                            t_total=float(venv.config.episode_time), seeds=seeds)
             (rough if seeds else smooth).append((i, prob, int(rng.integers(1, 2**28))))

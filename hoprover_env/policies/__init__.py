@@ -94,32 +94,38 @@ class ControllerPolicy:
     def reset(self, n: int) -> None:
         """A fresh controller (and, on a task that hides its state, a fresh estimator)
         for each of `n` episodes."""
+        from hoprover_env.estimation import EstimatorBank
         self.controllers = [self.factory() for _ in range(n)]
-        self.estimators: list = [None] * n
+        self.estimates = EstimatorBank()
+        self.estimates.reset(n)
 
-    def _inputs(self, i: int, obs: np.ndarray, venv):
-        """(controller inputs, the ground to plan on) of sub-env i: the exact state, or,
-        on a task that hides it (HopRoverMission-v0), the estimate from its readings."""
-        if getattr(venv.task, "hidden_info", None) is not None:
-            from hoprover_env.estimation import MissionEstimator
-            if self.estimators[i] is None:
-                self.estimators[i] = MissionEstimator(venv.config)
-            est = self.estimators[i]
-            est.update(obs[i], float(venv.targets[i]))
-            pos, vel, the, omg, post, t, state = est.controller_inputs(float(venv.targets[i]))
-            return (pos, vel, the, omg, post, t, state), est.estimated_params()
-        s = venv.S[i]
-        return (s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]), float(s[core.S_W]),
-                np.array([venv.targets[i], 0.0]), float(s[core.S_T]),
-                core.MODE_LETTERS[int(s[core.S_MODE])]), venv.params[i]
+    @property
+    def estimators(self) -> list:
+        return self.estimates.items
+
+    def _inputs(self, obs: np.ndarray, venv):
+        """Per sub-env, (controller inputs, the ground to plan on): from the exact
+        state, or on a task that hides it (HopRoverMission-v0) from the estimate."""
+        from hoprover_env.estimation import hides_state
+        if hides_state(venv):
+            return [(est.controller_inputs(float(venv.targets[i])), est.estimated_params())
+                    for i, est in enumerate(self.estimates.update(obs, venv))]
+        out = []
+        for i in range(len(obs)):
+            s = venv.S[i]
+            out.append(((s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]),
+                         float(s[core.S_W]), np.array([venv.targets[i], 0.0]),
+                         float(s[core.S_T]), core.MODE_LETTERS[int(s[core.S_MODE])]),
+                        venv.params[i]))
+        return out
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Each controller's torque for its sub-env of `venv` (a HopRoverVectorEnv), as
         actions (N, 1). Raises ValueError if a controller returns a non-finite torque."""
         out = np.zeros((len(obs), 1))
         smt = venv.config.episode_time
-        for i, ctrl in enumerate(self.controllers):
-            (pos, vel, the, omg, post, t, state), plan_params = self._inputs(i, obs, venv)
+        for i, (ctrl, ((pos, vel, the, omg, post, t, state), plan_params)) in enumerate(
+                zip(self.controllers, self._inputs(obs, venv))):
             if hasattr(ctrl, "use_params"):      # a planner: the ground it knows of
                 ctrl.use_params(plan_params)
             torque = float(ctrl(pos, vel, the, omg, post, t, smt, state))
