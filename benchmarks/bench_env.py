@@ -13,6 +13,7 @@ Measured in one run on one machine, reported as ratios:
 """
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -143,6 +144,30 @@ def memory_per_env(n: int) -> float:
     return (after - before) / n
 
 
+TASK_IDS = ("HopRover-v0", "HopRoverHop-v0", "HopRoverTerrain-v0", "HopRoverMission-v0")
+
+
+def task_step_costs(n: int = 4096, steps: int = 60, rounds: int = 5) -> dict:
+    """Microseconds per sub-env step of each task's native vector env at N = n, the
+    same seeded action stream for all, measured in alternating rounds (best of
+    `rounds`), so that a busy machine slows each task alike."""
+    envs = {}
+    for env_id in TASK_IDS:
+        envs[env_id] = gym.make_vec(env_id, num_envs=n)
+        envs[env_id].reset(seed=0)
+        envs[env_id].step(np.zeros((n, 1)))              # compile, warm
+    best = {env_id: math.inf for env_id in TASK_IDS}
+    for _ in range(rounds):
+        for env_id, venv in envs.items():
+            venv.reset(seed=0)
+            rng = np.random.default_rng(0)
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                venv.step(rng.uniform(-1, 1, (n, 1)) * 0.2)
+            best[env_id] = min(best[env_id], (time.perf_counter() - t0) / (steps * n) * 1e6)
+    return best
+
+
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     n_single = 5000 if quick else 50000
     cart = single_step_us("CartPole-v1", n_single)
@@ -186,6 +211,11 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     cost_md = table(["rover kept", "us per simulated second (kernel, per rover)"],
                     [[k, v] for k, v in costs.items()], {"us per simulated second (kernel, per rover)": ".3f"})
 
+    task_us = task_step_costs(512 if quick else 4096, steps=20 if quick else 60)
+    task_md = table(["task (native vector env)", "us per sub-env step", "x HopRover-v0"],
+                    [[k, v, v / task_us["HopRover-v0"]] for k, v in task_us.items()],
+                    {"us per sub-env step": ".3f", "x HopRover-v0": ".2f"})
+
     ft = first_step_times()
     first_md = table(["numba cache", "first single-env step s", "then first 256-env vector step s"],
                      [[k, v[0], v[1]] for k, v in ft.items()],
@@ -220,6 +250,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
         f"Vector throughput (random actions in [-1, 1]; default control period 0.5 s; 30 "
         f"warm-up steps, then at least 60 steps per sub-env; SyncVectorEnv at N = 4096: 10 "
         f"+ 20), numba threads: {numba.config.NUMBA_NUM_THREADS}:", vec_md,
+        f"Every task's step at N = {512 if quick else 4096} (the same random actions in "
+        "[-0.2, 0.2], 60 steps from reset, best of 5 rounds run in turn; the hop task's "
+        "step is a whole hop, the terrain and mission tasks draw slopes and bounce off "
+        "rough ground, the mission also reads its sensors):", task_md,
         "Cost of simulated time (the kernel alone, per rover): a rover at rest costs only "
         "the per-step bookkeeping, a flight is closed form, a contact phase runs DOP853 with "
         "event location:", cost_md,
@@ -232,7 +266,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     headline = {"single_step_us": hop, "cartpole_step_us": cart, "single_vs_cartpole": hop / cart,
                 f"steps_per_s_N{n_big}": big, f"native_vs_sync_N{sync_n}": ratio_sync,
                 "first_step_cold_s": ft["cold"][0], "first_step_cached_s": ft["cached"][0],
-                "bytes_per_env": mem, **{f"us_per_sim_s_{k}": v for k, v in costs.items()}}
+                "bytes_per_env": mem, **{f"us_per_sim_s_{k}": v for k, v in costs.items()},
+                "mission_vs_torque_step": task_us["HopRoverMission-v0"] / task_us["HopRover-v0"],
+                "mission_vs_terrain_step":
+                    task_us["HopRoverMission-v0"] / task_us["HopRoverTerrain-v0"]}
     return Section("Throughput and scaling", md, [fig], headline)
 
 
