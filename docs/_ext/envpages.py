@@ -118,7 +118,10 @@ def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
             f"The bundled `{meta['policy']}` policy on `{env_id}`, target "
             f"{meta['target_x']:+.2f} m: {verdict} by the contest judge. Rendered during "
             "the build from this run (the GIF of `evaluate.py --video`); the time in the "
-            "corner is simulated time, sped up.",
+            "corner is simulated time, sped up."
+            + (f" Left: the true rover; right: the rover as the policy's estimator sees "
+               f"it (the last fix, the attitude estimate, the contact state it reads from "
+               f"the gyro)." if "sides" in meta else ""),
             ":::", "",
         ]
     lines.append(body.strip())
