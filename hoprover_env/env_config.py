@@ -22,7 +22,7 @@ from .tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_ATT_NOIS
                            E_HISTORY, E_HOLD_KP, E_INCL_NOISE, E_LAUNCH_MAX, E_LAUNCH_MIN,
                            E_RATE_NOISE,
                            E_T_TOTAL, N_E)
-from .validate import finite_real, is_real, positive_real
+from .validate import finite_real, is_real, non_negative_real, positive_real
 
 # Parameters that domain randomisation may scale, and the bounds they are clipped to.
 RANDOMIZABLE = {
@@ -292,10 +292,7 @@ class MissionEnvConfig(TerrainEnvConfig):
             raise ValueError(f"history (readings per observation) must be an integer in "
                              f"[1, 64], got {self.history!r}")
         for name in _NOISES + ("noise_scale",):
-            v = getattr(self, name)
-            if not (is_real(v) and math.isfinite(v) and v >= 0):
-                raise ValueError(f"{name} must be a finite number >= 0, got {v!r}")
-            object.__setattr__(self, name, float(v))
+            object.__setattr__(self, name, non_negative_real(name, getattr(self, name)))
         object.__setattr__(self, "fix_rest", positive_real("fix_rest", self.fix_rest))
         if self.actuator_error * self.noise_scale >= 1.0:
             raise ValueError(f"actuator_error x noise_scale must be below 1 (a scale error "

@@ -33,10 +33,11 @@ from hoprover_env.params import RoverParams
 BUNDLED_DIR = Path(__file__).resolve().parent      # the bundled models beside this file
 BUNDLED_NAME = "ppo_hoprover"
 # the bundled models by name: cloned (+ PPO), PPO from scratch, PPO from scratch on the
-# hop-level task, PPO from scratch on the terrain task; each file's .json says how it
-# was trained
+# hop-level task, PPO from scratch on the terrain task, and the from-scratch run stopped
+# at 1.5 M steps (52 % of its validation targets: the medium agent of the offline
+# datasets, hoprover_env.datasets); each file's .json says how it was trained
 BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop",
-           "terrain": "ppo_terrain"}
+           "terrain": "ppo_terrain", "scratch_medium": "ppo_scratch_medium"}
 ALGOS = ("ppo", "sac", "td3")
 
 
