@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 
 from hoprover_env import suites
-from hoprover_env.evaluation import run_episodes
 from hoprover_env.files import atomic_write
 from hoprover_env.policies import load_policy
 from hoprover_env.scores import summarize
@@ -36,12 +35,9 @@ def evaluate(spec: str, suite, n: int, scale: float) -> dict:
     """One agent on the first `n` episodes of the suite at one noise scale."""
     policy = load_policy(spec)
     policy.env_id = ENV_ID
-    kwargs = {"episode_time": suites.EPISODE_TIME, "noise_scale": scale}
-    terrain = {k: v[:n] for k, v in suite.terrain().items()}
     t0 = time.perf_counter()
-    results = run_episodes(policy, suite.targets[:n], env_kwargs=kwargs, terrain=terrain)
+    rows = suites.run(policy, _head(suite, n), env_kwargs={"noise_scale": scale})
     wall = time.perf_counter() - t0
-    rows = suites.judged(results, _head(suite, n))
     s = summarize(spec, np.array([r["score"] for r in rows]))
     return {"agent": spec, "noise_scale": scale, "episodes": n, "wall_s": wall,
             "success": s.point["success"], "success_low": s.low["success"],

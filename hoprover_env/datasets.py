@@ -69,12 +69,6 @@ def agents(task: str, level: str, seed: int) -> list:
     return [RandomPolicy(seed), medium, load_policy(EXPERT[task])]
 
 
-def env_kwargs(task: str) -> dict:
-    """The env arguments every level of `task` is collected with: the expert's."""
-    from hoprover_env.policies import load_policy
-    return dict(getattr(load_policy(EXPERT[task]), "env_kwargs", {}))
-
-
 def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
             episodes: list | None = None, num_envs: int = 64, seed: int = 0):
     """Episodes of `policies` in `task`'s vector env, as Minari EpisodeBuffers.
@@ -82,7 +76,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     Either `n_steps` (episodes seeded seed, seed + 1, ... until that many steps are
     recorded, then the episodes under way run to their end: at least `n_steps`, every
     episode whole; episode k's agent is policies[k % len(policies)]) or `episodes` (a list of
-    (seed, options) to run, each once). Returns (buffers, the agent index of each)."""
+    (seed, options) to run, each once). Returns the buffers in episode order."""
     from gymnasium.vector import AutoresetMode
     from minari.data_collector.episode_buffer import EpisodeBuffer
     import hoprover_env
@@ -147,31 +141,24 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
             tc.append(bool(tr[i]))
             recorded += 1
             if te[i] or tr[i]:
-                buffers[k] = (EpisodeBuffer(id=k, seed=s, options=opt or None,
-                                            observations=np.array(ob),
-                                            actions=np.array(ac), rewards=rw,
-                                            terminations=tm, truncations=tc),
-                              k % len(policies))
+                buffers[k] = EpisodeBuffer(id=k, seed=s, options=opt or None,
+                                           observations=np.array(ob),
+                                           actions=np.array(ac), rewards=rw,
+                                           terminations=tm, truncations=tc)
                 if queue is None and recorded >= n_steps:
                     slots[i] = None              # enough: let the others finish theirs
                     queue = []
                 else:
                     start(i)
-                    for p in policies:           # a fresh controller for the new episode
-                        if hasattr(p, "controllers") and p.controllers:
-                            p.controllers[i] = p.factory()
-    order = sorted(buffers)
-    return [buffers[k][0] for k in order], [buffers[k][1] for k in order]
+    return [buffers[k] for k in sorted(buffers)]
 
 
-def suite_return(task: str, policy, kwargs: dict) -> float:
+def suite_return(task: str, policy, kwargs: dict, suite) -> float:
     """Mean undiscounted return of `policy` on `task`'s frozen suite (episode e seeded e)."""
-    from hoprover_env import suites
-    suite = suites.load(task)
     terrain = suite.terrain()
     eps = [(e, {"target_x": float(suite.targets[e]),
                 **{k: v[e] for k, v in terrain.items()}}) for e in range(len(suite))]
-    bufs, _ = collect(task, [policy], kwargs, episodes=eps, num_envs=min(64, len(eps)))
+    bufs = collect(task, [policy], kwargs, episodes=eps, num_envs=min(64, len(eps)))
     return float(np.mean([sum(b.rewards) for b in bufs]))
 
 
@@ -188,17 +175,20 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
     if steps < 1:
         raise ValueError(f"--steps must be a positive integer, got {steps}")
     os.environ["MINARI_DATASETS_PATH"] = str(out)
-    kwargs = env_kwargs(task)
-    t0 = time.perf_counter()
-    bufs, _ = collect(task, pols, kwargs, n_steps=steps, num_envs=num_envs, seed=seed)
-    collect_s = time.perf_counter() - t0
+    from hoprover_env import suites
     from hoprover_env.policies import RandomPolicy, load_policy
-    lo = suite_return(task, RandomPolicy(seed), kwargs)
-    hi = suite_return(task, load_policy(EXPERT[task]), kwargs)
+    # every level is collected in the expert's MDP: its env arguments
+    expert = pols[-1] if level in ("expert", "mixed") else load_policy(EXPERT[task])
+    kwargs = dict(expert.env_kwargs)
+    t0 = time.perf_counter()
+    bufs = collect(task, pols, kwargs, n_steps=steps, num_envs=num_envs, seed=seed)
+    collect_s = time.perf_counter() - t0
+    suite = suites.load(task)
+    lo = suite_return(task, RandomPolicy(seed), kwargs, suite)
+    hi = suite_return(task, expert, kwargs, suite)
     import gymnasium as gym
     import hoprover_env  # noqa: F401  (registers the ids)
     env = gym.make(task, **kwargs)
-    from hoprover_env import suites
     names = {"random": "uniform random actions", "medium": f"PPO checkpoint {MEDIUM.get(task)}",
              "expert": f"bundled policy {EXPERT[task]}",
              "mixed": "random, medium and expert, episode by episode"}
@@ -208,7 +198,7 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
         code_permalink=CODE, ref_min_score=lo, ref_max_score=hi,
         description=f"{task}, {level}: {names[level]}; env arguments {json.dumps(kwargs)}; "
                     f"episodes seeded from {seed}; references: mean returns on the "
-                    f"{suites.load(task).name} suite",
+                    f"{suite.name} suite",
         requirements=["hoprover", "gymnasium", "numba"])
     size = sum(f.stat().st_size for f in (out / "hoprover" / task / f"{level}-v0").rglob("*")
                if f.is_file())

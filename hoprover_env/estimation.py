@@ -37,6 +37,7 @@ import numpy as np
 
 from . import core
 from .params import RoverParams
+from .scripted import in_band
 from .tasks import mission
 
 FLIGHT_MATCH = 0.6     # rate change / (T / I) above this reads as flight
@@ -207,10 +208,3 @@ class EstimatorBank:
 def hides_state(venv) -> bool:
     """Whether the env's task keeps its state from the policy (HopRoverMission-v0)."""
     return getattr(getattr(venv, "task", None), "hidden_info", None) is not None
-
-
-def in_band(x: float, target_x: float, p: RoverParams) -> bool:
-    """Whether a bottom corner of a level rover with c.m. at `x` lies in the judge's
-    band around the target [m]."""
-    return (abs(x + p.half_width - target_x) <= p.band_half_width
-            or abs(x - p.half_width - target_x) <= p.band_half_width)

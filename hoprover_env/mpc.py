@@ -140,8 +140,6 @@ class MPCPolicy:
         (hoprover_env.estimation) and the ground it knows of."""
         if not hides_state(venv):
             return venv.S, venv.params
-        if len(self.estimates.items) != len(obs):
-            self.estimates.reset(len(obs))
         self.estimates.update(obs, venv)
         return self.estimates.state_rows(venv)
 

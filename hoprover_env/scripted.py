@@ -115,10 +115,8 @@ class ScriptedHopper:
 
     def in_band(self, x, xt):
         """Whether a bottom corner of a level rover with c.m. at `x` lies in the band
-        around the target `xt` [m]."""
-        p = self.params
-        return (abs(x + p.half_width - xt) <= p.band_half_width
-                or abs(x - p.half_width - xt) <= p.band_half_width)
+        around the target `xt` [m] (module-level `in_band` with this hopper's rover)."""
+        return in_band(x, xt, self.params)
 
     # ---- planning -------------------------------------------------------------------
     def predict(self, x0, torque, t0, horizon):
@@ -187,3 +185,10 @@ class ScriptedHopper:
             return None
         err, neg_mag = min(good)
         return sign * (-neg_mag), xt + cache[-neg_mag][0]
+
+
+def in_band(x: float, target_x: float, p: RoverParams) -> bool:
+    """Whether a bottom corner of a level rover (parameters `p`) with c.m. at `x` lies in
+    the judge's band around the target [m]."""
+    return (abs(x + p.half_width - target_x) <= p.band_half_width
+            or abs(x - p.half_width - target_x) <= p.band_half_width)

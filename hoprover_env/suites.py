@@ -261,11 +261,14 @@ def _read(path: Path, name: str, version: int) -> Suite:
     return Suite(name=name, version=version, checksum=digest, episodes=episodes, meta=meta)
 
 
-def run(policy, suite: Suite, batch: int = 256, progress=None) -> list[dict]:
+def run(policy, suite: Suite, batch: int = 256, progress=None,
+        env_kwargs: dict | None = None) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
-    contest judge: `judged` rows (one dict per episode)."""
+    contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
+    arguments (say a mission task's noise_scale); the suite's episode time stays."""
     from hoprover_env.evaluation import run_episodes
-    results = run_episodes(policy, suite.targets, env_kwargs={"episode_time": EPISODE_TIME},
+    results = run_episodes(policy, suite.targets,
+                           env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
                            batch=batch, progress=progress, terrain=suite.terrain())
     return judged(results, suite)
 
