@@ -23,7 +23,7 @@ import numpy as np
 from hoprover_env import datasets, suites
 from hoprover_env.files import atomic_write
 from hoprover_env.policies import ArrayPolicy
-from hoprover_env.scores import summarize
+from hoprover_env.scores import Summary, format_table, summarize
 
 OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "offline.json"
 
@@ -70,6 +70,23 @@ def make_algo(name: str, seed: int, gamma: float):
     raise ValueError(f"unknown algorithm {name!r}: bc, iql or cql")
 
 
+LEVELS = ("random", "medium", "mixed", "expert")
+
+
+def table(rows: list[dict]) -> str:
+    """The results as a markdown table, by task, level and algorithm, with the gradient
+    steps each was trained for."""
+    rows = sorted(rows, key=lambda r: (r["task"], LEVELS.index(r["level"])
+                                       if r["level"] in LEVELS else 9, r["algo"]))
+    lines = format_table([Summary.from_row({**r, "agent": f"{r['algo'].upper()} on "
+                                             f"{r['level']} ({r['task']})"})
+                          for r in rows]).splitlines()
+    lines[0] += " gradient steps |"
+    lines[1] += "---|"
+    return "\n".join([*lines[:2], *(f"{line} {r['gradient_steps']} |"
+                                     for line, r in zip(lines[2:], rows))])
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--task", default="HopRover-v0")
@@ -80,8 +97,13 @@ def main(argv=None) -> None:
     ap.add_argument("--steps", type=int, default=20_000, help="gradient steps per seed")
     ap.add_argument("--seeds", default="0-2")
     ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--table", action="store_true",
+                    help="print the results in --out as a markdown table and stop")
     argv = sys.argv[1:] if argv is None else argv
     args = ap.parse_args(argv)
+    if args.table:
+        print(table(json.loads(args.out.read_text())["rows"]))
+        return
     lo, _, hi = args.seeds.partition("-")
     seeds = list(range(int(lo), int(hi or lo) + 1))
     ds, mdp = load(args.task, args.level, args.data, args.dataset_steps)

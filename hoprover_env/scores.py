@@ -80,6 +80,13 @@ class Summary:
             out[m + "_high"] = self.high[m]
         return out
 
+    @classmethod
+    def from_row(cls, row: dict) -> "Summary":
+        """The summary a `row()` was made from (read back from a results file)."""
+        return cls(row["agent"], row["runs"], row["episodes"],
+                   {m: row[m] for m in METRICS}, {m: row[m + "_low"] for m in METRICS},
+                   {m: row[m + "_high"] for m in METRICS})
+
 
 def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
     """Metrics of one agent from its score matrix (runs, episodes) or vector (episodes,),

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from hoprover_env.scores import (METRICS, episode_regrets, episode_scores, format_table,
-                                 summarize)
+from hoprover_env.scores import (METRICS, Summary, episode_regrets, episode_scores,
+                                 format_table, summarize)
 
 
 def test_score_and_regret_per_episode():
@@ -57,6 +57,13 @@ def test_table_and_bad_shape():
     assert "| agent x | 1 | 20 | 100.0 % [100.0, 100.0] | 1.111" in table
     with pytest.raises(ValueError, match="runs, episodes"):
         summarize("bad", np.zeros((2, 2, 2)))
+
+
+def test_a_summary_read_back_from_its_row_is_the_same():
+    """Results files keep `row()`; `from_row` rebuilds the summary, its table the same."""
+    s = summarize("agent y", np.random.default_rng(1).uniform(0, 1, (3, 40)), reps=100)
+    back = Summary.from_row(s.row())
+    assert back == s and format_table([back]) == format_table([s])
 
 
 def test_failures_make_the_median_regret_infinite_never_nan():
