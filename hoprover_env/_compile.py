@@ -315,6 +315,38 @@ MESSAGE = ("hoprover_env: compiling the simulator with numba, once after install
            "editing it (usually 5-15 s; cached afterwards) ...")
 
 
+@functools.cache
+def _openmp():
+    """The OpenMP runtime numba's default threading layer runs on: libgomp by its soname,
+    which is the copy already loaded if there is one (torch's, once torch is imported,
+    is the one numba binds to then). None where there is none."""
+    import ctypes
+    try:
+        lib = ctypes.CDLL("libgomp.so.1")
+        lib.omp_get_max_threads.restype = ctypes.c_int
+        lib.omp_set_num_threads.argtypes = [ctypes.c_int]
+        return lib
+    except (OSError, AttributeError):
+        return None
+
+
+def run_threaded(fn, *args):
+    """`fn(*args)` for a parallel kernel, leaving the caller's OpenMP thread count as it
+    was. numba's OpenMP layer sets it to numba's thread count in the calling thread at
+    every launch, and every later OpenMP user in the process inherits that: after one
+    threaded step, torch.set_num_threads(1) reads 2 and torch's small ops run on two
+    threads that spin against the env's (PPO's updates 5x slower here, on 2 cores)."""
+    lib = _openmp()
+    if lib is None:
+        return fn(*args)
+    n = lib.omp_get_max_threads()
+    try:
+        return fn(*args)
+    finally:
+        if lib.omp_get_max_threads() != n:
+            lib.omp_set_num_threads(n)
+
+
 class _CompileNotice(event.Listener):
     """One line on stderr when numba starts compiling one of this package's kernels
     (cached runs compile nothing and print nothing)."""

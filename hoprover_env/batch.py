@@ -47,6 +47,7 @@ import numba
 import numpy as np
 
 from . import core, rollout
+from ._compile import run_threaded
 from .env_config import EnvConfig, randomized_params
 from .params import RoverParams
 from .rollout import SampledStates
@@ -299,9 +300,9 @@ def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control
         # them to the threads one at a time instead of in equal static blocks
         chunk = numba.set_parallel_chunksize(1)
         try:
-            run_many(S, P, opts, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl,
-                     sub, record, buf.rows, buf.cmds, buf.applied, buf.log, buf.prog, active,
-                     evbuf, w, backup, cbuf)
+            run_threaded(run_many, S, P, opts, sched, ctrl, source, cargs, control_dt,
+                         t_end, n_ctrl, sub, record, buf.rows, buf.cmds, buf.applied,
+                         buf.log, buf.prog, active, evbuf, w, backup, cbuf)
         finally:
             numba.set_parallel_chunksize(chunk)
         status = buf.prog[:, rollout.G_STATUS]

@@ -186,9 +186,10 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
-        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
-                           active, self._obs, self._rew, self._term, self._trunc, self._succ,
-                           self._nev, self._log, self._work)
+        bad = _compile.run_threaded(self._kernel, self.S, self.P, self._o, self._e, self._rw,
+                                    self._rm, self.M, a, active, self._obs, self._rew,
+                                    self._term, self._trunc, self._succ, self._nev,
+                                    self._log, self._work)
         if bad >= 0:
             raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
                              f"{bad}")

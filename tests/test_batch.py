@@ -181,3 +181,24 @@ def test_rollout_index_checked():
     with pytest.raises(IndexError):
         b.rollout(2)
     assert_identical(b.rollout(-1), b.rollout(1))
+
+
+def test_threaded_kernels_leave_the_callers_openmp_threads_alone():
+    """numba's OpenMP layer sets the calling thread's OpenMP thread count at each
+    threaded launch; torch shares that runtime, so an unguarded threaded step turned a
+    training script's torch.set_num_threads(1) into 2 (and its updates 5x slower).
+    simulate_batch and the threaded vector env must leave it as the caller set it."""
+    torch = pytest.importorskip("torch")
+    from hoprover_env import HopRoverVectorEnv
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        venv = HopRoverVectorEnv(64, threads=True)
+        venv.reset(seed=0)
+        venv.step(np.zeros((64, 1)))
+        assert torch.get_num_threads() == 1
+        sched, targets = random_batch(np.random.default_rng(2), 8, 20, 0.5)
+        simulate_batch(sched, targets, t_end=20.0, control_dt=0.5)     # always threaded
+        assert torch.get_num_threads() == 1
+    finally:
+        torch.set_num_threads(before)

@@ -127,6 +127,24 @@ def test_bad_config_keys_are_named(tmp_path, capsys, bad, words):
     assert words in capsys.readouterr().err
 
 
+def test_torch_threads_flag(tmp_path, capsys):
+    """--torch-threads sets torch's threads for the run (default: torch's own); a count
+    below 1 is refused by name before anything starts."""
+    with pytest.raises(SystemExit):
+        train.main(["--config", "ppo_hop", "--out", str(tmp_path / "r"), "--torch-threads", "0"])
+    assert "--torch-threads must be a positive integer, got 0" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+    torch = pytest.importorskip("torch")
+    before = torch.get_num_threads()
+    try:
+        cfg = write_cfg(tmp_path, TINY)
+        assert train.main(["--config", cfg, "--out", str(tmp_path / "t"), "--no-progress",
+                           "--torch-threads", "1"]) == 0
+        assert torch.get_num_threads() == 1
+    finally:
+        torch.set_num_threads(before)
+
+
 def test_missing_config_file(tmp_path, capsys):
     assert train.main(["--config", str(tmp_path / "nope.yaml"), "--out", str(tmp_path / "r")]) == 2
     assert "config file not found" in capsys.readouterr().err

@@ -58,12 +58,19 @@ def parse_args(argv=None):
     ap.add_argument("--out", type=str, required=True, help="run directory")
     ap.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     ap.add_argument("--device", type=str, default="cpu")
+    ap.add_argument("--torch-threads", type=int, default=None,
+                    help="torch's CPU threads (default: torch's own, every core: the env "
+                         "and the updates take turns, so each can use all of them; give 1 "
+                         "per run when several runs share the cores)")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
     ap.add_argument("--quick", action="store_true",
                     help="a smoke run of the config in a few minutes: 20k steps (unless "
                          "--timesteps), 10 evaluation episodes, cloning cut to 16 episodes, "
                          "2 epochs and one DAgger round")
-    return ap.parse_args(argv)
+    args = ap.parse_args(argv)
+    if args.torch_threads is not None and args.torch_threads < 1:
+        ap.error(f"--torch-threads must be a positive integer, got {args.torch_threads}")
+    return args
 
 
 def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
@@ -423,8 +430,9 @@ def main(argv=None) -> int:
         return 2
     if args.quick:
         cfg = smoke_config(cfg, args.timesteps is not None)
-    import torch
-    torch.set_num_threads(1)       # the env uses the other core
+    if args.torch_threads is not None:
+        import torch
+        torch.set_num_threads(args.torch_threads)
     try:
         trainer = Trainer(cfg, out, args.resume, args.device, not args.no_progress)
     except KeyboardInterrupt:
