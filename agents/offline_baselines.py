@@ -70,14 +70,12 @@ def make_algo(name: str, seed: int, gamma: float):
     raise ValueError(f"unknown algorithm {name!r}: bc, iql or cql")
 
 
-LEVELS = ("random", "medium", "mixed", "expert")
-
-
 def table(rows: list[dict]) -> str:
     """The results as a markdown table, by task, level and algorithm, with the gradient
     steps each was trained for."""
-    rows = sorted(rows, key=lambda r: (r["task"], LEVELS.index(r["level"])
-                                       if r["level"] in LEVELS else 9, r["algo"]))
+    levels = datasets.LEVELS
+    rows = sorted(rows, key=lambda r: (r["task"], levels.index(r["level"])
+                                       if r["level"] in levels else len(levels), r["algo"]))
     lines = format_table([Summary.from_row({**r, "agent": f"{r['algo'].upper()} on "
                                              f"{r['level']} ({r['task']})"})
                           for r in rows]).splitlines()

@@ -318,8 +318,8 @@ MESSAGE = ("hoprover_env: compiling the simulator with numba, once after install
 @functools.cache
 def _openmp():
     """The OpenMP runtime numba's default threading layer runs on: libgomp by its soname,
-    which is the copy already loaded if there is one (torch's, once torch is imported,
-    is the one numba binds to then). None where there is none."""
+    which resolves to the copy already loaded if there is one (with torch imported,
+    numba's layer and torch were seen to share it). None where there is none."""
     import ctypes
     try:
         lib = ctypes.CDLL("libgomp.so.1")

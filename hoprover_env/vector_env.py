@@ -17,6 +17,7 @@ info values and their types are those of HopRoverEnv (the table in env.py), as a
 """
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import numba
@@ -71,7 +72,9 @@ class HopRoverVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
         kernels = self.task.kernels(self.config.integrator)
-        self._kernel = kernels.batch_threaded if self.threads else kernels.batch
+        # a threaded step leaves the caller's OpenMP thread count (torch's) as it was
+        self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
+                        if self.threads else kernels.batch)
 
         self.single_action_space, self.single_observation_space = task_spaces(self.task,
                                                                               self.config)
@@ -186,10 +189,9 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
-        bad = _compile.run_threaded(self._kernel, self.S, self.P, self._o, self._e, self._rw,
-                                    self._rm, self.M, a, active, self._obs, self._rew,
-                                    self._term, self._trunc, self._succ, self._nev,
-                                    self._log, self._work)
+        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
+                           active, self._obs, self._rew, self._term, self._trunc, self._succ,
+                           self._nev, self._log, self._work)
         if bad >= 0:
             raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
                              f"{bad}")
