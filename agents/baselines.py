@@ -60,8 +60,10 @@ def train(config: str, seeds: list[int], out: Path, timesteps: int | None) -> No
         if (run / "done").exists():
             print(f"seed {seed}: done already ({run})", flush=True)
             continue
-        cmd = [sys.executable, str(ROOT / "train.py"), "--config", config, "--seed", str(seed),
-               "--out", str(run), "--no-progress"]
+        # a config may name its own trainer module (configs/ppo_mission_hop.yaml)
+        trainer = (yaml.safe_load(Path(config).read_text()) or {}).get("trainer")
+        cmd = [sys.executable, *(["-m", trainer] if trainer else [str(ROOT / "train.py")]),
+               "--config", config, "--seed", str(seed), "--out", str(run), "--no-progress"]
         if timesteps is not None:
             cmd += ["--timesteps", str(timesteps)]
         if (run / "checkpoints").exists():

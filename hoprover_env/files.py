@@ -7,15 +7,17 @@ import os
 import tempfile
 
 
-def atomic_write(path: str | os.PathLike, text: str) -> None:
-    """Write via a temporary file in the same directory and rename: never half a file."""
+def atomic_write(path: str | os.PathLike, text: str | bytes) -> None:
+    """Write `text` (or bytes) via a temporary file in the same directory and rename:
+    never half a file."""
     path = os.path.abspath(path)
     os.makedirs(os.path.dirname(path), exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".tmp-")
     try:
         # mkstemp creates 0600 and the rename keeps it: give the file what open() would
         os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "w", newline="") as fh:
+        with (os.fdopen(fd, "wb") if isinstance(text, bytes)
+              else os.fdopen(fd, "w", newline="")) as fh:
             fh.write(text)
         os.replace(tmp, path)
     except BaseException:

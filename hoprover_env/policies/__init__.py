@@ -219,6 +219,9 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
         raise FileNotFoundError(f"model file not found: {path}")
     meta_path = path.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    if meta.get("policy") == "mission_hop":      # a hop network: it acts through a hopper
+        from hoprover_env.mission_hop import load_mission_policy
+        return load_mission_policy(path, name=name or path.stem)
     algo = meta.get("algo")
     if algo is None:                   # a bare SB3 zip: try the algorithms in turn
         for cand in ALGOS:
