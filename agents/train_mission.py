@@ -19,6 +19,7 @@ import argparse
 import csv
 import io
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -56,10 +57,11 @@ def save(model, stem: Path, meta: dict) -> None:
     write_json(stem.with_suffix(".json"), meta)
 
 
-def validate(model, env_kwargs: dict, episodes: int) -> float:
-    """Success rate of the deterministic policy on the validation episodes."""
+def validate(model, env_kwargs: dict, episodes: int) -> tuple:
+    """The deterministic policy on the validation episodes: (success rate, median and
+    90th-percentile TTRTP of the successes [s], NaN without any)."""
     env = MissionHopEnv(**env_kwargs)
-    wins = 0
+    wins = []
     for k in range(episodes):
         obs, _ = env.reset(seed=VALIDATION_SEED + k)
         done = False
@@ -67,8 +69,11 @@ def validate(model, env_kwargs: dict, episodes: int) -> float:
             action = model.predict(obs, deterministic=True)[0]
             obs, _, terminated, truncated, info = env.step(action)
             done = terminated or truncated
-        wins += bool(info.get("is_success"))
-    return wins / episodes
+        if info.get("is_success"):
+            wins.append(float(info["ttrtp"]))
+    if not wins:
+        return 0.0, math.nan, math.nan
+    return len(wins) / episodes, float(np.median(wins)), float(np.percentile(wins, 90))
 
 
 def main(argv=None) -> int:
@@ -94,8 +99,8 @@ def main(argv=None) -> int:
     total = args.timesteps or int(cfg["timesteps"])
     env_kwargs = dict(cfg.get("env") or {})
     ev = cfg.get("evaluation", {})
-    atomic_write(out / "config.yaml", yaml.safe_dump({**cfg, "seed": args.seed,
-                                                      "timesteps": total}))
+    cfg = {**cfg, "seed": args.seed, "timesteps": total}       # as resolved for this run
+    atomic_write(out / "config.yaml", yaml.safe_dump(cfg))
     venv = make_vec_env(MissionHopEnv, n_envs=int(cfg.get("n_envs", 8)),
                         seed=TRAIN_SEED + 1000 * args.seed, env_kwargs=env_kwargs,
                         monitor_kwargs={"info_keywords": ("is_success",)})
@@ -104,6 +109,8 @@ def main(argv=None) -> int:
     if args.resume and last.exists():
         model = PPO.load(str(last), env=venv, device="cpu")
         progress = json.loads(progress_path.read_text())
+        for row in progress["evals"]:        # strict JSON wrote NaN as null
+            row.update({k: math.nan for k, v in row.items() if v is None})
         print(f"resuming at {model.num_timesteps} hops", file=sys.stderr)
     else:
         pol = dict(cfg.get("policy") or {})
@@ -121,15 +128,14 @@ def main(argv=None) -> int:
 
     def evaluate():
         wall = wall0 + time.perf_counter() - t0
-        rate = validate(model, env_kwargs, int(ev.get("episodes", 100)))
+        rate, median, p90 = validate(model, env_kwargs, int(ev.get("episodes", 100)))
         row = {"timesteps": int(model.num_timesteps), "wall_s": round(wall, 1),
-               "success_rate": rate, "median_ttrtp": float("nan"), "p90_ttrtp": float("nan"),
-               "broken": 0}
+               "success_rate": rate, "median_ttrtp": median, "p90_ttrtp": p90}
         progress["evals"].append(row)
         if rate > progress["best"]:
             progress["best"] = rate
             save(model, out / "best_model", {**meta, "timesteps": row["timesteps"],
-                                              "evaluation": row})
+                                              "wall_s": row["wall_s"], "evaluation": row})
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=list(row))
         w.writeheader()
@@ -151,8 +157,10 @@ def main(argv=None) -> int:
     if model.num_timesteps < total:
         model.learn(total - model.num_timesteps, callback=Every(),
                     reset_num_timesteps=not (args.resume and last.exists()))
-        evaluate()
-    save(model, out / "final_model", {**meta, "timesteps": int(model.num_timesteps)})
+        if progress["evals"][-1]["timesteps"] != model.num_timesteps:
+            evaluate()
+    save(model, out / "final_model", {**meta, "timesteps": int(model.num_timesteps),
+                                       "wall_s": progress["wall_s"]})
     return 0
 
 

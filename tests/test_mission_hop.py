@@ -68,3 +68,57 @@ def test_a_non_finite_hop_action_is_refused_by_name(bad):
     env.reset(seed=0)
     with pytest.raises(ValueError, match="action must be finite"):
         env.step([bad])
+
+
+def _tiny_config(tmp_path, **extra):
+    import yaml
+    cfg = yaml.safe_load(open("configs/ppo_mission_hop.yaml"))
+    cfg.update(n_envs=2, timesteps=32, evaluation={"freq": 16, "episodes": 2})
+    cfg["hyperparams"].update(n_steps=16, batch_size=16, n_epochs=1)
+    cfg.update(extra)
+    path = tmp_path / "cfg.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return str(path)
+
+
+def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
+    import csv
+    from agents import train_mission
+    from hoprover_env.policies import load_policy
+    cfg, out = _tiny_config(tmp_path), tmp_path / "run"
+    assert train_mission.main(["--config", cfg, "--out", str(out)]) == 0
+    first = list(csv.DictReader(open(out / "evaluations.csv")))
+    assert int(first[-1]["timesteps"]) == 32
+    assert train_mission.main(["--config", cfg, "--out", str(out), "--resume",
+                               "--timesteps", "64"]) == 0
+    rows = list(csv.DictReader(open(out / "evaluations.csv")))
+    assert rows[:len(first)] == first and int(rows[-1]["timesteps"]) == 64
+    policy = load_policy(str(out))
+    assert isinstance(policy, ControllerPolicy) and policy.env_id == "HopRoverMission-v0"
+    venv = HopRoverMissionVectorEnv(2, control_dt=0.5)
+    policy.reset(2)
+    obs, _ = venv.reset(seed=0)
+    act = policy.act(obs, venv)
+    assert act.shape == (2, 1) and np.all(np.isfinite(act))
+
+
+def test_the_trainer_names_an_unknown_config_key(tmp_path, capsys):
+    from agents import train_mission
+    with pytest.raises(SystemExit):
+        train_mission.main(["--config", _tiny_config(tmp_path, n_env=3), "--out",
+                            str(tmp_path / "run")])
+    assert "n_env" in capsys.readouterr().err
+
+
+def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
+    """The issue's bar (90 % on the suite) on the suite's first 40 episodes; the whole
+    suite's 97.5 % is in BENCHMARKS.md."""
+    import dataclasses
+    from hoprover_env import suites
+    from hoprover_env.policies import load_policy
+    policy = load_policy("mission")
+    assert policy.env_id == "HopRoverMission-v0"
+    suite = suites.load("HopRoverMission-v0")
+    rows = suites.run(policy, dataclasses.replace(suite, episodes=suite.episodes[:40]))
+    assert np.mean([r["success"] for r in rows]) >= 0.9
+    assert not any(r["broken"] for r in rows)

@@ -35,9 +35,12 @@ BUNDLED_NAME = "ppo_hoprover"
 # the bundled models by name: cloned (+ PPO), PPO from scratch, PPO from scratch on the
 # hop-level task, PPO from scratch on the terrain task, and the from-scratch run stopped
 # at 1.5 M steps (52 % of its validation targets: the medium agent of the offline
-# datasets, hoprover_env.datasets); each file's .json says how it was trained
+# datasets, hoprover_env.datasets), and the hop network of the mission task
+# (hoprover_env.mission_hop: it acts through the estimator and a hopper); each file's
+# .json says how it was trained
 BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop",
-           "terrain": "ppo_terrain", "scratch_medium": "ppo_scratch_medium"}
+           "terrain": "ppo_terrain", "scratch_medium": "ppo_scratch_medium",
+           "mission": "ppo_mission"}
 ALGOS = ("ppo", "sac", "td3")
 
 
@@ -271,7 +274,8 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
-    """A policy by name: 'bundled', 'scratch', 'hop', 'terrain' (the bundled models), 'scripted'
+    """A policy by name: 'bundled', 'scratch', 'hop', 'terrain', 'mission' (the bundled
+    models; 'mission' acts on HopRoverMission-v0's estimate, hoprover_env.mission_hop), 'scripted'
     (hoprover_env.scripted.ScriptedHopper every `control_dt` [s]), 'random' (seeded with
     `seed`), a model .zip or run directory (`load_sb3`), or 'module.py:Control'
     (`load_controller`).
@@ -297,5 +301,5 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, scripted, mpc, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, mission, scripted, mpc, random, a model "
                      ".zip or run directory, or module.py:Control")
