@@ -104,6 +104,9 @@ def load_config(path: str | Path | None, overrides: dict | None = None,
             raise ConfigError(f"{path}: not valid YAML{where}: {problem}") from None
         if not isinstance(raw, dict):
             raise ConfigError(f"{path}: the config must be a mapping")
+    if "trainer" in raw:          # a config for another trainer (configs/ppo_mission_hop.yaml)
+        raise ConfigError(f"this config names its own trainer: run it with "
+                          f"`python -m {raw['trainer']} --config {path}`, not train.py")
     bad = sorted(set(raw) - TOP_KEYS)
     if bad:
         raise ConfigError(f"unknown config key '{bad[0]}' (valid: {sorted(TOP_KEYS)})")

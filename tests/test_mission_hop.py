@@ -72,7 +72,8 @@ def test_a_non_finite_hop_action_is_refused_by_name(bad):
 
 def _tiny_config(tmp_path, **extra):
     import yaml
-    cfg = yaml.safe_load(open("configs/ppo_mission_hop.yaml"))
+    from pathlib import Path
+    cfg = yaml.safe_load(open(Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"))
     cfg.update(n_envs=2, timesteps=32, evaluation={"freq": 16, "episodes": 2})
     cfg["hyperparams"].update(n_steps=16, batch_size=16, n_epochs=1)
     cfg.update(extra)
@@ -122,3 +123,11 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     rows = suites.run(policy, dataclasses.replace(suite, episodes=suite.episodes[:40]))
     assert np.mean([r["success"] for r in rows]) >= 0.9
     assert not any(r["broken"] for r in rows)
+
+
+def test_train_py_points_a_hop_config_to_its_own_trainer():
+    from pathlib import Path
+    from hoprover_env.sb3_agents import ConfigError, load_config
+    path = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
+    with pytest.raises(ConfigError, match="agents.train_mission"):
+        load_config(path)
