@@ -104,10 +104,10 @@ def main(argv=None) -> None:
             row = evaluate(spec, suite, args.episodes, scale)
             done = [r for r in done if (r["agent"], r["noise_scale"]) != (spec, scale)]
             done.append(row)
+            done.sort(key=lambda r: (r["agent"], r["noise_scale"]))
             print(table([row]).splitlines()[-1], flush=True)
             atomic_write(args.out, json.dumps({"suite": f"{suite.name}-v{suite.version}",
                                                "rows": done}, indent=1))
-    done.sort(key=lambda r: (r["agent"], r["noise_scale"]))
     print(table(done))
     figure(done, args.out.with_suffix(".png"))
 
