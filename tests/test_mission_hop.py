@@ -131,3 +131,13 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
     path = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="agents.train_mission"):
         load_config(path)
+
+
+def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
+    from agents import baselines
+    import json
+    out = tmp_path / "runs"
+    out.mkdir()
+    baselines.train(_tiny_config(tmp_path), [0], out, timesteps=16)
+    assert (out / "s0" / "done").exists()
+    assert json.loads((out / "s0" / "best_model.json").read_text())["policy"] == "mission_hop"
