@@ -120,7 +120,8 @@ class MissionHopEnv(gym.Env):
     def reset(self, *, seed=None, options=None):
         """A new episode, run to its first decision. An episode that needs none (the
         target's band holds the rover from the start: it only waits out the judge) is
-        run to its end and the next one drawn from the env's generator in its place."""
+        run to its end and the next one drawn from the env's generator in its place;
+        with `options` that fix such an episode there is no other, and ValueError says so."""
         super().reset(seed=seed)
         while True:
             obs, info = self.env.reset(seed=seed, options=options)
@@ -131,6 +132,9 @@ class MissionHopEnv(gym.Env):
             _, terminated, truncated, info = self._run(info)
             if not (terminated or truncated):
                 return self._features(), info
+            if options:
+                raise ValueError(f"the episode of reset options {options} needs no hop "
+                                 f"(it starts in the target's band): nothing to decide")
 
     def _inputs(self):
         return self.estimator.controller_inputs(self.env.target_x)

@@ -141,3 +141,11 @@ def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
     baselines.train(_tiny_config(tmp_path), [0], out, timesteps=16)
     assert (out / "s0" / "done").exists()
     assert json.loads((out / "s0" / "best_model.json").read_text())["policy"] == "mission_hop"
+
+
+def test_an_episode_that_needs_no_hop_is_refused_when_the_options_fix_it():
+    env = MissionHopEnv()
+    with pytest.raises(ValueError, match="needs no hop"):
+        env.reset(seed=0, options={"target_x": 0.0})
+    f, _ = env.reset(seed=0, options={"target_x": 0.6})
+    assert f[F_TO_GO] > 0.4
