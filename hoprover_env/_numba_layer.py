@@ -32,8 +32,9 @@ on the compiler flags in force (a ``TargetConfig``); hashing one built a dict of
 ~40 options and sorted it, and comparing two built two. Typing hoprover's kernels does
 this about 200 000 times: 1.0 of 10.6 CPU s of a cold first step (alternating runs,
 2026-11-25). Here the hash is computed once per flags class (numba's hash depends on the
-option names only) and two flags of one class with the same explicitly set values are
-equal without building the dicts; every other case is numba's own comparison.
+option names only) and two flags of one class are compared on the options either has
+set, the others holding their defaults in both; flags of two classes are compared as
+numba does.
 
 This leans on numba internals (``JITCodeLibrary``, ``JITCPUCodegen.set_env``,
 ``TargetConfig``), as the rest of `_compile`: if any is missing, `install` raises
@@ -75,8 +76,15 @@ def _compare_flags_cheaply(config) -> None:
         return hashes[cls]
 
     def __eq__(self, other):
-        if type(self) is type(other) and self._values == other._values:
-            return True
+        if type(self) is type(other):
+            # numba's test (values() == values()) on the options either has set: an
+            # option neither has set holds its default in both
+            mine, theirs = self._values, other._values
+            if mine == theirs:
+                return True
+            options = self.options
+            return all(mine.get(k, options[k].default) == theirs.get(k, options[k].default)
+                       for k in mine.keys() | theirs.keys())
         if isinstance(other, config):
             return self.values() == other.values()
         return NotImplemented
