@@ -7,8 +7,8 @@
 
 Every kernel is cached on disk (numba's ``cache=True``), uses numpy's error model (a
 division by zero gives inf/nan, which callers check, instead of raising) and no
-reference counting (nothing allocates). On top of plain numba it adds four things, each
-for the cold start (the first use after installing or editing, 6-10 s instead of 10-16 s):
+reference counting (nothing allocates). On top of plain numba it adds five things, each
+for the cold start (the first use after installing or editing):
 
 * ``inner=True``: no Python/C entry wrappers. numba would otherwise build, optimise and
   link one per helper into every caller. Python calling such a function raises a
@@ -19,14 +19,19 @@ for the cold start (the first use after installing or editing, 6-10 s instead of
 * stale caches are dropped: numba keys a cached function on its own file only, so a
   caller would keep an old callee's code linked in. One fingerprint over the kernel
   sources guards every module's cache.
+* two changes to numba's compiler (`_numba_layer`): a function only jitted code calls
+  is neither optimised as a module nor turned into machine code on its own, since its
+  callers optimise and emit it with themselves (the cache keeps its linkable bitcode);
+  compiler flags are hashed and compared without rebuilding their option dicts.
+  ``HOPROVER_NUMBA_LAYER=0`` leaves numba as it is.
 * `prepare()`: on a cold cache with two or more cores, a helper process compiles the
   contact phases (and an env's extra functions) into the cache while this process
   compiles the rest, like ``make -j2``. ``HOPROVER_PARALLEL_COMPILE=0`` turns it off.
 
-These lean on four numba internals (`_numba_internals`): the CPUDispatcher class, its
-`get_call_template` hook, a dispatcher's `_cache` and the wrapper options. Should a
-numba release move one, everything falls back to plain ``numba.njit(cache=True)`` with
-a warning: correct results, a slower cold start (tests/test_compile.py hides them).
+These lean on numba internals (`_numba_internals`): the CPUDispatcher class, its
+`get_call_template` hook, a dispatcher's `_cache`, the wrapper options, the JIT code
+library and the flags class (`_numba_layer`). Should a numba release move one,
+everything falls back to plain ``numba.njit(cache=True)`` with a warning: correct results, a slower cold start (tests/test_compile.py hides them).
 """
 from __future__ import annotations
 
@@ -39,6 +44,7 @@ import os
 import subprocess
 import sys
 import time
+import types
 import warnings
 
 from numba import njit, types as nt
@@ -56,7 +62,10 @@ KERNEL_SOURCES = sorted(glob.glob(os.path.join(_HERE, "core", "*.py"))
                         + glob.glob(os.path.join(_HERE, "tasks", "*.py"))
                         + [os.path.join(_HERE, name) for name in (
                             "params.py", "_dop853_tableau.py", "reward.py", "controllers.py",
-                            "rollout.py", "_compile.py")])
+                            "rollout.py", "_compile.py", "_numba_layer.py")])
+
+
+LAYER_SWITCH = "HOPROVER_NUMBA_LAYER"        # "0": numba as it is (_numba_layer)
 
 
 @functools.lru_cache(maxsize=None)
@@ -76,6 +85,15 @@ def _numba_internals():
                       "results are the same, the first run compiles more slowly",
                       RuntimeWarning, stacklevel=3)
         return None
+    if os.environ.get(LAYER_SWITCH, "1") != "0":
+        try:
+            from . import _numba_layer
+            _numba_layer.install()
+        except AttributeError as exc:
+            warnings.warn(f"hoprover_env: this numba ({exc} is missing) is not one "
+                          "hoprover's changes to numba's compiler know (_numba_layer); "
+                          "compiling without them: the same results, a slower first run",
+                          RuntimeWarning, stacklevel=3)
     return CPUDispatcher
 
 
@@ -140,6 +158,9 @@ def kernel(signature=None, *, inner: bool = False, inline: bool = False,
             options.update(no_cpython_wrapper=True, no_cfunc_wrapper=True)
         dispatcher = njit(**options)(func)
         drop_stale_cache(dispatcher)
+        # what rebind() needs to compile a copy the same way
+        dispatcher.kernel_options = dict(signature=signature, inner=inner, inline=inline,
+                                         parallel=parallel)
         if plain:
             return dispatcher
         if signature is not None:
@@ -152,10 +173,37 @@ def kernel(signature=None, *, inner: bool = False, inline: bool = False,
     return wrap
 
 
+def bind_globals(func, name: str, **names):
+    """`func` with some global names bound to other objects, as a new function called
+    `name`. numba resolves globals when it compiles and caches a function under its
+    qualified name, so each binding is compiled and cached on its own."""
+    new = types.FunctionType(func.__code__, {**func.__globals__, **names}, name,
+                             func.__defaults__)
+    new.__qualname__ = name
+    new.__doc__ = func.__doc__
+    new.__module__ = func.__module__
+    return new
+
+
+def rebind(dispatcher, name: str, inner: bool | None = None, **names):
+    """A kernel compiled as `dispatcher` was (signature, inner, ...), from its source
+    with some globals bound to other objects (`bind_globals`): a callee swapped for a
+    variant, or a constant that numba prunes branches on. `inner` overrides."""
+    options = dict(dispatcher.kernel_options)
+    if inner is not None:
+        options["inner"] = inner
+    return kernel(**options)(bind_globals(dispatcher.py_func, name, **names))
+
+
 def compile_now(dispatcher) -> None:
     """Compile a declared-signature kernel now (nothing if it already is)."""
     if isinstance(dispatcher, _Declared):
         dispatcher.compile_declared()
+
+
+def _layer_active() -> bool:
+    from numba.core import codegen
+    return bool(getattr(codegen.JITCodeLibrary, "_hoprover_link_only", False))
 
 
 def _cache_path(dispatcher):
@@ -168,6 +216,8 @@ def _cache_path(dispatcher):
 @functools.lru_cache(maxsize=None)
 def _fingerprint() -> str:
     h = hashlib.sha256()
+    # a cache of link-only libraries is unreadable without them, and the reverse
+    h.update(b"link-only" if _layer_active() else b"numba")
     for path in KERNEL_SOURCES:
         with open(path, "rb") as fh:
             h.update(fh.read())
@@ -211,9 +261,11 @@ _HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
 HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
 HELPER_FUNCTIONS = ("hoprover_env.core.contact_phases:contact_phase",
                     "hoprover_env.core.contact_phases:g_phase")
-MAIN_FUNCTIONS = ("hoprover_env.core.phase_end:after_phase",
-                  "hoprover_env.core.flight:flight_phase",
+MAIN_FUNCTIONS = ("hoprover_env.core.flight:flight_phase",
                   "hoprover_env.core.integrator:init_state")
+# and the end of a phase, built for the ground (core/smooth.py)
+AFTER_PHASE = {True: "hoprover_env.core.phase_end:after_phase",
+               False: "hoprover_env.core.smooth:after_phase"}
 _prepared = False
 
 
@@ -261,10 +313,11 @@ def _claim(dispatcher):
     return None
 
 
-def prepare(extra=()) -> None:
+def prepare(extra=(), rough: bool = True) -> None:
     """Called by every entry point (envs, simulate, simulate_batch) before its first kernel
     call; returns at once after the first call in a process. `extra`: more declared
-    functions ("module:name") for the helper, such as an env's reward and observation."""
+    functions ("module:name") for the helper, such as an env's reward and observation;
+    `rough`: False for a caller that starts on smooth ground (core/smooth.py)."""
     global _prepared
     if _prepared:
         return
@@ -294,7 +347,7 @@ def prepare(extra=()) -> None:
             return
         started = time.monotonic()
         try:
-            for d in _resolve(MAIN_FUNCTIONS):
+            for d in _resolve((AFTER_PHASE[bool(rough)],) + MAIN_FUNCTIONS):
                 compile_now(d)
             helper.wait(timeout=max(0.0, started + HELPER_TIMEOUT - time.monotonic()))
         except subprocess.TimeoutExpired:

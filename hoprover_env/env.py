@@ -156,6 +156,7 @@ import numpy as np
 
 from . import _compile, core, reward
 from .env_config import sample_episode
+from .params import P_ROUGH
 from .env_parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
                         info as make_info, task_spaces)
 from .tasks import torque
@@ -200,8 +201,9 @@ class HopRoverEnv(gym.Env):
         self.render_mode = render_mode
         self.action_space, self.observation_space = task_spaces(self.task, self.config)
         self._o = self.config.options_vector()
-        _compile.prepare(self.task.compile_extra)      # cold cache: compile on 2 cores
-        self._step_kernel = self.task.kernels(self.config.integrator).step
+        # cold cache: compile on 2 cores, for the ground the config's episodes are on
+        _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
+        self._step_kernel = None                        # chosen at reset, by the ground
         self._e = self.config.task_vector()
         self._rw = self.config.reward_vector()
         self._rm = reward.new_memory()
@@ -228,6 +230,9 @@ class HopRoverEnv(gym.Env):
         self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
             self.config, self.np_random, options)
         self._rm[:] = reward.new_memory()
+        # the build without rough-terrain code while the ground is smooth (core/smooth.py)
+        self._step_kernel = self.task.kernels(self.config.integrator,
+                                              rough=self._p[P_ROUGH] > 0.0).step
         self.task.start(self.config, self.np_random, self._s, self._p, self._m)
         self._episode = (np.float64(self.target_x), np.float64(self.params.slope),
                          np.int64(NO_TERRAIN_SEED if self.terrain_seed is None

@@ -128,6 +128,11 @@ class EnvConfig(RewardConfig):
         draws its slope)."""
         return {}
 
+    def draws_bumps(self) -> bool:
+        """Whether this config's episodes are on rough ground (reset options may still
+        ask for bumps): the envs compile for smooth ground first when they are not."""
+        return self.params.roughness > 0.0
+
     @property
     def max_steps(self) -> int:
         """Control steps in a full episode."""
@@ -256,6 +261,9 @@ class TerrainEnvConfig(EnvConfig):
     def draw_terrain(self, rng: np.random.Generator) -> dict:
         return {"slope": float(rng.uniform(*self.slope_range)),
                 "roughness": float(self.roughness)}
+
+    def draws_bumps(self) -> bool:
+        return self.roughness > 0.0
 
 
 # The ground a mission does not know: restitutions and friction drawn per episode

@@ -31,7 +31,7 @@ from .env import check_actions
 from .env_config import RESET_OPTIONS, sample_episode
 from .env_parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
                         info as make_info, task_spaces)
-from .params import N_PARAMS, P_SLOPE
+from .params import N_PARAMS, P_ROUGH, P_SLOPE
 from .tasks import torque
 
 THREAD_THRESHOLD = 64
@@ -52,7 +52,8 @@ class HopRoverVectorEnv(VectorEnv):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
                                                    **kwargs)
-        _compile.prepare(self.task.compile_extra)      # cold cache: compile on 2 cores
+        # cold cache: compile on 2 cores, for the ground the config's episodes are on
+        _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
         self.num_envs = int(num_envs)
         try:
             mode = AutoresetMode(autoreset_mode)
@@ -71,10 +72,8 @@ class HopRoverVectorEnv(VectorEnv):
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        kernels = self.task.kernels(self.config.integrator)
-        # a threaded step leaves the caller's OpenMP thread count (torch's) as it was
-        self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
-                        if self.threads else kernels.batch)
+        self._rough = None
+        self._kernel = None                 # chosen at reset, by the ground (_choose_kernel)
 
         self.single_action_space, self.single_observation_space = task_spaces(self.task,
                                                                               self.config)
@@ -109,11 +108,24 @@ class HopRoverVectorEnv(VectorEnv):
         self._ready = False
 
     # ------------------------------------------------------------------------------
+    def _choose_kernel(self, rough: bool) -> None:
+        """The batch kernel for the ground: without rough-terrain code while every rover
+        is on smooth ground (core/smooth.py), the general one once any has bumps."""
+        rough = bool(rough)
+        if rough != self._rough:
+            kernels = self.task.kernels(self.config.integrator, rough=rough)
+            # a threaded step leaves the caller's OpenMP thread count (torch's) as it was
+            self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
+                            if self.threads else kernels.batch)
+            self._rough = rough
+
     def _reset_one(self, i: int, options=None):
         target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
         self.terrain_seeds[i] = NO_TERRAIN_SEED if seed is None else seed
         self.S[i] = s
         self.P[i] = p
+        if p[P_ROUGH] > 0.0 and not self._rough:       # an autoreset onto bumps
+            self._choose_kernel(True)
         self.targets[i] = target
         self.params[i] = params
         self._steps[i] = 0
@@ -164,6 +176,7 @@ class HopRoverVectorEnv(VectorEnv):
                        int(v[i]) if k == "terrain_seed" else float(v[i]))
                    for k, v in per_env.items()}
             self._reset_one(i, opt)
+        self._choose_kernel((self.P[:, P_ROUGH] > 0.0).any())
         self._autoreset[mask] = False
         self._ready = True
         return self._obs.copy(), self._infos(np.zeros(n, dtype=np.int64))

@@ -62,11 +62,21 @@ def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
     return first_steps(cache_dir, env_id, **kwargs)["compiled"]
 
 
+ROUGH_TERRAIN_CODE = ("hoprover_env.core.terrain.", "hoprover_env.core.impacts._rotate_velocity",
+                      "hoprover_env.core.impacts._stop_on_mean_plane")
+
+
 def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     seen = compiled_by_first_step(tmp_path)
     ours = [name for name, _ in seen if name.startswith("hoprover_env.")]
-    assert "hoprover_env.tasks.common.torque_event_step" in ours and len(ours) > 40
+    assert "hoprover_env.tasks.common.torque_event_smooth_step" in ours and len(ours) > 40
     assert not [n for n in ours if "euler" in n.lower()]
+    # on smooth ground no rough-terrain code (core/smooth.py): no tilt draws, no tilted
+    # impacts; a terrain env compiles them, from the same cache
+    assert not [n for n in ours if n.startswith(ROUGH_TERRAIN_CODE)]
+    rough = [name for name, _ in compiled_by_first_step(tmp_path, "HopRoverTerrain-v0")]
+    assert "hoprover_env.core.terrain.philox4x64" in rough
+    assert "hoprover_env.core.impacts._stop_on_mean_plane" in rough
     # each function once: a second specialisation (say for a literal int argument) would
     # compile the function again and relink everything above it
     assert len(ours) == len(set(ours)), sorted(n for n in ours if ours.count(n) > 1)
@@ -92,12 +102,86 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
                    "hoprover_env.tasks.common.close_step", "hoprover_env.tasks.observation.observe"}
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
-    assert "hoprover_env.tasks.common.torque_event_step" in main
+    assert "hoprover_env.tasks.common.torque_event_smooth_step" in main
     assert len(main) == len(set(main)) and len(main) < len(everything) - 10
     # the same machine code: identical trajectories, bit for bit
     assert parallel["obs"] == serial["obs"] and parallel["reward"] == serial["reward"]
     cached = {p.name.split("-")[0] for p in (tmp_path / "parallel").rglob("*.nbi")}
     assert {"contact_phases.contact_phase", "contact_phases.g_phase"} <= cached
+
+
+LINK_ONLY = r"""
+import json, pickle, sys
+import numpy as np, gymnasium as gym, hoprover_env
+from hoprover_env.core import contact_phases
+from hoprover_env import _compile
+env = gym.make("HopRover-v0"); env.reset(seed=0)
+obs, *_ = env.step(np.array([0.5], np.float32))
+for _ in range(30):
+    obs, reward, *_ = env.step(np.array([-0.3], np.float32))
+libs = [c.library for c in contact_phases.contact_phase.overloads.values()]
+print(json.dumps({"obs": obs.tolist(), "reward": reward,
+                  "active": _compile._layer_active(),
+                  # None: not loaded at all (a warm start loads only the env's step)
+                  "contact_phase_in_engine": [not getattr(lib, "_hoprover_pending", False)
+                                              for lib in libs][0] if libs else None}))
+"""
+
+
+def test_link_only_libraries_emit_no_machine_code_for_inner_functions_and_change_nothing(
+        tmp_path):
+    # an inner function's library stays out of the execution engine (its callers emit
+    # its code) and is cached as linkable bitcode; the trajectory is the same, bit for
+    # bit, as with numba's own libraries, cold and from the cache
+    def run(cache, link_only):
+        env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / cache),
+                   HOPROVER_PARALLEL_COMPILE="0", HOPROVER_NUMBA_LAYER=link_only)
+        out = subprocess.run([sys.executable, "-c", LINK_ONLY], env=env,
+                             capture_output=True, text=True, timeout=900)
+        assert out.returncode == 0, out.stderr[-2000:]
+        return json.loads(out.stdout.strip().splitlines()[-1])
+    plain = run("plain", "0")
+    cold, warm = run("link", "1"), run("link", "1")
+    assert not plain["active"] and plain["contact_phase_in_engine"]
+    assert cold["active"] and not cold["contact_phase_in_engine"]
+    assert warm["contact_phase_in_engine"] is None
+    for r in (cold, warm):
+        assert r["obs"] == plain["obs"] and r["reward"] == plain["reward"]
+    index = next((tmp_path / "link").rglob("contact_phases.contact_phase-*.nbi"))
+    data = b"".join(p.read_bytes() for p in index.parent.glob(
+        index.name.rsplit(".", 1)[0] + "*.nbc"))
+    assert b"linkonly" in data
+    # switching the layer drops the other layer's cache instead of misreading it
+    assert run("link", "0")["obs"] == plain["obs"]
+
+
+def test_flags_compare_and_hash_as_numba_defines_them():
+    # the layer's cheap comparison gives numba's answer: equal when every option's value
+    # (set or default) is equal, and equal flags hash alike
+    import itertools
+    import random
+    from numba.core.compiler import Flags
+    from hoprover_env import _compile
+    _compile._numba_internals()
+    rng = random.Random(0)
+    names = [n for n, o in Flags.options.items() if o.type is bool][:6]
+    def draw():
+        f = Flags()
+        for n in names:
+            choice = rng.random()
+            if choice < 0.3:
+                setattr(f, n, True)
+            elif choice < 0.6:      # set explicitly to its default: equal to unset
+                setattr(f, n, Flags.options[n].default)
+        return f
+    flags = [draw() for _ in range(40)]
+    for a, b in itertools.product(flags, repeat=2):
+        expected = {k: getattr(a, k) for k in a.options} == \
+            {k: getattr(b, k) for k in b.options}
+        assert (a == b) is expected
+        if expected:
+            assert hash(a) == hash(b)
+    assert (flags[0] == "flags") is False
 
 
 def _no_helper_popen(started):

@@ -41,6 +41,7 @@ One module per section of the kernel (docs/ARCHITECTURE.md has the whole map):
 ``euler``          the fixed-step Euler baseline
 ``integrator``     the event integrator's loop, ``advance``, ``advance_event``,
                    ``init_state``
+``smooth``         the event integrator built for smooth ground: no rough-terrain code
 =================  ==================================================================
 
 The names below are the core's public surface: callers write ``core.settle``,
@@ -77,3 +78,4 @@ from .euler import event_budget, advance_euler
 from .integrator import (advance_event_loop, advance, advance_event, init_state,
                          INIT_GROUND_TOL, INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN,
                          INIT_MOVING_DOWN, INIT_NOT_FLAT)
+from . import smooth

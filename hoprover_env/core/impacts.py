@@ -134,6 +134,11 @@ def _apply_impulses(S, P, dxs, dys, lx, ly):
     S[S_W] += (dys[0] * lx[0] - dxs[0] * ly[0] + dys[1] * lx[1] - dxs[1] * ly[1]) * inv_i
 
 
+# False in the smooth-ground build of the integrator (core/smooth.py): numba prunes the
+# branches on it, so a scene without bumps compiles no tilt draw and no tilted impact.
+ROUGH = True
+
+
 @kernel
 def resolve_impact(S, P, law, W):
     """Apply the impact law at the current configuration and set the new contact state.
@@ -143,7 +148,9 @@ def resolve_impact(S, P, law, W):
     Returns the kinetic energy ratio (after / before) of the impact, after the
     post-impact classification. See docs/MODEL.md section 6 and docs/PHYSICS.md.
     """
-    return resolve_impact_tilted(S, P, law, W, impact_tilt(S, P))
+    if ROUGH:
+        return resolve_impact_tilted(S, P, law, W, impact_tilt(S, P))
+    return resolve_impact_tilted(S, P, law, W, 0.0)
 
 
 @kernel(inner=True)
@@ -177,7 +184,7 @@ def resolve_impact_tilted(S, P, law, W, psi):
     tilted = psi != 0.0
     ct = 1.0
     st = 0.0
-    if tilted:
+    if ROUGH and tilted:
         ct = math.cos(psi)
         st = math.sin(psi)
         _rotate_velocity(S, ct, st)
@@ -186,7 +193,7 @@ def resolve_impact_tilted(S, P, law, W, psi):
     _, _, _, _, _, part, _, _, _, _ = _impact_vectors(W)
     if part[0] != 0.0 or part[1] != 0.0:
         _apply_law(S, P, law, ke0, W)
-    if tilted:
+    if ROUGH and tilted:
         _rotate_velocity(S, ct, -st)
         _stop_on_mean_plane(S, P, th, W)
     _classify_after_impact(S, P, W)

@@ -29,13 +29,15 @@ from typing import Any, Callable
 import numpy as np
 from numba import get_thread_id, prange, types as nt
 
-from .._compile import kernel, BOOL, F64, VEC
+from .._compile import bind_globals, kernel, BOOL, F64, VEC
 from .. import core
 from ..core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TTRTP
 from .. import reward
 from .layout import E_T_TOTAL
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
+# on smooth ground (roughness 0) the event integrator without rough-terrain code
+SMOOTH_INTEGRATORS = {"event": core.smooth.advance_event}
 
 
 def ADVANCE(S, P, O, torque, t_end, ev, W):
@@ -91,13 +93,16 @@ class TaskSpec:
     obs_bounds: Callable | None = None
     compile_extra: tuple = ()
 
-    def kernels(self, integrator: str) -> "TaskKernels":
+    def kernels(self, integrator: str, rough: bool = True) -> "TaskKernels":
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
-        built once per task and integrator."""
+        built once per task, integrator and ground: `rough` False gives the build that
+        compiles no rough-terrain code (core/smooth.py), for rovers on smooth ground
+        only; the general build (True) is exact on any ground."""
         cache = _BUILT.setdefault(id(self), {})
-        if integrator not in cache:
-            cache[integrator] = build(self, integrator)
-        return cache[integrator]
+        key = (integrator, bool(rough) or integrator not in SMOOTH_INTEGRATORS)
+        if key not in cache:
+            cache[key] = build(self, *key)
+        return cache[key]
 
     def bounds(self, config) -> tuple[np.ndarray, np.ndarray]:
         """The observation's (low, high) under `config`."""
@@ -211,29 +216,20 @@ class TaskKernels(types.SimpleNamespace):
     env: step_and_observe), `batch` and `batch_threaded` (the vector env)."""
 
 
-def _bind(template, name: str, **names):
-    """`template` with some global names bound, as a new function called `name`. numba
-    resolves globals when it compiles and caches a function under its qualified name,
-    so each binding is compiled and cached on its own."""
-    func = types.FunctionType(template.__code__, {**template.__globals__, **names}, name,
-                              template.__defaults__)
-    func.__qualname__ = name
-    func.__doc__ = template.__doc__
-    return func
-
-
-def build(task: TaskSpec, integrator: str) -> TaskKernels:
-    """The kernels of `task` for one integrator: its step template with ADVANCE (and its
-    other holes) bound, followed by its observe, alone and in the two batch loops."""
+def build(task: TaskSpec, integrator: str, rough: bool = True) -> TaskKernels:
+    """The kernels of `task` for one integrator and ground (`TaskSpec.kernels`): its
+    step template with ADVANCE (and its other holes) bound, followed by its observe,
+    alone and in the two batch loops."""
     if integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got "
                          f"{integrator!r}")
-    name = f"{task.name}_{integrator}"
-    inner = kernel(inner=True)(_bind(task.step, f"{name}_inner",
-                                     ADVANCE=INTEGRATORS[integrator], **task.holes))
+    name = f"{task.name}_{integrator}" + ("" if rough else "_smooth")
+    advance = INTEGRATORS[integrator] if rough else SMOOTH_INTEGRATORS[integrator]
+    inner = kernel(inner=True)(bind_globals(task.step, f"{name}_inner", ADVANCE=advance,
+                                            **task.holes))
     bound = dict(_STEP=inner, _OBSERVE=task.observe)
     return TaskKernels(
-        step=kernel(_bind(step_and_observe, f"{name}_step", **bound)),
-        batch=kernel(_bind(batch_serial, f"{name}_batch", **bound)),
+        step=kernel(bind_globals(step_and_observe, f"{name}_step", **bound)),
+        batch=kernel(bind_globals(batch_serial, f"{name}_batch", **bound)),
         batch_threaded=kernel(parallel=True)(
-            _bind(batch_threaded, f"{name}_batch_threaded", **bound)))
+            bind_globals(batch_threaded, f"{name}_batch_threaded", **bound)))

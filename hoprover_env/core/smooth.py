@@ -1,0 +1,31 @@
+"""The event integrator built for smooth ground (roughness 0): no rough-terrain code.
+
+A scene without bumps never draws an impact tilt, so it needs neither the counter-based
+generator (`terrain.py`) nor the tilted impact's rotations and its second, plastic impact
+on the mean plane (`impacts.resolve_impact_tilted`). numba compiles every callee a
+function could reach, whatever runs, so the general integrator carries them all. Here
+the chain from `advance_event` down to `resolve_impact` is compiled a second time from
+the same source with ``impacts.ROUGH = False`` (numba prunes the branches on it) and
+each link bound to the next smooth one (`_compile.rebind`):
+
+    advance_event -> advance_event_loop -> after_phase -> impact_event -> resolve_impact
+
+Nothing else differs: on smooth ground both builds run the same code on the same numbers
+(with roughness 0 the general one draws nothing and its tilt is exactly 0), so a
+trajectory is the same bit for bit (tests/test_compile.py). The envs use this build while
+every rover of theirs is on smooth ground (`tasks.common.TaskSpec.kernels`); slopes are
+smooth ground too (a slope turns gravity, docs/MODEL.md section 11).
+"""
+from .._compile import rebind
+from . import impacts, integrator, phase_end
+
+resolve_impact_tilted = rebind(impacts.resolve_impact_tilted, "resolve_impact_tilted_smooth",
+                               inner=True, ROUGH=False)
+resolve_impact = rebind(impacts.resolve_impact, "resolve_impact_smooth", inner=True,
+                        ROUGH=False, resolve_impact_tilted=resolve_impact_tilted)
+impact_event = rebind(impacts.impact_event, "impact_event_smooth", resolve_impact=resolve_impact)
+after_phase = rebind(phase_end.after_phase, "after_phase_smooth", impact_event=impact_event)
+advance_event_loop = rebind(integrator.advance_event_loop, "advance_event_loop_smooth",
+                            after_phase=after_phase)
+advance_event = rebind(integrator.advance_event, "advance_event_smooth",
+                       advance_event_loop=advance_event_loop)
