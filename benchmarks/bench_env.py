@@ -111,11 +111,14 @@ def action_of(torque_nm: float) -> float:
     return torque_nm / 5e-4                    # the action of a symmetric +-5e-4 range
 
 
-FIRST_STEP = """
+# the time to a single env's first step: t1 - t0 (benchmarks/cold_compare.py runs it alone)
+SINGLE_FIRST_STEP = """
 import time; t0 = time.perf_counter()
 import gymnasium as gym, numpy as np, hoprover_env
 env = gym.make("HopRover-v0"); env.reset(seed=0); env.step(np.array([0.5], np.float32))
 t1 = time.perf_counter()
+"""
+FIRST_STEP = SINGLE_FIRST_STEP + """
 envs = gym.make_vec("HopRover-v0", num_envs=256); envs.reset(seed=0); envs.step(np.zeros((256, 1)))
 print(t1 - t0, time.perf_counter() - t1)
 """

@@ -35,3 +35,18 @@ def test_bench_oracle_quick():
     assert sec.headline["oracle_found"] == 3
     assert 5.0 <= sec.headline["oracle_contest_ttrtp"] < 600.0
     assert math.isfinite(sec.headline["regret_median_scripted"])
+
+
+def test_cold_compare_times_a_checkout_cold_then_cached(capsys):
+    # one round on this checkout, in one process: the cold run compiles, the second run
+    # of the same cache loads; the summary line names the checkout and its ratio
+    import os
+    import re
+    from benchmarks import cold_compare
+    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    cold_compare.main([here, "--rounds", "1", "--one-process"])
+    out = capsys.readouterr().out
+    cold, cached = map(float, re.search(r"round 0: .*: cold ([0-9.]+) s, cached ([0-9.]+) s",
+                                        out).groups())
+    assert cold > cached > 0.0
+    assert f"{here}: cold" in out and "x base per round 1.000-1.000" in out
