@@ -173,26 +173,28 @@ def kernel(signature=None, *, inner: bool = False, inline: bool = False,
     return wrap
 
 
-def bind_globals(func, name: str, **names):
+def bind_globals(func, name: str, module: str | None = None, **names):
     """`func` with some global names bound to other objects, as a new function called
-    `name`. numba resolves globals when it compiles and caches a function under its
-    qualified name, so each binding is compiled and cached on its own."""
+    `name` (of `module`, if given: where it can be found by name, as pickling a kernel
+    by reference does). numba resolves globals when it compiles and caches a function
+    under its qualified name, so each binding is compiled and cached on its own."""
     new = types.FunctionType(func.__code__, {**func.__globals__, **names}, name,
                              func.__defaults__)
     new.__qualname__ = name
     new.__doc__ = func.__doc__
-    new.__module__ = func.__module__
+    new.__module__ = module or func.__module__
     return new
 
 
-def rebind(dispatcher, name: str, inner: bool | None = None, **names):
+def rebind(dispatcher, name: str, module: str, inner: bool | None = None, **names):
     """A kernel compiled as `dispatcher` was (signature, inner, ...), from its source
     with some globals bound to other objects (`bind_globals`): a callee swapped for a
-    variant, or a constant that numba prunes branches on. `inner` overrides."""
+    variant, or a constant that numba prunes branches on. It must be stored as `name`
+    in `module` (a kernel is pickled by reference). `inner` overrides."""
     options = dict(dispatcher.kernel_options)
     if inner is not None:
         options["inner"] = inner
-    return kernel(**options)(bind_globals(dispatcher.py_func, name, **names))
+    return kernel(**options)(bind_globals(dispatcher.py_func, name, module, **names))
 
 
 def compile_now(dispatcher) -> None:
@@ -265,7 +267,7 @@ MAIN_FUNCTIONS = ("hoprover_env.core.flight:flight_phase",
                   "hoprover_env.core.integrator:init_state")
 # and the end of a phase, built for the ground (core/smooth.py)
 AFTER_PHASE = {True: "hoprover_env.core.phase_end:after_phase",
-               False: "hoprover_env.core.smooth:after_phase"}
+               False: "hoprover_env.core.smooth:after_phase_smooth"}
 _prepared = False
 
 

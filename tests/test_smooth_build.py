@@ -66,3 +66,21 @@ def test_a_vector_env_that_autoresets_onto_bumps_switches_build():
     for _ in range(3):
         venv.step(np.zeros((2, 1)))
     assert venv._rough is True and (venv.P[:, P_ROUGH] > 0).any()
+
+
+def test_the_smooth_kernels_are_found_by_the_name_they_pickle_under():
+    # a declared kernel not yet compiled in this process (its callers loaded from the
+    # cache) pickles by reference, module and qualified name: deepcopying an env that
+    # holds the smooth build must find each of them again
+    import pickle
+    from hoprover_env.core import smooth
+    from hoprover_env._compile import _module_attribute
+    kernels = [v for k, v in vars(smooth).items() if k.endswith("_smooth")]
+    assert len(kernels) == 6
+    for k in kernels:
+        f = k.py_func
+        assert _module_attribute(f.__module__, f.__qualname__) is k
+    declared = [k for k in kernels if k.kernel_options["signature"] is not None]
+    assert declared
+    for k in declared:
+        assert pickle.loads(pickle.dumps(k)) is not None

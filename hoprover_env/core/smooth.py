@@ -19,13 +19,18 @@ smooth ground too (a slope turns gravity, docs/MODEL.md section 11).
 from .._compile import rebind
 from . import impacts, integrator, phase_end
 
-resolve_impact_tilted = rebind(impacts.resolve_impact_tilted, "resolve_impact_tilted_smooth",
-                               inner=True, ROUGH=False)
-resolve_impact = rebind(impacts.resolve_impact, "resolve_impact_smooth", inner=True,
-                        ROUGH=False, resolve_impact_tilted=resolve_impact_tilted)
-impact_event = rebind(impacts.impact_event, "impact_event_smooth", resolve_impact=resolve_impact)
-after_phase = rebind(phase_end.after_phase, "after_phase_smooth", impact_event=impact_event)
-advance_event_loop = rebind(integrator.advance_event_loop, "advance_event_loop_smooth",
-                            after_phase=after_phase)
-advance_event = rebind(integrator.advance_event, "advance_event_smooth",
-                       advance_event_loop=advance_event_loop)
+# each stored under the name it is compiled and cached as (a kernel pickles by reference)
+resolve_impact_tilted_smooth = rebind(impacts.resolve_impact_tilted,
+                                      "resolve_impact_tilted_smooth", __name__, inner=True,
+                                      ROUGH=False)
+resolve_impact_smooth = rebind(impacts.resolve_impact, "resolve_impact_smooth", __name__,
+                               inner=True, ROUGH=False,
+                               resolve_impact_tilted=resolve_impact_tilted_smooth)
+impact_event_smooth = rebind(impacts.impact_event, "impact_event_smooth", __name__,
+                             resolve_impact=resolve_impact_smooth)
+after_phase_smooth = rebind(phase_end.after_phase, "after_phase_smooth", __name__,
+                            impact_event=impact_event_smooth)
+advance_event_loop_smooth = rebind(integrator.advance_event_loop, "advance_event_loop_smooth",
+                                   __name__, after_phase=after_phase_smooth)
+advance_event_smooth = rebind(integrator.advance_event, "advance_event_smooth", __name__,
+                              advance_event_loop=advance_event_loop_smooth)

@@ -37,7 +37,7 @@ from .layout import E_T_TOTAL
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 # on smooth ground (roughness 0) the event integrator without rough-terrain code
-SMOOTH_INTEGRATORS = {"event": core.smooth.advance_event}
+SMOOTH_INTEGRATORS = {"event": core.smooth.advance_event_smooth}
 
 
 def ADVANCE(S, P, O, torque, t_end, ev, W):
