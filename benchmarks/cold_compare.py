@@ -52,10 +52,10 @@ def main(argv=None) -> None:
     for tree, rs in runs.items():
         cold = [c for c, _ in rs]
         ratios = [c / b for c, b in zip(cold, base)]
+        cached = statistics.median(w for _, w in rs)
         print(f"{tree}: cold {min(cold):.2f}-{max(cold):.2f} s (median "
-              f"{statistics.median(cold):.2f}), cached {statistics.median(w for _, w in rs):.2f} s, "
-              f"x base per round {min(ratios):.3f}-{max(ratios):.3f} (median "
-              f"{statistics.median(ratios):.3f})")
+              f"{statistics.median(cold):.2f}), cached {cached:.2f} s, x base per round "
+              f"{min(ratios):.3f}-{max(ratios):.3f} (median {statistics.median(ratios):.3f})")
 
 
 if __name__ == "__main__":

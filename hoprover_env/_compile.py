@@ -30,8 +30,10 @@ for the cold start (the first use after installing or editing):
 
 These lean on numba internals (`_numba_internals`): the CPUDispatcher class, its
 `get_call_template` hook, a dispatcher's `_cache`, the wrapper options, the JIT code
-library and the flags class (`_numba_layer`). Should a numba release move one,
-everything falls back to plain ``numba.njit(cache=True)`` with a warning: correct results, a slower cold start (tests/test_compile.py hides them).
+library and the flags class (`_numba_layer`). Should a numba release move one of the
+first four, everything falls back to plain ``numba.njit(cache=True)`` with a warning:
+correct results, a slower cold start (tests/test_compile.py hides them); should it move
+one of the last two, only `_numba_layer` is left out, with a warning.
 """
 from __future__ import annotations
 

@@ -1,9 +1,10 @@
 """What hoprover changes in numba's compiler, for the cold start: link-only libraries
 and a cheaper comparison of compiler flags. `install()` applies both.
 
-**Link-only libraries.** numba finalises the library of every function it compiles at once: the function's LLVM
-module, with every callee's module linked in, goes through the full module optimiser and
-becomes machine code, and that object code is what the on-disk cache stores. A function
+**Link-only libraries.** numba finalises the library of every function it compiles at
+once: the function's LLVM module, with every callee's module linked in, goes through the
+full module optimiser and becomes machine code, and that object code is what the on-disk
+cache stores. A function
 only jitted code calls (`kernel(inner=True)`: no Python entry, no cfunc) never runs on
 its own. Its callers link its LLVM module (numba keeps a copy for linking) and optimise
 and emit it again as part of their own. So the optimisation and the machine code of each
@@ -38,7 +39,8 @@ numba does.
 
 This leans on numba internals (``JITCodeLibrary``, ``JITCPUCodegen.set_env``,
 ``TargetConfig``), as the rest of `_compile`: if any is missing, `install` raises
-AttributeError before changing anything and `_compile` falls back to plain numba.
+AttributeError before changing anything, and `_compile` warns and compiles with numba as
+it is.
 """
 from __future__ import annotations
 

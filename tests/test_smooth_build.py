@@ -52,7 +52,8 @@ def test_the_envs_choose_the_build_by_the_ground():
     assert venv._rough is True and venv.P[1, P_ROUGH] == 0.05
     venv.reset(seed=0)
     assert venv._rough is False
-    terrain = gym.make_vec("HopRoverTerrain-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    terrain = gym.make_vec("HopRoverTerrain-v0", num_envs=2,
+                           vectorization_mode="vector_entry_point")
     terrain.reset(seed=0)
     assert terrain.unwrapped._rough is True
 
