@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
+from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE
 from hoprover_env.vector_env import HopRoverVectorEnv
 
 
@@ -77,8 +78,17 @@ def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
 
 def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: int = 1024,
           learning_rate: float = 1e-3, value_epochs: int = 10, log_std: float = -2.5,
-          seed: int = 0, log=print):
-    """Fit the PPO policy to the expert data; set VecNormalize's statistics from it."""
+          seed: int = 0, log=print, ground_weight: float = 1.0,
+          learning_rate_end: float | None = None):
+    """Fit the PPO policy to the expert data; set VecNormalize's statistics from it.
+
+    `ground_weight` weighs the samples taken out of flight against those in flight (1:
+    plain least squares). A planner's flight is an attitude hold, a smooth feedback law
+    with large torques that dominates the squared error, while the decisions that set
+    where a hop lands are small torques held on the ground (a launch torque 1 % off
+    costs up to 3 % of TTRTP; BENCHMARKS.md "A learned policy within 5 %"), so they
+    are weighted up. `learning_rate_end`: the learning rate decays to it along a cosine
+    over all epochs (None: constant)."""
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     rms = vecnorm.obs_rms
@@ -113,8 +123,16 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     if getattr(policy, "share_features_extractor", True) is False:
         actor += list(policy.pi_features_extractor.parameters())
         critic += list(policy.vf_features_extractor.parameters())
+    weight = None
+    if ground_weight != 1.0:
+        if obs.shape[1] != OBS_DIM:
+            raise ValueError(f"ground_weight needs the torque task's observation ({OBS_DIM} "
+                             f"slots), got {obs.shape[1]}")
+        weight = torch.as_tensor(np.where(obs[:, OBS_MODE] > 0.5, 1.0, ground_weight),
+                                 dtype=torch.float32)
     mse = _fit(actor, actor_mean, x, y, epochs, batch_size, learning_rate, rng,
-               lambda k, m: log(f"  cloning epoch {k}/{epochs}: action MSE {m:.2e}"))
+               lambda k, m: log(f"  cloning epoch {k}/{epochs}: action MSE {m:.2e}"),
+               weight=weight, learning_rate_end=learning_rate_end)
     log(f"  behaviour cloning: {epochs} epochs, action MSE {mse:.2e}")
     if value_epochs:
         mse = _fit(critic, critic_value, x, z, value_epochs, batch_size, learning_rate, rng,
@@ -126,13 +144,19 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
 
 
 def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng, progress=None,
-         every: float = 10.0) -> float:
-    """Least squares of forward(x) on y by Adam over mini-batches; the last epoch's MSE.
+         every: float = 10.0, weight=None, learning_rate_end: float | None = None) -> float:
+    """Least squares of forward(x) on y by Adam over mini-batches; the last epoch's
+    (weighted) MSE. `weight` (one per sample, None: equal) weighs the squared errors;
+    `learning_rate_end` ends a cosine decay of the learning rate (None: constant).
     `progress(epoch, mse)` after the first epoch and then at most every `every` seconds
     (an epoch over a large DAgger set takes tens of seconds on one core)."""
     import time
     opt = torch.optim.Adam(params, lr=learning_rate)
     n = len(x)
+    sched = None
+    if learning_rate_end is not None:
+        sched = torch.optim.lr_scheduler.CosineAnnealingLR(
+            opt, T_max=epochs * -(-n // batch_size), eta_min=learning_rate_end)
     total = 0.0
     last = None
     for epoch in range(1, epochs + 1):
@@ -140,10 +164,16 @@ def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng, progress
         total = 0.0
         for k in range(0, n, batch_size):
             idx = torch.as_tensor(perm[k:k + batch_size])
-            loss = torch.mean((forward(x[idx]) - y[idx]) ** 2)
+            err = ((forward(x[idx]) - y[idx]) ** 2).reshape(len(idx), -1).mean(dim=1)
+            if weight is None:
+                loss = err.mean()
+            else:
+                loss = (weight[idx] * err).sum() / weight[idx].sum()
             opt.zero_grad()
             loss.backward()
             opt.step()
+            if sched is not None:
+                sched.step()
             total += loss.item() * len(idx)
         now = time.perf_counter()
         if progress is not None and epoch < epochs and (last is None or now - last >= every):

@@ -34,7 +34,8 @@ NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
 POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
                "squash_output", "n_critics", "share_features_extractor"}
 PRETRAIN_KEYS = {"expert", "episodes", "epochs", "batch_size", "learning_rate", "seed",
-                 "value_epochs", "log_std", "noise", "dagger_rounds", "dagger_episodes"}
+                 "value_epochs", "log_std", "noise", "dagger_rounds", "dagger_episodes",
+                 "ground_weight", "learning_rate_end"}
 EVAL_KEYS = {"freq", "episodes", "seed"}
 CHECKPOINT_KEYS = {"freq", "seconds"}
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
@@ -212,7 +213,8 @@ PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy
                   "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
                   "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,
                   "log_std": REAL, "noise": NONNEG_REAL, "dagger_rounds": NONNEG_INT,
-                  "dagger_episodes": POS_INT}
+                  "dagger_episodes": POS_INT, "ground_weight": POS_REAL,
+                  "learning_rate_end": POS_REAL}
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
 CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
 # the common keyword arguments of PPO / SAC / TD3 (which ones an algorithm takes is checked

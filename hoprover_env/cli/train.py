@@ -209,7 +209,8 @@ class Trainer:
         fit = dict(epochs=pt.get("epochs", 30), batch_size=pt.get("batch_size", 1024),
                    learning_rate=pt.get("learning_rate", 1e-3),
                    value_epochs=pt.get("value_epochs", 10), log_std=pt.get("log_std", -2.5),
-                   seed=self.cfg["seed"], log=log)
+                   ground_weight=pt.get("ground_weight", 1.0),
+                   learning_rate_end=pt.get("learning_rate_end"), seed=self.cfg["seed"], log=log)
         t_start = time.perf_counter()
         timer = {"collect": 0.0, "fit": 0.0}
 
@@ -221,8 +222,9 @@ class Trainer:
 
         log(f"behaviour cloning: running the expert ({pt.get('episodes', 400)} episodes, "
             f"then {pt.get('dagger_rounds', 0)} DAgger rounds)")
-        data = timed("collect", collect, expert, ekw, pt.get("episodes", 400), seed, gamma,
-                     noise=pt.get("noise", 0.0), log=log)
+        data = self._collected("demonstrations", lambda: timed(
+            "collect", collect, expert, ekw, pt.get("episodes", 400), seed, gamma,
+            noise=pt.get("noise", 0.0), log=log))
         log(f"behaviour cloning: {len(data[0])} expert steps in {timer['collect']:.1f} s")
         timed("fit", clone, self.model, self.venv, *data, **fit)
         best = self._score_clone("cloned", None)
@@ -230,8 +232,9 @@ class Trainer:
             norm = self.venv
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                                 epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
-            new = timed("collect", collect, expert, ekw, pt.get("dagger_episodes", 200),
-                        seed + 1 + k, gamma, executor=learner, log=log)
+            new = self._collected(f"dagger_{k + 1}", lambda: timed(
+                "collect", collect, expert, ekw, pt.get("dagger_episodes", 200),
+                seed + 1 + k, gamma, executor=learner, log=log))
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
             log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps labelled by the expert")
             timed("fit", clone, self.model, self.venv, *data, **fit)
@@ -250,6 +253,31 @@ class Trainer:
         log(f"behaviour cloning took {self.pretrain['pretrain_s']:.0f} s: "
             f"{timer['collect']:.0f} s running the expert and the learner in the env, "
             f"{timer['fit']:.0f} s fitting, the rest judging the rounds")
+
+    def _collected(self, name: str, run) -> tuple:
+        """The (obs, actions, returns) of one collection, kept in OUT/pretrain/NAME.npz:
+        collecting from the expert is the slow part of cloning (minutes per round with
+        mpc), so a run killed during its pretraining starts again from its last finished
+        collection (the fits in between are repeated; they are seeded)."""
+        path = self.out / "pretrain" / f"{name}.npz"
+        key = self.out / "pretrain" / "made_with.json"
+        made_with = json.loads(json.dumps({k: self.cfg.get(k) for k in (
+            "pretrain", "env", "env_id", "seed", "policy", "normalize")}))
+        if key.exists() and json.loads(key.read_text()) != made_with:
+            print(f"  {key.parent} was collected with other settings: collecting again",
+                  file=sys.stderr)
+            for old in key.parent.glob("*.npz"):
+                old.unlink()
+        write_json(key, made_with)
+        if path.exists():
+            with np.load(path) as f:
+                print(f"  {name}: reusing {path}", file=sys.stderr)
+                return f["obs"], f["act"], f["ret"]
+        obs, act, ret = run()
+        buf = io.BytesIO()
+        np.savez(buf, obs=obs, act=act, ret=ret)
+        atomic_write(path, buf.getvalue())
+        return obs, act, ret
 
     def _judge(self, label: str) -> dict:
         """The contest judge's summary of the current policy on the validation targets,
