@@ -38,6 +38,8 @@ def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
         obs, _ = venv.reset(seed=int(rng.integers(2 ** 31)),
                             options={"target_x": rng.uniform(cfg_lo, cfg_hi, n)})
         expert.reset(n)
+        if hasattr(expert, "shadowing"):     # mpc: replan from the flights a learner makes
+            expert.shadowing = executor is not None
         if executor is not None:
             executor.reset(n)
         active = np.ones(n, dtype=bool)

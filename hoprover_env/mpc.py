@@ -63,6 +63,7 @@ class MPCPolicy:
         self.name = name
         self.env_kwargs = {"control_dt": CONTROL_DT}
         self.plans: list = []
+        self.shadowing = False       # set by imitation.collect when a learner drives
         self.estimates = EstimatorBank()
         self.decisions = 0
         self.planning_seconds = 0.0
@@ -73,6 +74,7 @@ class MPCPolicy:
         self.plans = [None] * n
         self.grounded_since = [0.0] * n
         self.flew = [False] * n
+        self.replanned_aloft = [True] * n
         self.estimates = EstimatorBank()
         self.estimates.reset(n)
 
@@ -95,6 +97,12 @@ class MPCPolicy:
             self.grounded_since[i] = math.inf
         elif self.grounded_since[i] > t:
             self.grounded_since[i] = t
+        if self.shadowing and mode == core.MODE_A and not self.replanned_aloft[i]:
+            # a learner drives (DAgger): its hop is not the one this plan launched, so the
+            # attitude to land in and the corrections after it are planned again from the
+            # flight it actually made (once per plan: not at every bounce)
+            self.replanned_aloft[i] = True
+            return True
         if S[core.S_INBAND] != 0.0 or (self.plans[i] is not None
                                         and t < plan_end(self.plans[i])):
             return False
@@ -169,5 +177,6 @@ class MPCPolicy:
                 # a target out of reach within the episode still gets the plan that
                 # ends nearest to it
                 self.plans[i] = result.plan(k, prob)
+                self.replanned_aloft[i] = int(S[i, core.S_MODE]) == core.MODE_A
             self.decisions += len(group)
         self.planning_seconds += time.perf_counter() - t_start

@@ -8,6 +8,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -210,6 +211,45 @@ def test_interrupt_during_cloning_is_reported(tmp_path, monkeypatch, capsys):
     monkeypatch.undo()                   # the same command starts the run over
     assert train.main(["--config", cfg, "--out", str(out), "--no-progress"]) == 0
     assert strict_json(out / "checkpoints" / "last.json")["timesteps"] >= 512
+
+
+def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, capsys):
+    # collecting from the expert is the slow part of cloning: a run interrupted during its
+    # pretraining starts again from the collections it kept, unless its settings changed
+    from hoprover_env import imitation
+    cfg = {**TINY, "timesteps": 512, "pretrain": {"episodes": 4, "epochs": 1,
+                                                  "value_epochs": 0, "dagger_rounds": 1,
+                                                  "dagger_episodes": 2}}
+    out = tmp_path / "run"
+    real_clone, real_collect, calls = imitation.clone, imitation.collect, []
+
+    def clone_then_stop(*args, **kwargs):
+        real_clone(*args, **kwargs)
+        if len(calls) == 2:                  # the DAgger round's fit: stop there
+            raise KeyboardInterrupt
+    monkeypatch.setattr(imitation, "clone", clone_then_stop)
+    monkeypatch.setattr(imitation, "collect",
+                        lambda *a, **k: calls.append(k) or real_collect(*a, **k))
+    path = write_cfg(tmp_path, cfg)
+    assert train.main(["--config", path, "--out", str(out), "--no-progress"]) == 130
+    assert len(calls) == 2
+    kept = {f.name for f in (out / "pretrain").glob("*.npz")}
+    assert kept == {"demonstrations.npz", "dagger_1.npz"}
+    monkeypatch.setattr(imitation, "clone", real_clone)
+    assert train.main(["--config", path, "--out", str(out), "--no-progress"]) == 0
+    assert len(calls) == 2                   # nothing collected again
+    assert capsys.readouterr().err.count("reusing") == 2
+    # other settings: collected again
+    other = tmp_path / "other"
+    cfg["pretrain"]["episodes"] = 5
+    cfg_path = write_cfg(tmp_path, cfg, "other.yaml")
+    (other / "pretrain").mkdir(parents=True)
+    for f in (out / "pretrain").iterdir():
+        (other / "pretrain" / f.name).write_bytes(f.read_bytes())
+    assert train.main(["--config", cfg_path, "--out", str(other), "--no-progress"]) == 0
+    assert len(calls) == 4
+    with np.load(other / "pretrain" / "demonstrations.npz") as f:
+        assert len(f["obs"]) > 0
 
 
 def test_evaluate_every_policy_kind(tmp_path, capsys):
