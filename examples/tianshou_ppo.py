@@ -17,6 +17,13 @@ The settings are those of configs/ppo_hop.yaml (SB3): 64 envs, 2048 steps per
 collection, 10 passes over it in minibatches of 512, lr 3e-4, gamma 0.98, GAE 0.95, a
 state-independent std starting at exp(-2), 64x64 tanh MLPs; no observation or reward
 normalisation (the observations are already of order one).
+
+The mean's output layer starts as SB3's does (orthogonal, gain 0.01, zero bias), so the
+first policy's mean action is about 0 in every state and its exploration (std 0.135)
+hops both ways. With PyTorch's default init the first mean had one sign in most start
+states (256 of them) at seeds 0-2: -0.09..+0.03 (negative in 80 %), +0.06..+0.12,
+-0.16..-0.08; with no entropy bonus PPO may then learn one side of the targets only, as
+TorchRL's example did (59.5 %, examples/torchrl_ppo.py).
 """
 from __future__ import annotations
 
@@ -59,6 +66,8 @@ def build(env, lr: float = 3e-4):
     actor = ContinuousActorProbabilistic(
         preprocess_net=Net(state_shape=obs_shape, hidden_sizes=[64, 64], activation=nn.Tanh),
         action_shape=act_shape, unbounded=True)
+    nn.init.orthogonal_(actor.mu.model[-1].weight, gain=0.01)   # mean ~0 everywhere at
+    nn.init.zeros_(actor.mu.model[-1].bias)                     # the start, as SB3's
     nn.init.constant_(actor.sigma_param, -2.0)          # std exp(-2), state-independent
     critic = ContinuousCritic(
         preprocess_net=Net(state_shape=obs_shape, hidden_sizes=[64, 64], activation=nn.Tanh))

@@ -44,6 +44,38 @@ def spy_on_build(monkeypatch, example, pick) -> dict:
     return seen
 
 
+class Built(Exception):
+    """Raised by first_model's spy: the example's train() stops once it has its networks."""
+
+
+def first_model(monkeypatch, example, pick, **train_kwargs):
+    """The network the example's train() starts from, built as train() builds it (its
+    seeding, its envs), without training: the spied build() hands it over and stops."""
+    build = example.build
+
+    def spy(*args, **kwargs):
+        raise Built(pick(build(*args, **kwargs)))
+    monkeypatch.setattr(example, "build", spy)
+    with pytest.raises(Built) as built:
+        example.train(**train_kwargs)
+    return built.value.args[0]
+
+
+def start_states(env_kwargs, n: int = 256) -> torch.Tensor:
+    venv = gym.make_vec("HopRoverHop-v0", num_envs=n, autoreset_mode="SameStep",
+                        threads=False, **env_kwargs)
+    obs = torch.as_tensor(venv.reset(seed=123)[0])
+    venv.close()
+    return obs
+
+
+def assert_starts_hopping_both_ways(loc, scale):
+    """P(hop towards the target) = Phi(|loc| / std) or 1 - that: within 0.4..0.6 in
+    every start state when |loc| < std / 4, with the std exp(-2) of configs/ppo_hop.yaml."""
+    assert torch.allclose(scale, torch.full_like(scale, np.exp(-2.0)))
+    assert loc.abs().max() < 0.25 * np.exp(-2.0), (loc.min().item(), loc.max().item())
+
+
 # ---- TorchRL -------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def torchrl():
@@ -190,6 +222,19 @@ def test_tianshou_ppo_trains_with_its_collectors(venv, monkeypatch):
     assert np.array_equal(info["is_success"], info["ttrtp"] >= 0)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_tianshou_ppo_example_starts_hopping_both_ways(monkeypatch, seed):
+    """As TorchRL's (test_torchrl_ppo_example_starts_hopping_both_ways): the first
+    policy's mean is about 0 in every start state, whatever the seed draws."""
+    pytest.importorskip("tianshou", reason=f"Tianshou is not installed: {WHY}")
+    import tianshou_ppo
+    actor = first_model(monkeypatch, tianshou_ppo, lambda out: out[1], steps=200_000,
+                        seed=seed, progress=False)
+    with torch.no_grad():
+        (loc, scale), _ = actor(start_states(tianshou_ppo.ENV_KWARGS).numpy())
+    assert_starts_hopping_both_ways(loc, scale)
+
+
 # ---- skrl ----------------------------------------------------------------------------
 @pytest.mark.parametrize("env_id", TASKS)
 def test_skrl_wraps_the_native_vector_env(env_id):
@@ -215,3 +260,16 @@ def test_skrl_ppo_example_trains(monkeypatch):
     assert changed(seen["before"], policy)
     res = skrl_ppo.judge(policy, 4)
     assert res["episodes"] == 4 and 0.0 <= res["success_rate"] <= 1.0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_skrl_ppo_example_starts_hopping_both_ways(monkeypatch, seed):
+    """As TorchRL's (test_torchrl_ppo_example_starts_hopping_both_ways): the first
+    policy's mean is about 0 in every start state, whatever the seed draws."""
+    pytest.importorskip("skrl", reason=f"skrl is not installed: {WHY}")
+    import skrl_ppo
+    policy = first_model(monkeypatch, skrl_ppo, lambda out: out["policy"], steps=200_000,
+                         seed=seed, progress=False)
+    with torch.no_grad():
+        loc = policy.net(start_states(skrl_ppo.ENV_KWARGS))
+    assert_starts_hopping_both_ways(loc, policy.log_std.exp().expand_as(loc))
