@@ -112,6 +112,22 @@ def _score(res: dict) -> tuple:
     return (res["success_rate"], -(med if not math.isnan(med) else 1e9))
 
 
+def collection_key(cfg: dict, name: str) -> dict:
+    """What one pretraining collection depends on: the expert's demonstrations on the
+    expert, its episodes, noise and seed and the env; a DAgger round also on the learner,
+    i.e. on everything that shaped it (the whole pretraining, the policy, the
+    normalisation and the seed)."""
+    pt = cfg["pretrain"]
+    key = {"env_id": cfg["env_id"], "env": cfg.get("env"),
+           "expert": pt.get("expert", "scripted"), "seed": pt.get("seed", 1)}
+    if name == "demonstrations":
+        key.update(episodes=pt.get("episodes", 400), noise=pt.get("noise", 0.0))
+    else:
+        key.update(pretrain=pt, policy=cfg.get("policy"), normalize=cfg.get("normalize"),
+                   run_seed=cfg["seed"])
+    return json.loads(json.dumps(key))
+
+
 # ---- the training loop ---------------------------------------------------------------
 def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
@@ -260,15 +276,12 @@ class Trainer:
         mpc), so a run killed during its pretraining starts again from its last finished
         collection (the fits in between are repeated; they are seeded)."""
         path = self.out / "pretrain" / f"{name}.npz"
-        key = self.out / "pretrain" / "made_with.json"
-        made_with = json.loads(json.dumps({k: self.cfg.get(k) for k in (
-            "pretrain", "env", "env_id", "seed", "policy", "normalize")}))
-        if key.exists() and json.loads(key.read_text()) != made_with:
-            print(f"  {key.parent} was collected with other settings: collecting again",
+        key = path.with_suffix(".json")
+        made_with = collection_key(self.cfg, name)
+        if path.exists() and (not key.exists() or json.loads(key.read_text()) != made_with):
+            print(f"  {path} was collected with other settings: collecting again",
                   file=sys.stderr)
-            for old in key.parent.glob("*.npz"):
-                old.unlink()
-        write_json(key, made_with)
+            path.unlink()
         if path.exists():
             with np.load(path) as f:
                 print(f"  {name}: reusing {path}", file=sys.stderr)
@@ -277,6 +290,7 @@ class Trainer:
         buf = io.BytesIO()
         np.savez(buf, obs=obs, act=act, ret=ret)
         atomic_write(path, buf.getvalue())
+        write_json(key, made_with)
         return obs, act, ret
 
     def _judge(self, label: str) -> dict:
