@@ -1,0 +1,160 @@
+"""Cloning studies for issue 28's "learned policy within 5 % of the best-known plan":
+collect expert data once, then fit and judge clones of it in seconds to minutes.
+
+    python -m agents.clone_study collect --out runs/clone/demo_a.npz --seed 11 --episodes 200
+    python -m agents.clone_study collect --out runs/clone/short.npz --seed 23 --episodes 200 \\
+        --target-range -0.35 0.35                      # short hops only
+    python -m agents.clone_study fit --data runs/clone/demo_a.npz --epochs 100 \\
+        --ground-weight 10 --save runs/clone/clone_a.pkl
+
+`collect` runs `hoprover_env.imitation.collect` with the expert (mpc by default) on
+HopRover-v0 at `control_dt` 0.5 s with DART noise `--noise` on the executed actions, or,
+with `--learner PKL`, lets a saved clone drive while the expert labels (DAgger). `fit`
+fits the actor of configs/ppo_mpc.yaml's PPO policy to the collections
+(`imitation.clone`: weighted least squares, cosine learning-rate decay), then judges it
+on train.py's 100 validation targets (seed 7) and on the level-v1 suite against its
+best-known references, with the regret by target distance (|d| < 0.1 m starts in the
+band; 0.1-0.32 m are the short hops; beyond, one long hop).
+`train.py --config configs/ppo_mpc.yaml` is the one-command pipeline; this driver is
+for studying its parts.
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import pickle
+import sys
+import time
+
+import numpy as np
+
+CONFIG = "configs/ppo_mpc.yaml"
+BINS = ((0.0, 0.1), (0.1, 0.32), (0.32, 1.01))
+
+
+def _model(action_map: str):
+    from hoprover_env.cli.train import build_env
+    from hoprover_env.sb3_agents import load_config, make_agent
+    cfg = load_config(CONFIG)
+    cfg["n_envs"] = 4
+    cfg["env"]["action_map"] = action_map
+    venv = build_env(cfg)
+    return cfg, venv, make_agent(cfg, venv)
+
+
+def _policy(cfg, venv, model, name="clone"):
+    from hoprover_env.policies import SB3Policy
+    from hoprover_env.sb3_agents import env_kwargs
+    return SB3Policy(model, copy.deepcopy(venv.obs_rms), venv.clip_obs, name=name,
+                     env_kwargs=env_kwargs(cfg))
+
+
+def _load(path, venv, model):
+    with open(path, "rb") as f:
+        saved = pickle.load(f)
+    model.policy.load_state_dict(saved["policy"])
+    venv.obs_rms.mean, venv.obs_rms.var = saved["mean"], saved["var"]
+
+
+def collect_cmd(args) -> None:
+    from hoprover_env.imitation import collect
+    from hoprover_env.policies import load_policy
+    from hoprover_env.sb3_agents import env_kwargs
+    cfg, venv, model = _model(args.action_map)
+    kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
+    learner = None
+    if args.learner:
+        _load(args.learner, venv, model)
+        learner = _policy(cfg, venv, model, "learner")
+    t0 = time.perf_counter()
+    obs, act, ret = collect(load_policy(args.expert, control_dt=0.5), kwargs, args.episodes,
+                            args.seed, cfg["hyperparams"]["gamma"], batch=args.batch,
+                            noise=args.noise, executor=learner,
+                            log=lambda m: print(m, flush=True))
+    np.savez(args.out, obs=obs, act=act, ret=ret)
+    print(f"{len(obs)} steps in {time.perf_counter() - t0:.0f} s -> {args.out}")
+
+
+def judge(policy) -> dict:
+    """Validation (train.py's targets) and the level-v1 suite, by target distance."""
+    from hoprover_env import suites
+    from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
+    val = summarize(run_episodes(policy, seeded_targets(100, 7), {}))
+    suite = suites.load("HopRover-v0")
+    rows = suites.run(policy, suite)
+    reg = np.array([r["regret"] for r in rows])
+    dist = np.abs(suite.targets)
+    out = {"validation_success": val["success_rate"], "validation_median": val["median_ttrtp"],
+           "suite_success": float(np.isfinite(reg).mean()),
+           "median_regret": float(np.median(reg)), "worst_regret": float(reg.max()),
+           "by_distance": []}
+    for lo, hi in BINS:
+        r = reg[(dist >= lo) & (dist < hi)]
+        out["by_distance"].append({"range": (lo, hi), "episodes": len(r),
+                                   "success": float(np.isfinite(r).mean()),
+                                   "median_regret": float(np.median(r)),
+                                   "worst_regret": float(r.max())})
+    return out
+
+
+def fit_cmd(args) -> None:
+    import torch
+    from hoprover_env.imitation import clone
+    torch.set_num_threads(1)
+    cfg, venv, model = _model(args.action_map)
+    data = [np.load(p) for p in args.data]
+    obs, act, ret = (np.concatenate([d[k] for d in data]) for k in ("obs", "act", "ret"))
+    print(f"{len(obs)} samples from {len(args.data)} collections", flush=True)
+    if args.init:
+        _load(args.init, venv, model)
+    mean, var = venv.obs_rms.mean.copy(), venv.obs_rms.var.copy()
+    clone(model, venv, obs, act, ret, epochs=args.epochs, batch_size=args.batch_size,
+          learning_rate=args.lr, learning_rate_end=args.lr_end, value_epochs=0,
+          ground_weight=args.ground_weight, seed=0, log=lambda m: print(m, flush=True))
+    if args.init:       # a warm start keeps the statistics the weights were fitted to
+        venv.obs_rms.mean, venv.obs_rms.var = mean, var
+    if args.save:
+        with open(args.save, "wb") as f:
+            pickle.dump({"policy": model.policy.state_dict(), "mean": venv.obs_rms.mean,
+                         "var": venv.obs_rms.var}, f)
+    res = judge(_policy(cfg, venv, model))
+    print(f"validation: success {res['validation_success']:.1%}, median TTRTP "
+          f"{res['validation_median']:.1f} s")
+    print(f"level-v1: success {res['suite_success']:.1%}, median regret "
+          f"{res['median_regret']:.3f}, worst {res['worst_regret']:.3f}")
+    for b in res["by_distance"]:
+        print(f"  |d| in [{b['range'][0]}, {b['range'][1]}) m: {b['episodes']} episodes, "
+              f"success {b['success']:.1%}, median regret {b['median_regret']:.3f}, worst "
+              f"{b['worst_regret']:.3f}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("collect", help="expert demonstrations or DAgger labels")
+    c.add_argument("--out", required=True)
+    c.add_argument("--seed", type=int, required=True)
+    c.add_argument("--episodes", type=int, default=200)
+    c.add_argument("--noise", type=float, default=0.01, help="DART noise on executed actions")
+    c.add_argument("--target-range", type=float, nargs=2, default=(-1.0, 1.0))
+    c.add_argument("--expert", default="mpc")
+    c.add_argument("--learner", default=None, help="a clone saved by fit --save (DAgger)")
+    c.add_argument("--batch", type=int, default=200, help="episodes side by side")
+    c.add_argument("--action-map", default="linear", choices=("linear", "cubic"))
+    f = sub.add_parser("fit", help="fit a clone to collections and judge it")
+    f.add_argument("--data", nargs="+", required=True)
+    f.add_argument("--epochs", type=int, default=100)
+    f.add_argument("--batch-size", type=int, default=2048)
+    f.add_argument("--lr", type=float, default=1e-3)
+    f.add_argument("--lr-end", type=float, default=1e-5)
+    f.add_argument("--ground-weight", type=float, default=10.0)
+    f.add_argument("--init", default=None, help="start from a saved clone")
+    f.add_argument("--save", default=None)
+    f.add_argument("--action-map", default="linear", choices=("linear", "cubic"))
+    args = ap.parse_args(argv)
+    (collect_cmd if args.cmd == "collect" else fit_cmd)(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
