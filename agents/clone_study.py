@@ -32,12 +32,14 @@ CONFIG = "configs/ppo_mpc.yaml"
 BINS = ((0.0, 0.1), (0.1, 0.32), (0.32, 1.01))
 
 
-def _model(action_map: str):
+def _model(action_map: str, arch=None):
     from hoprover_env.cli.train import build_env
     from hoprover_env.sb3_agents import load_config, make_agent
     cfg = load_config(CONFIG)
     cfg["n_envs"] = 4
     cfg["env"]["action_map"] = action_map
+    if arch:
+        cfg["policy"]["net_arch"] = list(arch)
     venv = build_env(cfg)
     return cfg, venv, make_agent(cfg, venv)
 
@@ -60,7 +62,7 @@ def collect_cmd(args) -> None:
     from hoprover_env.imitation import collect
     from hoprover_env.policies import load_policy
     from hoprover_env.sb3_agents import env_kwargs
-    cfg, venv, model = _model(args.action_map)
+    cfg, venv, model = _model(args.action_map, args.arch)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
     learner = None
     if args.learner:
@@ -101,7 +103,7 @@ def fit_cmd(args) -> None:
     import torch
     from hoprover_env.imitation import clone
     torch.set_num_threads(1)
-    cfg, venv, model = _model(args.action_map)
+    cfg, venv, model = _model(args.action_map, args.arch)
     data = [np.load(p) for p in args.data]
     obs, act, ret = (np.concatenate([d[k] for d in data]) for k in ("obs", "act", "ret"))
     print(f"{len(obs)} samples from {len(args.data)} collections", flush=True)
@@ -151,6 +153,9 @@ def main(argv=None) -> int:
     f.add_argument("--init", default=None, help="start from a saved clone")
     f.add_argument("--save", default=None)
     f.add_argument("--action-map", default="linear", choices=("linear", "cubic"))
+    for p in (c, f):
+        p.add_argument("--arch", type=int, nargs="+", default=None,
+                       help="hidden layer sizes (default: the config's 256 256)")
     args = ap.parse_args(argv)
     (collect_cmd if args.cmd == "collect" else fit_cmd)(args)
     return 0
