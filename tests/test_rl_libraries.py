@@ -207,11 +207,15 @@ def test_torchrl_ppo_example_learns_as_the_other_libraries_do(torchrl):
     # the example's own settings (those of configs/ppo_hop.yaml): SB3, Tianshou and skrl
     # pass 95 % of the training episodes by about 80 k steps; so does TorchRL since the
     # mean's output layer starts as SB3's (before that, 50-56 % throughout)
+    import torch
     import torchrl_ppo
-    torch = pytest.importorskip("torch")
-    torch.set_num_threads(1)
     lines = []
-    actor = torchrl_ppo.train(81_920, seed=0, log=lines.append)
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)                 # as the example's main does
+    try:
+        actor = torchrl_ppo.train(81_920, seed=0, log=lines.append)
+    finally:
+        torch.set_num_threads(before)        # the rest of the suite keeps its own setting
     last = [float(line.split()[-1]) for line in lines[-5:]]
     assert min(last) >= 0.9, lines[-5:]
     assert torchrl_ppo.judge(actor, 40)["success_rate"] >= 0.95
