@@ -53,8 +53,10 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-def train(config: str, seeds: list[int], out: Path, timesteps: int | None) -> None:
-    """Train (or resume) each seed's run, one after the other, each alone on the machine."""
+def train(config: str, seeds: list[int], out: Path, timesteps: int | None,
+          torch_threads: int | None = None) -> None:
+    """Train (or resume) each seed's run, one after the other, each alone on the machine
+    (`torch_threads`: passed on to train.py, e.g. 1 when two drivers share the cores)."""
     for seed in seeds:
         run = out / f"s{seed}"
         if (run / "done").exists():
@@ -66,6 +68,11 @@ def train(config: str, seeds: list[int], out: Path, timesteps: int | None) -> No
                "--config", config, "--seed", str(seed), "--out", str(run), "--no-progress"]
         if timesteps is not None:
             cmd += ["--timesteps", str(timesteps)]
+        if torch_threads is not None:
+            if trainer:
+                raise SystemExit(f"--torch-threads is train.py's flag; this config's trainer "
+                                 f"({trainer}) does not take it")
+            cmd += ["--torch-threads", str(torch_threads)]
         if (run / "checkpoints").exists():
             cmd.append("--resume")
         print(f"seed {seed}: {' '.join(cmd[1:])}", flush=True)
@@ -179,6 +186,10 @@ def main(argv=None) -> int:
                     help="environment steps per run (default: the config's)")
     ap.add_argument("--out", required=True, help="directory of the runs (OUT/s<seed>)")
     ap.add_argument("--name", default=None, help="the baseline's name (default: OUT's name)")
+    ap.add_argument("--torch-threads", type=int, default=None,
+                    help="torch's CPU threads per run (train.py's flag; give 1 when several "
+                         "drivers share the cores: off-policy updates oversubscribed by two "
+                         "runs of two threads each ran several times slower)")
     ap.add_argument("--score-only", action="store_true", help="no training: score the runs")
     ap.add_argument("--record", action="store_true",
                     help="also write the summary and curves into benchmarks/results/"
@@ -194,7 +205,7 @@ def main(argv=None) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     if not args.score_only:
-        train(args.config, seeds, out, args.timesteps)
+        train(args.config, seeds, out, args.timesteps, args.torch_threads)
     result = score(out, seeds, args.name or out.resolve().name)
     budget = f" --timesteps {args.timesteps}" if args.timesteps else ""
     result["command"] = (f"python -m agents.baselines --config {args.config} --seeds "

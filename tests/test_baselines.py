@@ -51,3 +51,24 @@ def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
                            "--name", "tiny"]) == 0
     assert "done already" in capsys.readouterr().out
     assert json.loads((out / "summary.json").read_text())["summary"] == summary["summary"]
+
+
+def test_torch_threads_reach_train_py_and_a_custom_trainer_refuses_them(tmp_path, monkeypatch):
+    calls = []
+
+    def fake_call(cmd, **kwargs):          # train.py would make the run directory
+        calls.append(cmd)
+        (tmp_path / "runs" / f"s{cmd[cmd.index('--seed') + 1]}").mkdir()
+        return 0
+
+    monkeypatch.setattr(baselines.subprocess, "call", fake_call)
+    cfg = tmp_path / "tiny.yaml"
+    cfg.write_text(yaml.safe_dump(TINY))
+    (tmp_path / "runs").mkdir()
+    baselines.train(str(cfg), [0], tmp_path / "runs", None, torch_threads=1)
+    assert calls[0][calls[0].index("--torch-threads") + 1] == "1"
+    baselines.train(str(cfg), [1], tmp_path / "runs", None)
+    assert "--torch-threads" not in calls[1]
+    cfg.write_text(yaml.safe_dump({**TINY, "trainer": "agents.train_mission"}))
+    with pytest.raises(SystemExit, match="--torch-threads is train.py's flag"):
+        baselines.train(str(cfg), [2], tmp_path / "runs", None, torch_threads=1)
