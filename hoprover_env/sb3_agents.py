@@ -33,9 +33,12 @@ TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize",
 NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
 POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
                "squash_output", "n_critics", "share_features_extractor"}
-PRETRAIN_KEYS = {"expert", "episodes", "epochs", "batch_size", "learning_rate", "seed",
-                 "value_epochs", "log_std", "noise", "dagger_rounds", "dagger_episodes",
-                 "ground_weight", "learning_rate_end"}
+# a config's `pretrain` section: every key it may set, with the value it takes when unset
+PRETRAIN_DEFAULTS = {"expert": "scripted", "episodes": 400, "epochs": 30, "batch_size": 1024,
+                     "learning_rate": 1e-3, "seed": 1, "value_epochs": 10, "log_std": -2.5,
+                     "noise": 0.0, "dagger_rounds": 0, "dagger_episodes": 200,
+                     "ground_weight": 1.0, "learning_rate_end": None}
+PRETRAIN_KEYS = set(PRETRAIN_DEFAULTS)
 EVAL_KEYS = {"freq", "episodes", "seed"}
 CHECKPOINT_KEYS = {"freq", "seconds"}
 ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
@@ -45,6 +48,11 @@ DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed
             "policy": {}, "hyperparams": {}, "pretrain": None,
             "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
             "checkpoint": {"freq": 200_000, "seconds": 300.0}}
+
+
+def pretrain_settings(cfg: dict) -> dict:
+    """The config's pretraining with every unset key at its default."""
+    return {**PRETRAIN_DEFAULTS, **cfg["pretrain"]}
 
 
 class ConfigError(ValueError):

@@ -33,7 +33,8 @@ import yaml
 from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
 from hoprover_env.files import atomic_write, write_json
 from hoprover_env.policies import SB3Policy
-from hoprover_env.sb3_agents import ConfigError, algo_class, env_kwargs, load_config, make_agent
+from hoprover_env.sb3_agents import (ConfigError, algo_class, env_kwargs, load_config,
+                                     make_agent, pretrain_settings)
 from hoprover_env.buildinfo import git_commit
 
 EVAL_FIELDS = ["timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken"]
@@ -82,8 +83,9 @@ def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
         cfg["timesteps"] = 20_000
     if cfg.get("pretrain"):
         pt = dict(cfg["pretrain"])
-        pt.update(episodes=16, epochs=2, value_epochs=min(pt.get("value_epochs", 10), 1))
-        if pt.get("dagger_rounds", 0):
+        pt.update(episodes=16, epochs=2,
+                  value_epochs=min(pretrain_settings(cfg)["value_epochs"], 1))
+        if pt.get("dagger_rounds"):
             pt.update(dagger_rounds=1, dagger_episodes=8)
         cfg["pretrain"] = pt
     return cfg
@@ -117,14 +119,14 @@ def collection_key(cfg: dict, name: str) -> dict:
     expert, its episodes, noise and seed and the env; a DAgger round also on the learner,
     i.e. on everything that shaped it (the whole pretraining, the policy, the
     normalisation and the seed)."""
-    pt = cfg["pretrain"]
+    pt = pretrain_settings(cfg)
     key = {"env_id": cfg["env_id"], "env": cfg.get("env"),
-           "expert": pt.get("expert", "scripted"), "seed": pt.get("seed", 1)}
+           "expert": pt["expert"], "seed": pt["seed"]}
     if name == "demonstrations":
-        key.update(episodes=pt.get("episodes", 400), noise=pt.get("noise", 0.0))
+        key.update(episodes=pt["episodes"], noise=pt["noise"])
     else:
-        key.update(pretrain=pt, policy=cfg.get("policy"), normalize=cfg.get("normalize"),
-                   run_seed=cfg["seed"])
+        key.update(pretrain=cfg["pretrain"], policy=cfg.get("policy"),
+                   normalize=cfg.get("normalize"), run_seed=cfg["seed"])
     return json.loads(json.dumps(key))
 
 
@@ -216,17 +218,15 @@ class Trainer:
         import copy
         from hoprover_env.imitation import clone, collect
         from hoprover_env.policies import load_policy
-        pt = self.cfg["pretrain"]
+        pt = pretrain_settings(self.cfg)
         ekw = env_kwargs(self.cfg)
-        expert = load_policy(pt.get("expert", "scripted"), control_dt=ekw.get("control_dt", 0.5))
+        expert = load_policy(pt["expert"], control_dt=ekw.get("control_dt", 0.5))
         gamma = self.cfg["hyperparams"].get("gamma", 0.99)
-        seed = pt.get("seed", 1)
+        seed = pt["seed"]
         log = lambda m: print(m, file=sys.stderr)  # noqa: E731
-        fit = dict(epochs=pt.get("epochs", 30), batch_size=pt.get("batch_size", 1024),
-                   learning_rate=pt.get("learning_rate", 1e-3),
-                   value_epochs=pt.get("value_epochs", 10), log_std=pt.get("log_std", -2.5),
-                   ground_weight=pt.get("ground_weight", 1.0),
-                   learning_rate_end=pt.get("learning_rate_end"), seed=self.cfg["seed"], log=log)
+        fit = {k: pt[k] for k in ("epochs", "batch_size", "learning_rate", "value_epochs",
+                                  "log_std", "ground_weight", "learning_rate_end")}
+        fit.update(seed=self.cfg["seed"], log=log)
         t_start = time.perf_counter()
         timer = {"collect": 0.0, "fit": 0.0}
 
@@ -236,20 +236,20 @@ class Trainer:
             timer[key] += time.perf_counter() - t0
             return out
 
-        log(f"behaviour cloning: running the expert ({pt.get('episodes', 400)} episodes, "
-            f"then {pt.get('dagger_rounds', 0)} DAgger rounds)")
+        log(f"behaviour cloning: running the expert ({pt['episodes']} episodes, "
+            f"then {pt['dagger_rounds']} DAgger rounds)")
         data = self._collected("demonstrations", lambda: timed(
-            "collect", collect, expert, ekw, pt.get("episodes", 400), seed, gamma,
-            noise=pt.get("noise", 0.0), log=log))
+            "collect", collect, expert, ekw, pt["episodes"], seed, gamma,
+            noise=pt["noise"], log=log))
         log(f"behaviour cloning: {len(data[0])} expert steps in {timer['collect']:.1f} s")
         timed("fit", clone, self.model, self.venv, *data, **fit)
         best = self._score_clone("cloned", None)
-        for k in range(pt.get("dagger_rounds", 0)):
+        for k in range(pt["dagger_rounds"]):
             norm = self.venv
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                                 epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
             new = self._collected(f"dagger_{k + 1}", lambda: timed(
-                "collect", collect, expert, ekw, pt.get("dagger_episodes", 200),
+                "collect", collect, expert, ekw, pt["dagger_episodes"],
                 seed + 1 + k, gamma, executor=learner, log=log))
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
             log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps labelled by the expert")
