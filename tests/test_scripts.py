@@ -250,6 +250,15 @@ def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, c
     assert len(calls) == 3                   # the demonstrations kept, the round again
     with np.load(other / "pretrain" / "demonstrations.npz") as f:
         assert len(f["obs"]) > 0
+    # another discount: the stored returns were discounted with the old one
+    cfg["hyperparams"] = {**cfg.get("hyperparams", {}), "gamma": 0.9}
+    cfg_path = write_cfg(tmp_path, cfg, "gamma.yaml")
+    third = tmp_path / "third"
+    (third / "pretrain").mkdir(parents=True)
+    for f in (other / "pretrain").iterdir():
+        (third / "pretrain" / f.name).write_bytes(f.read_bytes())
+    assert train.main(["--config", cfg_path, "--out", str(third), "--no-progress"]) == 0
+    assert len(calls) == 5                   # demonstrations and the round again
 
 
 def test_evaluate_every_policy_kind(tmp_path, capsys):

@@ -115,13 +115,15 @@ def _score(res: dict) -> tuple:
 
 
 def collection_key(cfg: dict, name: str) -> dict:
-    """What one pretraining collection depends on: the expert's demonstrations on the
-    expert, its episodes, noise and seed and the env; a DAgger round also on the learner,
+    """What one pretraining collection depends on: the expert, its seed, the env and the
+    discount (the stored returns are discounted with it); the demonstrations also on
+    their episodes and noise; a DAgger round also on the learner,
     i.e. on everything that shaped it (the whole pretraining, the policy, the
     normalisation and the seed)."""
     pt = pretrain_settings(cfg)
     key = {"env_id": cfg["env_id"], "env": cfg.get("env"),
-           "expert": pt["expert"], "seed": pt["seed"]}
+           "expert": pt["expert"], "seed": pt["seed"],
+           "gamma": cfg["hyperparams"].get("gamma", 0.99)}
     if name == "demonstrations":
         key.update(episodes=pt["episodes"], noise=pt["noise"])
     else:
