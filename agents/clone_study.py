@@ -32,7 +32,7 @@ CONFIG = "configs/ppo_mpc.yaml"
 BINS = ((0.0, 0.1), (0.1, 0.32), (0.32, 1.01))
 
 
-def _model(action_map: str, arch=None):
+def _model(action_map: str, arch=None, activation: str | None = None):
     from hoprover_env.cli.train import build_env
     from hoprover_env.sb3_agents import load_config, make_agent
     cfg = load_config(CONFIG)
@@ -40,6 +40,8 @@ def _model(action_map: str, arch=None):
     cfg["env"]["action_map"] = action_map
     if arch:
         cfg["policy"]["net_arch"] = list(arch)
+    if activation:
+        cfg["policy"]["activation_fn"] = activation
     venv = build_env(cfg)
     return cfg, venv, make_agent(cfg, venv)
 
@@ -58,11 +60,34 @@ def _load(path, venv, model):
     venv.obs_rms.mean, venv.obs_rms.var = saved["mean"], saved["var"]
 
 
+def load_clone(path, activation: str | None = None, arch=None, name="learner"):
+    """A clone saved by `fit --save`, as a policy (the activation and layers it was
+    fitted with: the pickle holds the weights only)."""
+    cfg, venv, model = _model("linear", arch, activation)
+    _load(path, venv, model)
+    return _policy(cfg, venv, model, name)
+
+
+def export(cfg, venv, model, out) -> None:
+    """The clone as a run directory `load_policy` reads (best_model.zip, its metadata
+    and VecNormalize statistics)."""
+    import json
+    from pathlib import Path
+    from hoprover_env.sb3_agents import env_kwargs
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    model.save(str(out / "best_model.zip"))
+    venv.save(str(out / "best_model_vecnormalize.pkl"))
+    (out / "best_model.json").write_text(json.dumps(
+        {"algo": "ppo", "env_id": "HopRover-v0", "env_kwargs": env_kwargs(cfg),
+         "config": cfg}, indent=1, default=str))
+
+
 def collect_cmd(args) -> None:
     from hoprover_env.imitation import collect
     from hoprover_env.policies import load_policy
     from hoprover_env.sb3_agents import env_kwargs
-    cfg, venv, model = _model(args.action_map, args.arch)
+    cfg, venv, model = _model(args.action_map, args.arch, args.activation)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
     learner = None
     if args.learner:
@@ -99,35 +124,52 @@ def judge(policy) -> dict:
     return out
 
 
-def fit_cmd(args) -> None:
+def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weight=10.0,
+        launch_weight=None, start_weight=None, action_map="linear", arch=None,
+        activation=None, init=None, save=None, export_dir=None, log=print) -> dict:
+    """Fit a clone to the collections `data` (paths), save it (`save`: weights and
+    statistics; `export_dir`: a run directory), and return `judge`'s results."""
     import torch
     from hoprover_env.imitation import clone
     torch.set_num_threads(1)
-    cfg, venv, model = _model(args.action_map, args.arch)
-    data = [np.load(p) for p in args.data]
-    obs, act, ret = (np.concatenate([d[k] for d in data]) for k in ("obs", "act", "ret"))
-    print(f"{len(obs)} samples from {len(args.data)} collections", flush=True)
-    if args.init:
-        _load(args.init, venv, model)
-    mean, var = venv.obs_rms.mean.copy(), venv.obs_rms.var.copy()
-    clone(model, venv, obs, act, ret, epochs=args.epochs, batch_size=args.batch_size,
-          learning_rate=args.lr, learning_rate_end=args.lr_end, value_epochs=0,
-          ground_weight=args.ground_weight, seed=0, log=lambda m: print(m, flush=True))
-    if args.init:       # a warm start keeps the statistics the weights were fitted to
-        venv.obs_rms.mean, venv.obs_rms.var = mean, var
-    if args.save:
-        with open(args.save, "wb") as f:
+    cfg, venv, model = _model(action_map, arch, activation)
+    loaded = [np.load(p) for p in data]
+    obs, act, ret = (np.concatenate([d[k] for d in loaded]) for k in ("obs", "act", "ret"))
+    log(f"{len(obs)} samples from {len(data)} collections")
+    if init:
+        _load(init, venv, model)
+    # a warm start keeps normalising with the statistics its weights were fitted to
+    clone(model, venv, obs, act, ret, epochs=epochs, batch_size=batch_size,
+          learning_rate=lr, learning_rate_end=lr_end, value_epochs=0,
+          ground_weight=ground_weight, launch_weight=launch_weight,
+          start_weight=start_weight, seed=0, log=log, fit_statistics=not init)
+    if save:
+        with open(save, "wb") as f:
             pickle.dump({"policy": model.policy.state_dict(), "mean": venv.obs_rms.mean,
                          "var": venv.obs_rms.var}, f)
-    res = judge(_policy(cfg, venv, model))
-    print(f"validation: success {res['validation_success']:.1%}, median TTRTP "
-          f"{res['validation_median']:.1f} s")
-    print(f"level-v1: success {res['suite_success']:.1%}, median regret "
-          f"{res['median_regret']:.3f}, worst {res['worst_regret']:.3f}")
+    if export_dir:
+        export(cfg, venv, model, export_dir)
+    return judge(_policy(cfg, venv, model))
+
+
+def report(res: dict, log=print) -> None:
+    log(f"validation: success {res['validation_success']:.1%}, median TTRTP "
+        f"{res['validation_median']:.1f} s")
+    log(f"level-v1: success {res['suite_success']:.1%}, median regret "
+        f"{res['median_regret']:.3f}, worst {res['worst_regret']:.3f}")
     for b in res["by_distance"]:
-        print(f"  |d| in [{b['range'][0]}, {b['range'][1]}) m: {b['episodes']} episodes, "
-              f"success {b['success']:.1%}, median regret {b['median_regret']:.3f}, worst "
-              f"{b['worst_regret']:.3f}")
+        log(f"  |d| in [{b['range'][0]}, {b['range'][1]}) m: {b['episodes']} episodes, "
+            f"success {b['success']:.1%}, median regret {b['median_regret']:.3f}, worst "
+            f"{b['worst_regret']:.3f}")
+
+
+def fit_cmd(args) -> None:
+    log = lambda m: print(m, flush=True)       # noqa: E731
+    report(fit(args.data, epochs=args.epochs, batch_size=args.batch_size, lr=args.lr,
+               lr_end=args.lr_end, ground_weight=args.ground_weight,
+               launch_weight=args.launch_weight, start_weight=args.start_weight,
+               action_map=args.action_map, arch=args.arch, activation=args.activation,
+               init=args.init, save=args.save, export_dir=args.export, log=log), log)
 
 
 def main(argv=None) -> int:
@@ -150,12 +192,19 @@ def main(argv=None) -> int:
     f.add_argument("--lr", type=float, default=1e-3)
     f.add_argument("--lr-end", type=float, default=1e-5)
     f.add_argument("--ground-weight", type=float, default=10.0)
+    f.add_argument("--launch-weight", type=float, default=None,
+                   help="weight of the ground samples of the first 20 s (default: ground's)")
+    f.add_argument("--start-weight", type=float, default=None,
+                   help="weight of the first decision at t = 0 (default: the launch's)")
     f.add_argument("--init", default=None, help="start from a saved clone")
+    f.add_argument("--export", default=None, help="also save it as a run directory")
     f.add_argument("--save", default=None)
     f.add_argument("--action-map", default="linear", choices=("linear", "cubic"))
     for p in (c, f):
         p.add_argument("--arch", type=int, nargs="+", default=None,
                        help="hidden layer sizes (default: the config's 256 256)")
+        p.add_argument("--activation", default=None,
+                       help="hidden activation (default: the config's tanh)")
     args = ap.parse_args(argv)
     (collect_cmd if args.cmd == "collect" else fit_cmd)(args)
     return 0

@@ -18,25 +18,33 @@ import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
-from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE
+from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
 from hoprover_env.vector_env import HopRoverVectorEnv
 
 
 def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
-            batch: int = 256, executor=None, noise: float = 0.0, log=None):
+            batch: int = 256, executor=None, noise: float = 0.0, log=None,
+            targets=None):
     """(obs, expert actions, discounted returns) of `episodes` episodes. The actions
     executed are the expert's plus N(0, noise^2), or the `executor`'s (DAgger); the
-    labels are always the expert's. `log(message)` after each batch of episodes."""
+    labels are always the expert's. `targets` (one per episode) replaces the uniform
+    draw from the env's `target_range`. `log(message)` after each batch of episodes."""
     kwargs = {**env_kwargs, **getattr(expert, "env_kwargs", {})}
     kwargs.pop("target_x", None)
     cfg_lo, cfg_hi = kwargs.get("target_range", (-1.0, 1.0))
+    if targets is not None:
+        targets = np.asarray(targets, dtype=np.float64)
+        if len(targets) != episodes:
+            raise ValueError(f"targets has {len(targets)} entries for {episodes} episodes")
     rng = np.random.default_rng(seed)
     all_obs, all_act, all_ret = [], [], []
     for start in range(0, episodes, batch):
         n = min(batch, episodes - start)
         venv = HopRoverVectorEnv(n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-        obs, _ = venv.reset(seed=int(rng.integers(2 ** 31)),
-                            options={"target_x": rng.uniform(cfg_lo, cfg_hi, n)})
+        reset_seed = int(rng.integers(2 ** 31))
+        tx = (rng.uniform(cfg_lo, cfg_hi, n) if targets is None
+              else targets[start:start + n])
+        obs, _ = venv.reset(seed=reset_seed, options={"target_x": tx})
         expert.reset(n)
         if hasattr(expert, "shadowing"):     # mpc: replan from the flights a learner makes
             expert.shadowing = executor is not None
@@ -81,22 +89,31 @@ def collect(expert, env_kwargs: dict, episodes: int, seed: int, gamma: float,
 def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: int = 1024,
           learning_rate: float = 1e-3, value_epochs: int = 10, log_std: float = -2.5,
           seed: int = 0, log=print, ground_weight: float = 1.0,
-          learning_rate_end: float | None = None):
-    """Fit the PPO policy to the expert data; set VecNormalize's statistics from it.
+          learning_rate_end: float | None = None, launch_weight: float | None = None,
+          start_weight: float | None = None, episode_time: float = 600.0,
+          fit_statistics: bool = True):
+    """Fit the PPO policy to the expert data; set VecNormalize's statistics from it
+    (`fit_statistics`; False: normalise with the statistics it has, e.g. those a
+    warm-started policy was fitted with).
 
     `ground_weight` weighs the samples taken out of flight against those in flight (1:
     plain least squares). A planner's flight is an attitude hold, a smooth feedback law
     with large torques that dominates the squared error, while the decisions that set
     where a hop lands are small torques held on the ground (a launch torque 1 % off
     costs up to 3 % of TTRTP; BENCHMARKS.md "A learned policy within 5 %"), so they
-    are weighted up. `learning_rate_end`: the learning rate decays to it along a cosine
+    are weighted up. `launch_weight` (None: `ground_weight`) weighs the ground samples of
+    the first `LAUNCH_S` s, where a launch is held, and `start_weight` (None: as the
+    launch) the first decision from rest at t = 0, which sets the whole hop: a few
+    hundred samples among hundreds of thousands, that a plain fit leaves 4-7 % off.
+    `learning_rate_end`: the learning rate decays to it along a cosine
     over all epochs (None: constant)."""
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     rms = vecnorm.obs_rms
-    rms.mean = obs.mean(axis=0).astype(np.float64)
-    rms.var = obs.var(axis=0).astype(np.float64) + 1e-8
-    rms.count = float(len(obs))
+    if fit_statistics:
+        rms.mean = obs.mean(axis=0).astype(np.float64)
+        rms.var = obs.var(axis=0).astype(np.float64) + 1e-8
+        rms.count = float(len(obs))
     scale = 1.0
     if vecnorm.norm_reward:
         scale = float(np.sqrt(np.var(returns) + vecnorm.epsilon))
@@ -125,13 +142,9 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     if getattr(policy, "share_features_extractor", True) is False:
         actor += list(policy.pi_features_extractor.parameters())
         critic += list(policy.vf_features_extractor.parameters())
-    weight = None
-    if ground_weight != 1.0:
-        if obs.shape[1] != OBS_DIM:
-            raise ValueError(f"ground_weight needs the torque task's observation ({OBS_DIM} "
-                             f"slots), got {obs.shape[1]}")
-        weight = torch.as_tensor(np.where(obs[:, OBS_MODE] > 0.5, 1.0, ground_weight),
-                                 dtype=torch.float32)
+    weight = sample_weights(obs, ground_weight, launch_weight, start_weight, episode_time)
+    if weight is not None:
+        weight = torch.as_tensor(weight, dtype=torch.float32)
     mse = _fit(actor, actor_mean, x, y, epochs, batch_size, learning_rate, rng,
                lambda k, m: log(f"  cloning epoch {k}/{epochs}: action MSE {m:.2e}"),
                weight=weight, learning_rate_end=learning_rate_end)
@@ -143,6 +156,30 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     with torch.no_grad():
         policy.log_std.fill_(log_std)
     policy.set_training_mode(False)
+
+
+LAUNCH_S = 20.0      # the longest launch window of the plan family (planning.UPPER[1])
+
+
+def sample_weights(obs, ground_weight: float = 1.0, launch_weight: float | None = None,
+                   start_weight: float | None = None, episode_time: float = 600.0):
+    """Per-sample weights of the cloning loss (None: all equal); see `clone`.
+    `episode_time` [s] is the env's, which scales the observation's clock."""
+    if launch_weight is None:
+        launch_weight = ground_weight
+    if start_weight is None:
+        start_weight = launch_weight
+    if ground_weight == launch_weight == start_weight == 1.0:
+        return None
+    if obs.shape[1] != OBS_DIM:
+        raise ValueError(f"ground_weight needs the torque task's observation ({OBS_DIM} "
+                         f"slots), got {obs.shape[1]}")
+    ground = obs[:, OBS_MODE] <= 0.5
+    t = obs[:, OBS_TIME] * episode_time
+    w = np.where(ground, ground_weight, 1.0)
+    w[ground & (t < LAUNCH_S)] = launch_weight
+    w[ground & (t == 0.0)] = start_weight
+    return w
 
 
 def _fit(params, forward, x, y, epochs, batch_size, learning_rate, rng, progress=None,

@@ -47,3 +47,35 @@ def test_mpc_replans_from_the_learners_flight_when_shadowing():
     assert alone.decisions == 1
     assert shadow.shadowing and shadow.decisions >= 2
     assert len(obs) == len(act) and np.all(np.abs(act) <= 1.0)
+
+
+def test_sample_weights_single_out_the_launch_and_the_first_decision():
+    from hoprover_env.imitation import sample_weights
+    from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
+    obs = np.zeros((4, OBS_DIM), dtype=np.float32)
+    obs[:, OBS_TIME] = np.array([0.0, 10.0, 30.0, 10.0]) / 600.0
+    obs[3, OBS_MODE] = 1.0                               # the last one in flight
+    assert sample_weights(obs) is None                   # plain least squares
+    # ground_weight alone weighs every ground sample alike, as before launch weights
+    assert sample_weights(obs, 10.0).tolist() == [10.0, 10.0, 10.0, 1.0]
+    assert sample_weights(obs, 10.0, 100.0).tolist() == [100.0, 100.0, 10.0, 1.0]
+    assert sample_weights(obs, 10.0, 100.0, 1000.0).tolist() == [1000.0, 100.0, 10.0, 1.0]
+    # the clock is scaled by the env's episode length
+    assert sample_weights(obs, 10.0, 100.0, episode_time=6000.0).tolist() == \
+        [100.0, 10.0, 10.0, 1.0]
+    with pytest.raises(ValueError, match="observation"):
+        sample_weights(np.zeros((2, 5)), 10.0)
+
+
+def test_collect_runs_the_targets_it_is_given():
+    from hoprover_env.policies import load_policy
+    from hoprover_env.tasks.observation import OBS_DX, OBS_TIME
+    targets = np.array([0.3, -0.7, 0.05])
+    obs, act, _ = collect(load_policy("scripted", control_dt=2.0),
+                          {"control_dt": 2.0, "episode_time": 100.0}, 3, seed=0,
+                          gamma=0.99, targets=targets)
+    first = obs[obs[:, OBS_TIME] == 0.0]
+    # the start is at x = 0: the first observation of each episode is -target
+    assert sorted(first[:, OBS_DX].tolist()) == pytest.approx(sorted(-targets), abs=1e-6)
+    with pytest.raises(ValueError, match="targets"):
+        collect(load_policy("scripted"), {}, 2, seed=0, gamma=0.99, targets=targets)

@@ -1,0 +1,354 @@
+"""A table of best-known plans from HopRover-v0's start state, made alike between
+neighbouring targets, and a network cloned from it (issue 28, "a learned policy within
+5 % of the best-known plan").
+
+Why a table: mpc's demonstrations are not one function of the state. From nearby targets
+its search returns plans of nearly equal cost but of another kind (launch window, flight
+gains, correction windows), and a clone fits their average (BENCHMARKS.md, "A learned
+policy within 5 %"). Here each target of a dense grid gets its plan once, offline, and
+the plans are then made alike wherever that costs (almost) nothing:
+
+1. a search per target (`planning.search`, mpc's budget) on a grid of step `step` m
+   from the band's edge to 1 m on each side, then `passes` continuation passes that
+   search each target again from its two neighbours' plans;
+2. every plan flies the same flight gains (the median of the long hops), with its launch
+   torque, launch window, landing attitude and corrections searched again locally
+   (CMA-ES from the plan) and kept where its TTRTP stays within `keep` of the plan's;
+3. a launch held until liftoff, then no correction windows, each kept per target where
+   TTRTP stays within `tol`.
+
+What is left is a smooth family on long hops (the launch torque and the landing attitude
+change smoothly with the target; one flight law) and two kinds of short hop.
+`PlanTableTeacher` flies a table plan as the search flew it (mpc's plan controller, no
+replanning until the plan's predicted TTRTP has passed, then mpc's replanning), so its
+labels are one function of the state and the target; `collect` records it with DART
+noise or shadowing a learner (DAgger), and `python -m agents.clone_study fit` fits the
+network.
+
+    python -m agents.plan_table build --out runs/plan_table/table.npz
+    python -m agents.plan_table judge --table runs/plan_table/table.npz     # as an agent
+    python -m agents.plan_table collect --table runs/plan_table/table.npz \\
+        --out runs/plan_table/demo_1.npz --noise 0 --seed 1
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+
+from hoprover_env import core
+from hoprover_env.mpc import MPCPolicy
+from hoprover_env.planning import (Problem, evaluate, normal_sampler, plans_from_points,
+                                   search)
+
+BAND_EDGE = 0.1          # m: a target nearer than this to the start is in the band at t = 0
+LONG_HOP = 0.32          # m: beyond, one long hop (clone_study.BINS)
+KP, KD = 2, 3            # the flight gains' coordinates in the search space
+LAUNCH_WINDOW = 1        # the launch window's coordinate (1: the longest, 20 s)
+CORRECTION_LENGTHS = (9, 6)   # the correction windows' duration coordinates
+
+
+def start_state():
+    """(state row, parameters) of HopRover-v0's start: at rest on a face at x = 0."""
+    from hoprover_env.vector_env import HopRoverVectorEnv
+    venv = HopRoverVectorEnv(1, control_dt=0.5)
+    venv.reset(seed=0, options={"target_x": np.array([0.5])})
+    return np.array(venv.S[0, :core.S_T]), venv.params[0]
+
+
+def grid(step: float) -> np.ndarray:
+    """Targets from the band's edge to 1 m on both sides, `step` m apart."""
+    pos = np.arange(BAND_EDGE + step / 2, 1.0 + 1e-9, step)
+    return np.concatenate([-pos[::-1], pos])
+
+
+def _problems(targets, start, params):
+    return [Problem(state=start, target=float(x), params=params) for x in targets]
+
+
+def sweep(step: float, budget: int, passes: int, log=print) -> dict:
+    """Step 1: the best plan found per grid target, then continuation passes."""
+    start, params = start_state()
+    targets = grid(step)
+    probs = _problems(targets, start, params)
+    n = len(probs)
+    t0 = time.perf_counter()
+    res = search(probs, budget=budget, seed=list(range(1, n + 1)))
+    u, ttrtp = res.u.copy(), res.ttrtp.copy()
+    log(f"searched {n} targets in {time.perf_counter() - t0:.0f} s "
+        f"({int(np.isnan(ttrtp).sum())} without a plan)")
+    for p in range(passes):
+        improved = 0
+        for shift in (1, -1):       # warm from the neighbour on one side, then the other
+            r = search(probs, budget=max(budget // 6, 200), starts=1, sigma=0.03,
+                       warm=np.roll(u, shift, axis=0),
+                       seed=[10000 * (p + 1) + shift + i for i in range(n)])
+            better = np.nan_to_num(r.ttrtp, nan=np.inf) < np.nan_to_num(ttrtp, nan=np.inf)
+            u[better], ttrtp[better] = r.u[better], r.ttrtp[better]
+            improved += int(better.sum())
+        log(f"continuation pass {p + 1}: {improved} plans improved")
+    return {"targets": targets, "u": u, "ttrtp": ttrtp, "start": start}
+
+
+def _local_search(probs, u, cost, ttrtp, free, budget, seed=1000):
+    """CMA-ES per problem over the coordinates `free` only, from the rows of `u`; every
+    population of every problem in one batch. Returns improved (u, cost, ttrtp)."""
+    import cma
+    u, cost, ttrtp = u.copy(), cost.copy(), ttrtp.copy()
+    es = [cma.CMAEvolutionStrategy(list(u[i, free]), 0.02, {
+        "bounds": [0.0, 1.0], "popsize": 10, "seed": math.nan,
+        "randn": normal_sampler(seed + i), "maxfevals": budget, "verbose": -9,
+        "tolfun": 1e-5, "tolx": 1e-7}) for i in range(len(probs))]
+    alive = list(range(len(probs)))
+    while alive:
+        asks = {i: np.array(es[i].ask()) for i in alive}
+        which = np.concatenate([np.full(len(asks[i]), i) for i in alive])
+        cand = u[which].copy()
+        cand[:, free] = np.concatenate([asks[i] for i in alive])
+        c, t = evaluate(probs, which, cand)
+        at, nxt = 0, []
+        for i in alive:
+            m = len(asks[i])
+            k = at + int(np.argmin(c[at:at + m]))
+            if c[k] < cost[i]:
+                cost[i], ttrtp[i], u[i] = c[k], t[k], cand[k]
+            es[i].tell(list(asks[i]), list(c[at:at + m]))
+            at += m
+            if not es[i].stop():
+                nxt.append(i)
+        alive = nxt
+    return u, cost, ttrtp
+
+
+def make_alike(table: dict, local_budget: int, keep: float, tol: float, log=print) -> dict:
+    """Steps 2 and 3 (module docstring)."""
+    start, params = start_state()
+    targets, u0, t0 = table["targets"], table["u"], table["ttrtp"]
+    probs = _problems(targets, start, params)
+    n = len(probs)
+    long_hop = np.abs(targets) > LONG_HOP
+    gains = np.median(u0[long_hop][:, [KP, KD]], axis=0)
+    u = u0.copy()
+    u[:, [KP, KD]] = gains
+    cost, ttrtp = evaluate(probs, np.arange(n), u)
+    free = [k for k in range(u.shape[1]) if k not in (KP, KD)]
+    u, cost, ttrtp = _local_search(probs, u, cost, ttrtp, free, local_budget)
+    kept = np.isfinite(ttrtp) & (ttrtp <= t0 * (1 + keep))
+    u = np.where(kept[:, None], u, u0)
+    ttrtp = np.where(kept, ttrtp, t0)
+    log(f"common flight gains: kept for {kept.sum()}/{n} targets ({kept[long_hop].sum()}/"
+        f"{long_hop.sum()} long hops)")
+
+    def simplify(label, change):
+        nonlocal u, ttrtp
+        v = u.copy()
+        change(v)
+        _, tv = evaluate(probs, np.arange(n), v)
+        ok = np.isfinite(tv) & (tv <= ttrtp * (1 + tol))
+        u[ok], ttrtp[ok] = v[ok], tv[ok]
+        log(f"{label}: kept for {ok.sum()}/{n} targets")
+    simplify("launch held until liftoff", lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
+    for k in CORRECTION_LENGTHS:
+        simplify(f"no correction window (coordinate {k})", lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
+    r = ttrtp / t0
+    log(f"TTRTP against step 1's plans: median {np.median(r):.4f}, worst {r.max():.4f}")
+    return {**table, "u": u, "ttrtp": ttrtp}
+
+
+class PlanTableTeacher(MPCPolicy):
+    """mpc whose plan from the start state comes from a table (`build`): the plan of the
+    nearest grid target, or with `interpolate` the linear blend of its two neighbours'
+    points in the search space. A rover in the band at the start gets no plan (zero
+    torque); a table plan is flown without replanning until its predicted TTRTP plus
+    `grace` s has passed, then mpc replans (with `budget` candidates) as it would."""
+
+    def __init__(self, table: dict, interpolate: bool = False, grace: float = 5.0, **kw):
+        super().__init__(**kw)
+        self.targets, self.points, self.ttrtp = table["targets"], table["u"], table["ttrtp"]
+        self.start = np.asarray(table["start"])
+        self.interpolate, self.grace = interpolate, grace
+        self.name = "plan-table"
+        self.table_plans = 0
+        self.until = []
+
+    def reset(self, n: int, first_episode: int = 0) -> None:
+        super().reset(n, first_episode)
+        self.until = [-math.inf] * n
+
+    def point(self, target: float) -> np.ndarray:
+        side = np.sign(self.targets) == np.sign(target)
+        xs, us = self.targets[side], self.points[side]
+        k = int(np.searchsorted(xs, target))
+        if k == 0 or k == len(xs) or not self.interpolate:
+            return us[int(np.argmin(np.abs(xs - target)))]
+        w = (target - xs[k - 1]) / (xs[k] - xs[k - 1])
+        return (1.0 - w) * us[k - 1] + w * us[k]
+
+    def needs_plan(self, i: int, S: np.ndarray) -> bool:
+        if float(S[core.S_T]) < self.until[i]:
+            return False
+        return super().needs_plan(i, S)
+
+    def _replan(self, todo: list, venv, S, params) -> None:
+        rest = []
+        for i in todo:
+            s, p, target = S[i], params[i], float(venv.targets[i])
+            if s[core.S_T] != 0.0 or not np.array_equal(s[:core.S_T], self.start):
+                rest.append(i)
+                continue
+            self.plans[i] = None
+            if abs(target - s[0]) > p.half_width + p.band_half_width:
+                self.plans[i] = plans_from_points(self.point(target)[None],
+                                                  np.array([np.sign(target - s[0])]),
+                                                  np.array([0.0]), p)[0]
+                self.until[i] = float(np.interp(target, self.targets, self.ttrtp)) + self.grace
+                self.replanned_aloft[i] = False
+                self.table_plans += 1
+        if rest:
+            super()._replan(rest, venv, S, params)
+
+
+def load_table(path) -> dict:
+    with np.load(path) as f:
+        return {k: f[k] for k in ("targets", "u", "ttrtp", "start")}
+
+
+def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=None,
+                  budget: int = 500, log=print):
+    """(obs, labels, returns) of the teacher on every grid target plus `in_band` targets
+    drawn in the band, with DART noise `noise` or with `learner` driving (DAgger)."""
+    from hoprover_env.imitation import collect
+    teacher = PlanTableTeacher(table, budget=budget)
+    rng = np.random.default_rng(seed)
+    targets = np.concatenate([table["targets"], rng.uniform(-BAND_EDGE, BAND_EDGE, in_band)])
+    return collect(teacher, {"control_dt": 0.5}, len(targets), seed, 0.995, batch=360,
+                   noise=noise, executor=learner, targets=targets, log=log)
+
+
+PIPELINE_KEYS = {"table", "in_band", "demonstrations", "fit", "dagger"}
+
+
+def _save_npz(path, **arrays) -> None:
+    import io
+    from hoprover_env.files import atomic_write
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    atomic_write(path, buf.getvalue())
+
+
+def pipeline(config_path, out, log=print) -> dict:
+    """The whole recipe from one config (configs/plan_clone.yaml): the table, the
+    demonstrations, a fit, and DAgger rounds each followed by a fit on everything so
+    far; the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
+    and judged into OUT/judge.json. Each table and collection is kept in OUT, so a
+    killed run starts again from its last finished one."""
+    import json
+    from pathlib import Path
+    import yaml
+    from agents.clone_study import fit, load_clone, report
+    from hoprover_env.files import write_json
+    cfg = yaml.safe_load(Path(config_path).read_text())
+    unknown = set(cfg) - PIPELINE_KEYS
+    if unknown:
+        raise SystemExit(f"error: unknown config key(s) {sorted(unknown)} in {config_path}; "
+                         f"expected {sorted(PIPELINE_KEYS)}")
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    tpath = out / "table.npz"
+    if not tpath.exists():
+        t = cfg.get("table", {})
+        _save_npz(tpath, **make_alike(sweep(t.get("step", 0.003), t.get("budget", 3000),
+                                            t.get("passes", 3), log),
+                                      t.get("local_budget", 300), t.get("keep", 0.005),
+                                      t.get("tol", 0.001), log))
+    table = load_table(tpath)
+    in_band = cfg.get("in_band", 120)
+    data = []
+    for d in cfg["demonstrations"]:
+        path = out / f"demo_noise{d['noise']}_seed{d['seed']}.npz"
+        if not path.exists():
+            obs, act, ret = collect_table(table, d["noise"], d["seed"], in_band, log=log)
+            _save_npz(path, obs=obs, act=act, ret=ret)
+        data.append(str(path))
+    fcfg = dict(cfg.get("fit", {}))
+    activation, arch = fcfg.pop("activation", None), fcfg.pop("net_arch", None)
+    rounds = cfg.get("dagger") or []
+    res = None
+    for r in range(len(rounds) + 1):
+        last = r == len(rounds)
+        clone_path = out / f"clone_{r}.pkl"
+        res = fit(data, activation=activation, arch=arch, save=str(clone_path),
+                  export_dir=str(out) if last else None, log=log, **fcfg)
+        log(f"clone {r} ({len(data)} collections):")
+        report(res, log)
+        write_json(out / f"judge_{r}.json", res)
+        if last:
+            break
+        path = out / f"dagger_{r + 1}_seed{rounds[r]['seed']}.npz"
+        if not path.exists():
+            learner = load_clone(str(clone_path), activation, arch)
+            obs, act, ret = collect_table(table, 0.0, rounds[r]["seed"], in_band, learner,
+                                          log=log)
+            _save_npz(path, obs=obs, act=act, ret=ret)
+        data.append(str(path))
+    write_json(out / "judge.json", res)
+    return json.loads(json.dumps(res))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("build", help="search the grid and make the plans alike")
+    b.add_argument("--out", required=True)
+    b.add_argument("--step", type=float, default=0.003)
+    b.add_argument("--budget", type=int, default=3000)
+    b.add_argument("--passes", type=int, default=3)
+    b.add_argument("--local-budget", type=int, default=300)
+    b.add_argument("--keep", type=float, default=0.005)
+    b.add_argument("--tol", type=float, default=0.001)
+    j = sub.add_parser("judge", help="the table itself as an agent, on the suite")
+    j.add_argument("--table", required=True)
+    j.add_argument("--interpolate", action="store_true")
+    c = sub.add_parser("collect", help="the teacher's demonstrations or DAgger labels")
+    c.add_argument("--table", required=True)
+    c.add_argument("--out", required=True)
+    c.add_argument("--noise", type=float, default=0.0)
+    c.add_argument("--seed", type=int, required=True)
+    c.add_argument("--in-band", type=int, default=120)
+    c.add_argument("--learner", default=None, help="a clone saved by clone_study fit --save")
+    c.add_argument("--activation", default="relu", help="the learner's activation")
+    p = sub.add_parser("pipeline", help="table, demonstrations, fits and DAgger rounds")
+    p.add_argument("--config", default="configs/plan_clone.yaml")
+    p.add_argument("--out", required=True)
+    args = ap.parse_args(argv)
+    log = lambda m: print(m, flush=True)       # noqa: E731
+    if args.cmd == "pipeline":
+        pipeline(args.config, args.out, log)
+    elif args.cmd == "build":
+        table = make_alike(sweep(args.step, args.budget, args.passes, log),
+                           args.local_budget, args.keep, args.tol, log)
+        _save_npz(args.out, **table)
+        log(f"{len(table['targets'])} plans -> {args.out}")
+    elif args.cmd == "judge":
+        import json
+        from agents.clone_study import judge
+        teacher = PlanTableTeacher(load_table(args.table), interpolate=args.interpolate)
+        log(json.dumps(judge(teacher), indent=1))
+    else:
+        learner = None
+        if args.learner:
+            from agents.clone_study import load_clone
+            learner = load_clone(args.learner, args.activation)
+        t0 = time.perf_counter()
+        obs, act, ret = collect_table(load_table(args.table), args.noise, args.seed,
+                                      args.in_band, learner, log=log)
+        _save_npz(args.out, obs=obs, act=act, ret=ret)
+        log(f"{len(obs)} steps in {time.perf_counter() - t0:.0f} s -> {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
