@@ -15,7 +15,11 @@ the plans are then made alike wherever that costs (almost) nothing:
    torque, launch window, landing attitude and corrections searched again locally
    (CMA-ES from the plan) and kept where its TTRTP stays within `keep` of the plan's;
 3. a launch held until liftoff, then no correction windows, each kept per target where
-   TTRTP stays within `tol`.
+   TTRTP stays within `tol`;
+4. the short hops on the negative side flown as the mirror images of the positive
+   side's where that costs at most `mirror_tol`: the search alternates between two kinds
+   of short hop (a push, a gentle tip) three times on one side and once on the other,
+   and the physics is symmetric (mirrored long hops take the same time).
 
 What is left is a smooth family on long hops (the launch torque and the landing attitude
 change smoothly with the target; one flight law) and two kinds of short hop.
@@ -49,6 +53,7 @@ LONG_HOP = 0.32          # m: beyond, one long hop (clone_study.BINS)
 KP, KD = 2, 3            # the flight gains' coordinates in the search space
 LAUNCH_WINDOW = 1        # the launch window's coordinate (1: the longest, 20 s)
 CORRECTION_LENGTHS = (9, 6)   # the correction windows' duration coordinates
+SIGNED = [4, 7, 10]      # landing attitude and correction torques: [0, 1] maps to [-a, a]
 
 
 def start_state():
@@ -123,8 +128,9 @@ def _local_search(probs, u, cost, ttrtp, free, budget, seed=1000):
     return u, cost, ttrtp
 
 
-def make_alike(table: dict, local_budget: int, keep: float, tol: float, log=print) -> dict:
-    """Steps 2 and 3 (module docstring)."""
+def make_alike(table: dict, local_budget: int, keep: float, tol: float,
+               mirror_tol: float = 0.03, log=print) -> dict:
+    """Steps 2 to 4 (module docstring)."""
     start, params = start_state()
     targets, u0, t0 = table["targets"], table["u"], table["ttrtp"]
     probs = _problems(targets, start, params)
@@ -153,8 +159,23 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float, log=prin
     simplify("launch held until liftoff", lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
     for k in CORRECTION_LENGTHS:
         simplify(f"no correction window (coordinate {k})", lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
-    r = ttrtp / t0
+    out = mirror_short_hops({**table, "u": u, "ttrtp": ttrtp}, mirror_tol, log)
+    r = out["ttrtp"] / t0
     log(f"TTRTP against step 1's plans: median {np.median(r):.4f}, worst {r.max():.4f}")
+    return out
+
+
+def mirror_short_hops(table: dict, mirror_tol: float, log=print) -> dict:
+    """Step 4 (module docstring). The grid is symmetric: row k mirrors row n-1-k."""
+    start, params = start_state()
+    targets, u, ttrtp = table["targets"], table["u"].copy(), table["ttrtp"].copy()
+    mirror = u[::-1].copy()
+    mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
+    _, tm = evaluate(_problems(targets, start, params), np.arange(len(targets)), mirror)
+    short = (targets < 0) & (np.abs(targets) <= LONG_HOP)
+    ok = short & np.isfinite(tm) & (tm <= ttrtp * (1 + mirror_tol))
+    u[ok], ttrtp[ok] = mirror[ok], tm[ok]
+    log(f"negative short hops mirrored: {ok.sum()}/{short.sum()}")
     return {**table, "u": u, "ttrtp": ttrtp}
 
 
@@ -228,7 +249,7 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
-PIPELINE_KEYS = {"table", "in_band", "demonstrations", "fit", "dagger"}
+PIPELINE_KEYS = {"table", "in_band", "demonstrations", "fit", "dagger", "dagger_fit"}
 
 
 def _save_npz(path, **arrays) -> None:
@@ -242,7 +263,8 @@ def _save_npz(path, **arrays) -> None:
 def pipeline(config_path, out, log=print) -> dict:
     """The whole recipe from one config (configs/plan_clone.yaml): the table, the
     demonstrations, a fit, and DAgger rounds each followed by a fit on everything so
-    far; the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
+    far (warm-started from the clone before it, with `dagger_fit` overriding `fit`'s
+    settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json. Each table and collection is kept in OUT, so a
     killed run starts again from its last finished one."""
     import json
@@ -263,7 +285,8 @@ def pipeline(config_path, out, log=print) -> dict:
         _save_npz(tpath, **make_alike(sweep(t.get("step", 0.003), t.get("budget", 3000),
                                             t.get("passes", 3), log),
                                       t.get("local_budget", 300), t.get("keep", 0.005),
-                                      t.get("tol", 0.001), log))
+                                      t.get("tol", 0.001), t.get("mirror_tol", 0.03),
+                                      log=log))
     table = load_table(tpath)
     in_band = cfg.get("in_band", 120)
     data = []
@@ -280,8 +303,10 @@ def pipeline(config_path, out, log=print) -> dict:
     for r in range(len(rounds) + 1):
         last = r == len(rounds)
         clone_path = out / f"clone_{r}.pkl"
+        settings = fcfg if r == 0 else {**fcfg, **cfg.get("dagger_fit", {})}
         res = fit(data, activation=activation, arch=arch, save=str(clone_path),
-                  export_dir=str(out) if last else None, log=log, **fcfg)
+                  init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
+                  export_dir=str(out) if last else None, log=log, **settings)
         log(f"clone {r} ({len(data)} collections):")
         report(res, log)
         write_json(out / f"judge_{r}.json", res)
@@ -309,6 +334,7 @@ def main(argv=None) -> int:
     b.add_argument("--local-budget", type=int, default=300)
     b.add_argument("--keep", type=float, default=0.005)
     b.add_argument("--tol", type=float, default=0.001)
+    b.add_argument("--mirror-tol", type=float, default=0.03)
     j = sub.add_parser("judge", help="the table itself as an agent, on the suite")
     j.add_argument("--table", required=True)
     j.add_argument("--interpolate", action="store_true")
@@ -329,7 +355,7 @@ def main(argv=None) -> int:
         pipeline(args.config, args.out, log)
     elif args.cmd == "build":
         table = make_alike(sweep(args.step, args.budget, args.passes, log),
-                           args.local_budget, args.keep, args.tol, log)
+                           args.local_budget, args.keep, args.tol, args.mirror_tol, log)
         _save_npz(args.out, **table)
         log(f"{len(table['targets'])} plans -> {args.out}")
     elif args.cmd == "judge":

@@ -23,8 +23,11 @@ def test_the_grid_starts_beyond_the_band_on_both_sides():
 def test_plans_made_alike_cost_at_most_the_tolerances(table):
     raw, alike = table
     assert np.all(np.isfinite(raw["ttrtp"]))
-    # step 2 keeps a change within 0.5 %, step 3's three changes each within 0.1 %
-    assert np.all(alike["ttrtp"] <= raw["ttrtp"] * 1.005 * 1.001 ** 3 + 1e-9)
+    # step 2 keeps a change within 0.5 %, step 3's three changes each within 0.1 %, and
+    # step 4 mirrors a negative short hop within 3 %
+    neg_short = (alike["targets"] < 0) & (np.abs(alike["targets"]) <= pt.LONG_HOP)
+    limit = raw["ttrtp"] * 1.005 * 1.001 ** 3 * np.where(neg_short, 1.03, 1.0)
+    assert np.all(alike["ttrtp"] <= limit + 1e-9)
     long_hop = np.abs(alike["targets"]) > pt.LONG_HOP
     gains = alike["u"][long_hop][:, [pt.KP, pt.KD]]
     kept = np.all(gains == np.median(raw["u"][long_hop][:, [pt.KP, pt.KD]], axis=0), axis=1)
@@ -33,6 +36,21 @@ def test_plans_made_alike_cost_at_most_the_tolerances(table):
     # a plan that kept its own gains is the raw one, apart from step 3's simplifications
     assert np.all(kept | (alike["u"][long_hop][:, [pt.KP, pt.KD]] ==
                           raw["u"][long_hop][:, [pt.KP, pt.KD]]).all(axis=1))
+
+
+def test_mirrored_plans_take_the_same_time_on_level_ground(table):
+    # the physics is symmetric: a plan mirrored (launch direction, landing attitude and
+    # correction torques) to the other side reaches the mirrored target as fast
+    _, alike = table
+    mirrored = pt.mirror_short_hops({**alike, "targets": alike["targets"]}, 0.0,
+                                    log=lambda m: None)
+    from hoprover_env.planning import evaluate
+    start, params = pt.start_state()
+    u = alike["u"][::-1].copy()
+    u[:, pt.SIGNED] = 1.0 - u[:, pt.SIGNED]
+    _, t = evaluate(pt._problems(alike["targets"], start, params), np.arange(6), u)
+    np.testing.assert_allclose(t, alike["ttrtp"][::-1], rtol=1e-9)
+    assert np.all(mirrored["ttrtp"] <= alike["ttrtp"] + 1e-9)
 
 
 def test_the_teacher_flies_the_table_plans(table):
@@ -46,3 +64,36 @@ def test_the_teacher_flies_the_table_plans(table):
     for r, want in zip(res[:2], alike["ttrtp"][[1, 4]]):
         assert r.success and r.ttrtp == pytest.approx(want, abs=0.25)
     assert res[2].success and res[2].ttrtp == 5.0          # in the band: do nothing
+
+
+def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
+    import yaml
+    import agents.clone_study as cs
+    from hoprover_env.policies import load_policy
+    judged = []
+    # the real judge runs 300 episodes per fit: a stand-in that records the call
+    monkeypatch.setattr(cs, "judge", lambda policy: judged.append(policy) or {
+        "validation_success": 0.0, "validation_median": float("nan"), "suite_success": 0.0,
+        "median_regret": float("inf"), "worst_regret": float("inf"), "by_distance": []})
+    cfg = {"table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
+           "in_band": 2, "demonstrations": [{"noise": 0.0, "seed": 1}],
+           "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1},
+           "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4}}
+    path = tmp_path / "plan.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    out = tmp_path / "run"
+    pt.pipeline(path, out, log=lambda m: None)
+    assert len(judged) == 2                               # the clone, then after DAgger
+    kept = sorted(p.name for p in out.glob("*.npz"))
+    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "table.npz"]
+    policy = load_policy(str(out))
+    assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
+    stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
+    calls = []
+    monkeypatch.setattr(pt, "collect_table", lambda *a, **k: calls.append(a))
+    monkeypatch.setattr(pt, "sweep", lambda *a, **k: calls.append(a))
+    pt.pipeline(path, out, log=lambda m: None)            # again: nothing collected
+    assert calls == [] and stamps == {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
+    path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))
+    with pytest.raises(SystemExit, match="fit_typo"):
+        pt.pipeline(path, out, log=lambda m: None)
