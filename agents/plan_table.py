@@ -43,13 +43,21 @@ import time
 
 import numpy as np
 
+from agents.clone_study import BINS
 from hoprover_env import core
+from hoprover_env.files import write_npz
 from hoprover_env.mpc import MPCPolicy
-from hoprover_env.planning import (Problem, evaluate, normal_sampler, plans_from_points,
-                                   search)
+from hoprover_env.params import RoverParams
+from hoprover_env.planning import (CONTROL_DT, Problem, evaluate, normal_sampler,
+                                   plans_from_points, search)
 
-BAND_EDGE = 0.1          # m: a target nearer than this to the start is in the band at t = 0
-LONG_HOP = 0.32          # m: beyond, one long hop (clone_study.BINS)
+# m: a target nearer than this to the start (the rover's half-width plus the band's) is
+# in the band at t = 0
+BAND_EDGE = RoverParams().half_width + RoverParams().band_half_width
+LONG_HOP = BINS[-1][0]   # m: beyond, one long hop
+# `build`'s settings (module docstring), also the defaults of the pipeline's `table`
+TABLE_DEFAULTS = {"step": 0.003, "budget": 3000, "passes": 3, "local_budget": 300,
+                  "keep": 0.005, "tol": 0.001, "mirror_tol": 0.03}
 KP, KD = 2, 3            # the flight gains' coordinates in the search space
 LAUNCH_WINDOW = 1        # the launch window's coordinate (1: the longest, 20 s)
 CORRECTION_LENGTHS = (9, 6)   # the correction windows' duration coordinates
@@ -159,19 +167,21 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float,
     simplify("launch held until liftoff", lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
     for k in CORRECTION_LENGTHS:
         simplify(f"no correction window (coordinate {k})", lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
-    out = mirror_short_hops({**table, "u": u, "ttrtp": ttrtp}, mirror_tol, log)
+    out = mirror_short_hops({**table, "u": u, "ttrtp": ttrtp}, mirror_tol, log, probs)
     r = out["ttrtp"] / t0
     log(f"TTRTP against step 1's plans: median {np.median(r):.4f}, worst {r.max():.4f}")
     return out
 
 
-def mirror_short_hops(table: dict, mirror_tol: float, log=print) -> dict:
-    """Step 4 (module docstring). The grid is symmetric: row k mirrors row n-1-k."""
-    start, params = start_state()
+def mirror_short_hops(table: dict, mirror_tol: float, log=print, probs=None) -> dict:
+    """Step 4 (module docstring). The grid is symmetric: row k mirrors row n-1-k.
+    `probs`: the table's planning problems, if the caller has them already."""
     targets, u, ttrtp = table["targets"], table["u"].copy(), table["ttrtp"].copy()
+    if probs is None:
+        probs = _problems(targets, *start_state())
     mirror = u[::-1].copy()
     mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
-    _, tm = evaluate(_problems(targets, start, params), np.arange(len(targets)), mirror)
+    _, tm = evaluate(probs, np.arange(len(targets)), mirror)
     short = (targets < 0) & (np.abs(targets) <= LONG_HOP)
     ok = short & np.isfinite(tm) & (tm <= ttrtp * (1 + mirror_tol))
     u[ok], ttrtp[ok] = mirror[ok], tm[ok]
@@ -232,6 +242,13 @@ class PlanTableTeacher(MPCPolicy):
             super()._replan(rest, venv, S, params)
 
 
+def build(settings: dict, log=print) -> dict:
+    """Steps 1 to 4 with `settings` (the keys of TABLE_DEFAULTS)."""
+    return make_alike(sweep(settings["step"], settings["budget"], settings["passes"], log),
+                      settings["local_budget"], settings["keep"], settings["tol"],
+                      settings["mirror_tol"], log)
+
+
 def load_table(path) -> dict:
     with np.load(path) as f:
         return {k: f[k] for k in ("targets", "u", "ttrtp", "start")}
@@ -245,19 +262,11 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
     teacher = PlanTableTeacher(table, budget=budget)
     rng = np.random.default_rng(seed)
     targets = np.concatenate([table["targets"], rng.uniform(-BAND_EDGE, BAND_EDGE, in_band)])
-    return collect(teacher, {"control_dt": 0.5}, len(targets), seed, 0.995, batch=360,
+    return collect(teacher, {"control_dt": CONTROL_DT}, len(targets), seed, 0.995, batch=360,
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
 PIPELINE_KEYS = {"table", "in_band", "demonstrations", "fit", "dagger", "dagger_fit"}
-
-
-def _save_npz(path, **arrays) -> None:
-    import io
-    from hoprover_env.files import atomic_write
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    atomic_write(path, buf.getvalue())
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -267,7 +276,6 @@ def pipeline(config_path, out, log=print) -> dict:
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json. Each table and collection is kept in OUT, so a
     killed run starts again from its last finished one."""
-    import json
     from pathlib import Path
     import yaml
     from agents.clone_study import fit, load_clone, report
@@ -281,12 +289,7 @@ def pipeline(config_path, out, log=print) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     tpath = out / "table.npz"
     if not tpath.exists():
-        t = cfg.get("table", {})
-        _save_npz(tpath, **make_alike(sweep(t.get("step", 0.003), t.get("budget", 3000),
-                                            t.get("passes", 3), log),
-                                      t.get("local_budget", 300), t.get("keep", 0.005),
-                                      t.get("tol", 0.001), t.get("mirror_tol", 0.03),
-                                      log=log))
+        write_npz(tpath, **build({**TABLE_DEFAULTS, **cfg.get("table", {})}, log))
     table = load_table(tpath)
     in_band = cfg.get("in_band", 120)
     data = []
@@ -294,7 +297,7 @@ def pipeline(config_path, out, log=print) -> dict:
         path = out / f"demo_noise{d['noise']}_seed{d['seed']}.npz"
         if not path.exists():
             obs, act, ret = collect_table(table, d["noise"], d["seed"], in_band, log=log)
-            _save_npz(path, obs=obs, act=act, ret=ret)
+            write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     fcfg = dict(cfg.get("fit", {}))
     activation, arch = fcfg.pop("activation", None), fcfg.pop("net_arch", None)
@@ -317,10 +320,10 @@ def pipeline(config_path, out, log=print) -> dict:
             learner = load_clone(str(clone_path), activation, arch)
             obs, act, ret = collect_table(table, 0.0, rounds[r]["seed"], in_band, learner,
                                           log=log)
-            _save_npz(path, obs=obs, act=act, ret=ret)
+            write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     write_json(out / "judge.json", res)
-    return json.loads(json.dumps(res))
+    return res
 
 
 def main(argv=None) -> int:
@@ -328,13 +331,8 @@ def main(argv=None) -> int:
     sub = ap.add_subparsers(dest="cmd", required=True)
     b = sub.add_parser("build", help="search the grid and make the plans alike")
     b.add_argument("--out", required=True)
-    b.add_argument("--step", type=float, default=0.003)
-    b.add_argument("--budget", type=int, default=3000)
-    b.add_argument("--passes", type=int, default=3)
-    b.add_argument("--local-budget", type=int, default=300)
-    b.add_argument("--keep", type=float, default=0.005)
-    b.add_argument("--tol", type=float, default=0.001)
-    b.add_argument("--mirror-tol", type=float, default=0.03)
+    for key, value in TABLE_DEFAULTS.items():
+        b.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value)
     j = sub.add_parser("judge", help="the table itself as an agent, on the suite")
     j.add_argument("--table", required=True)
     j.add_argument("--interpolate", action="store_true")
@@ -354,9 +352,8 @@ def main(argv=None) -> int:
     if args.cmd == "pipeline":
         pipeline(args.config, args.out, log)
     elif args.cmd == "build":
-        table = make_alike(sweep(args.step, args.budget, args.passes, log),
-                           args.local_budget, args.keep, args.tol, args.mirror_tol, log)
-        _save_npz(args.out, **table)
+        table = build({key: getattr(args, key) for key in TABLE_DEFAULTS}, log)
+        write_npz(args.out, **table)
         log(f"{len(table['targets'])} plans -> {args.out}")
     elif args.cmd == "judge":
         import json
@@ -371,7 +368,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         obs, act, ret = collect_table(load_table(args.table), args.noise, args.seed,
                                       args.in_band, learner, log=log)
-        _save_npz(args.out, obs=obs, act=act, ret=ret)
+        write_npz(args.out, obs=obs, act=act, ret=ret)
         log(f"{len(obs)} steps in {time.perf_counter() - t0:.0f} s -> {args.out}")
     return 0
 

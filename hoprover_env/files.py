@@ -41,6 +41,15 @@ def _nan_to_none(obj):
     return obj
 
 
+def write_npz(path: str | os.PathLike, **arrays) -> None:
+    """numpy arrays as one .npz, atomically (a killed writer leaves no half archive)."""
+    import io
+    import numpy as np
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    atomic_write(path, buf.getvalue())
+
+
 def write_json(path: str | os.PathLike, obj) -> None:
     """Strict JSON, atomically: a statistic with no value (NaN, e.g. the median TTRTP of a
     policy that never succeeded) is written as null, which every JSON parser accepts."""

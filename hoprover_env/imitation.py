@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
+from hoprover_env.planning import UPPER
 from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
 from hoprover_env.vector_env import HopRoverVectorEnv
 
@@ -158,7 +159,7 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     policy.set_training_mode(False)
 
 
-LAUNCH_S = 20.0      # the longest launch window of the plan family (planning.UPPER[1])
+LAUNCH_S = float(UPPER[1])     # s: the longest launch window of the plan family
 
 
 def sample_weights(obs, ground_weight: float = 1.0, launch_weight: float | None = None,

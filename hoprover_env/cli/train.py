@@ -31,7 +31,7 @@ import numpy as np
 import yaml
 
 from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.files import atomic_write, write_json
+from hoprover_env.files import atomic_write, write_json, write_npz
 from hoprover_env.policies import SB3Policy
 from hoprover_env.sb3_agents import (ConfigError, algo_class, env_kwargs, load_config,
                                      make_agent, pretrain_settings)
@@ -289,9 +289,7 @@ class Trainer:
                 print(f"  {name}: reusing {path}", file=sys.stderr)
                 return f["obs"], f["act"], f["ret"]
         obs, act, ret = run()
-        buf = io.BytesIO()
-        np.savez(buf, obs=obs, act=act, ret=ret)
-        atomic_write(path, buf.getvalue())
+        write_npz(path, obs=obs, act=act, ret=ret)
         write_json(key, made_with)
         return obs, act, ret
 
