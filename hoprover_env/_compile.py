@@ -24,9 +24,10 @@ for the cold start (the first use after installing or editing):
   callers optimise and emit it with themselves (the cache keeps its linkable bitcode);
   compiler flags are hashed and compared without rebuilding their option dicts.
   ``HOPROVER_NUMBA_LAYER=0`` leaves numba as it is.
-* `prepare()`: on a cold cache with two or more cores, a helper process compiles the
-  contact phases (and an env's extra functions) into the cache while this process
-  compiles the rest, like ``make -j2``. ``HOPROVER_PARALLEL_COMPILE=0`` turns it off.
+* `prepare()`: on a cold cache with two or more cores, a helper process (a fork of this
+  one on Linux) and this one compile the simulator's parts into the cache, each taking
+  the next part the other has not taken, like ``make -j2``.
+  ``HOPROVER_PARALLEL_COMPILE=0`` turns it off.
 
 These lean on numba internals (`_numba_internals`): the CPUDispatcher class, its
 `get_call_template` hook, a dispatcher's `_cache`, the wrapper options, the JIT code
@@ -43,8 +44,12 @@ import hashlib
 import importlib
 import inspect
 import os
+import shutil
+import signal
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 import types
 import warnings
@@ -260,16 +265,20 @@ def drop_stale_cache(dispatcher) -> None:
 
 
 # ---------------------------------------------------------------- the two-process compile
-ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0" turns the helper off
+ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0": no helper; "spawn": not a fork
 _HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
 HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
-HELPER_FUNCTIONS = ("hoprover_env.core.contact_phases:contact_phase",
-                    "hoprover_env.core.contact_phases:g_phase")
-MAIN_FUNCTIONS = ("hoprover_env.core.flight:flight_phase",
-                  "hoprover_env.core.integrator:init_state")
-# and the end of a phase, built for the ground (core/smooth.py)
+# The end of a phase (built for the ground, core/smooth.py), the largest piece (about
+# 45 % of the work), is the main process's; then both processes take the next function
+# not yet taken from QUEUE, then an env's extra functions, and last QUEUE_END: largest
+# first, so that the two finish together (BENCHMARKS.md, "Cold start").
 AFTER_PHASE = {True: "hoprover_env.core.phase_end:after_phase",
                False: "hoprover_env.core.smooth:after_phase_smooth"}
+QUEUE = ("hoprover_env.core.contact_phases:contact_phase",
+         "hoprover_env.core.flight:flight_phase")
+QUEUE_END = ("hoprover_env.core.integrator:init_state",
+             "hoprover_env.core.contact_phases:g_phase")
+HELPER_FUNCTIONS = QUEUE + QUEUE_END          # what prepare() looks for in the cache
 _prepared = False
 
 
@@ -320,7 +329,7 @@ def _claim(dispatcher):
 def prepare(extra=(), rough: bool = True) -> None:
     """Called by every entry point (envs, simulate, simulate_batch) before its first kernel
     call; returns at once after the first call in a process. `extra`: more declared
-    functions ("module:name") for the helper, such as an env's reward and observation;
+    functions ("module:name") to compile, such as an env's reward and observation;
     `rough`: False for a caller that starts on smooth ground (core/smooth.py)."""
     global _prepared
     if _prepared:
@@ -336,34 +345,137 @@ def prepare(extra=(), rough: bool = True) -> None:
     if lock is None:
         return
     try:
-        # the helper must compile this very package, wherever it was imported from
-        parent = os.path.dirname(_HERE)
-        path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
-        try:
-            helper = subprocess.Popen(
-                [sys.executable, "-c", "import sys; from hoprover_env import _compile as c; "
-                 "[c.compile_now(d) for d in c._resolve(c.HELPER_FUNCTIONS + "
-                 "tuple(sys.argv[1:]))]", *extra],
-                env=dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"}),
-                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL)
-        except OSError:
+        taken = tempfile.mkdtemp(prefix="hoprover-compile-")
+    except OSError:             # no writable temporary directory: compile here alone
+        taken = None
+    try:
+        if taken is None:
+            return
+        queue = (taken,) + QUEUE + tuple(extra) + QUEUE_END
+        fork = os.environ.get(ENV_SWITCH) != "spawn" and _can_fork()
+        helper = _start_helper(queue, fork)
+        if helper is None:
             return
         started = time.monotonic()
         try:
-            for d in _resolve((AFTER_PHASE[bool(rough)],) + MAIN_FUNCTIONS):
-                compile_now(d)
+            compile_now(_resolve((AFTER_PHASE[bool(rough)],))[0])
+            compile_queue(queue)
             helper.wait(timeout=max(0.0, started + HELPER_TIMEOUT - time.monotonic()))
         except subprocess.TimeoutExpired:
-            pass                # this process compiles what the helper did not finish
+            pass                # what the helper did not finish compiles here on first use
         finally:
             if helper.poll() is None:
                 helper.kill()
                 helper.wait()
     finally:
+        if taken is not None:
+            shutil.rmtree(taken, ignore_errors=True)
         try:
             os.remove(lock)
         except OSError:
+            pass
+
+
+def compile_queue(queue) -> None:
+    """Compile each function of `queue` ("module:name", after the directory where
+    takers leave their marks) that no other process has taken: what both processes of
+    `prepare` run."""
+    taken, *names = queue
+    for k, name in enumerate(names):
+        try:
+            os.close(os.open(os.path.join(taken, str(k)), os.O_CREAT | os.O_EXCL))
+        except FileExistsError:
+            continue
+        compile_now(_resolve((name,))[0])
+
+
+def _start_helper(queue, fork: bool):
+    """The helper process working through `queue` (`compile_queue`); None if it cannot
+    start. `fork`: a fork of this process, which spares the helper the start of a new
+    interpreter and its imports (about 0.4 s); else a fresh interpreter
+    (``HOPROVER_PARALLEL_COMPILE=spawn`` asks for one where a fork would do)."""
+    if fork:
+        try:
+            return _Forked(queue)
+        except OSError:
+            return None
+    # the helper must compile this very package, wherever it was imported from
+    parent = os.path.dirname(_HERE)
+    path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
+    try:
+        return subprocess.Popen(
+            [sys.executable, "-c", "import sys; from hoprover_env import _compile as c; "
+             "c.compile_queue(sys.argv[1:])", *queue],
+            env=dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"}),
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    except OSError:
+        return None
+
+
+def _can_fork() -> bool:
+    """Linux, and no Python thread but this one: a thread of ours (Jupyter's, a Ray
+    worker's) could hold a lock at the moment of the fork that the child would then
+    wait on for ever. Threads that never run Python (a BLAS pool) hold nothing the child
+    uses: it only compiles."""
+    return sys.platform.startswith("linux") and threading.active_count() == 1
+
+
+class _Forked:
+    """The helper as a fork of this process, with the part of `subprocess.Popen`'s
+    interface `prepare` uses (poll, wait, kill).
+
+    It forks under numba's compiler lock, so that no other thread is halfway through a
+    compilation whose state the child would inherit. The child works through its queue
+    into numba's cache with its standard streams on /dev/null and leaves by `os._exit`: no
+    atexit handlers, no flushing of the buffers it shares with this process."""
+
+    def __init__(self, queue):
+        from numba.core.compiler_lock import global_compiler_lock
+        self.returncode = None
+        with warnings.catch_warnings():
+            # Python 3.12+ warns of a fork in a process with threads (a BLAS pool's);
+            # _can_fork said why the child is safe from them
+            warnings.simplefilter("ignore", DeprecationWarning)
+            with global_compiler_lock:
+                self.pid = os.fork()
+                if self.pid == 0:
+                    self._child(queue)
+
+    @staticmethod
+    def _child(queue):
+        code = 1
+        try:
+            null = os.open(os.devnull, os.O_RDWR)
+            for fd in (0, 1, 2):
+                os.dup2(null, fd)
+            compile_queue(queue)
+            code = 0
+        finally:
+            os._exit(code)
+
+    def poll(self):
+        if self.returncode is None:
+            try:
+                pid, status = os.waitpid(self.pid, os.WNOHANG)
+            except ChildProcessError:       # reaped elsewhere (SIGCHLD ignored): gone
+                self.returncode = -1
+                return self.returncode
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout=None):
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while self.poll() is None:
+            if deadline is not None and time.monotonic() >= deadline:
+                raise subprocess.TimeoutExpired("hoprover compile helper", timeout)
+            time.sleep(0.002)
+        return self.returncode
+
+    def kill(self):
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
             pass
 
 

@@ -5,6 +5,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -49,10 +50,10 @@ print(json.dumps({"compiled": seen, "obs": obs.tolist(), "reward": reward}))
 '''
 
 
-def first_steps(cache_dir, env_id="HopRover-v0", parallel=False, **kwargs):
-    """What a fresh interpreter compiled for its first steps, and where they ended."""
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir),
-               HOPROVER_PARALLEL_COMPILE="1" if parallel else "0")
+def first_steps(cache_dir, env_id="HopRover-v0", parallel="0", **kwargs):
+    """What a fresh interpreter compiled for its first steps, and where they ended
+    (`parallel`: HOPROVER_PARALLEL_COMPILE)."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), HOPROVER_PARALLEL_COMPILE=parallel)
     out = subprocess.run([sys.executable, "-c", COMPILED, env_id, json.dumps(kwargs)],
                          env=env, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -85,21 +86,25 @@ def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     assert "hoprover_env.core.euler.advance_euler" in [name for name, _ in seen]
 
 
-def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path):
-    # on a cold cache a helper process compiles the contact phases into the cache while
-    # this process compiles the rest; the env step then loads them from the cache
+@pytest.mark.parametrize("how", ["1", "spawn"])
+def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path,
+                                                                                how):
+    # on a cold cache a helper process (a fork of this one on Linux, or a fresh
+    # interpreter) takes the contact phases off the queue while this process compiles the
+    # end of a phase; the env step then loads them from the cache
     from hoprover_env import _compile as pc
     if pc._cores() < 2:
         pytest.skip("the helper only starts with two or more cores")
     serial = first_steps(tmp_path / "serial")
-    parallel = first_steps(tmp_path / "parallel", parallel=True)
+    parallel = first_steps(tmp_path / "parallel", parallel=how)
     main = [name for name, _ in parallel["compiled"] if name.startswith("hoprover_env.")]
     everything = [name for name, _ in serial["compiled"] if name.startswith("hoprover_env.")]
+    # the first of the queue: taken by the helper while this process is at the end of a
+    # phase (the rest of the queue goes to whichever process is free first)
     helper_only = {"hoprover_env.core.contact_phases.contact_phase",
-                   "hoprover_env.core.contact_phases.g_phase",
                    "hoprover_env.core.contact_phases._dop853_step",
-                   "hoprover_env.core.contact_phases._locate",
-                   "hoprover_env.tasks.common.close_step", "hoprover_env.tasks.observation.observe"}
+                   "hoprover_env.core.contact_phases._locate"}
+    assert "hoprover_env.core.smooth.after_phase_smooth" in main
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
     assert "hoprover_env.tasks.common.torque_event_smooth_step" in main
@@ -108,6 +113,26 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     assert parallel["obs"] == serial["obs"] and parallel["reward"] == serial["reward"]
     cached = {p.name.split("-")[0] for p in (tmp_path / "parallel").rglob("*.nbi")}
     assert {"contact_phases.contact_phase", "contact_phases.g_phase"} <= cached
+    assert not list((tmp_path / "parallel").rglob("*.lock"))
+
+
+def test_a_forked_helper_is_waited_for_killed_and_fails_cleanly(tmp_path, monkeypatch):
+    # prepare() waits for the helper at most HELPER_TIMEOUT, then kills it
+    from hoprover_env import _compile as pc
+    if not pc._can_fork():
+        pytest.skip("forks only on Linux, from a process with one Python thread")
+    monkeypatch.setattr(pc, "compile_now", lambda d: time.sleep(60))   # in the child
+    queue = (str(tmp_path), "hoprover_env.core.contact_phases:g_phase")
+    helper = pc._Forked(queue)
+    assert helper.poll() is None
+    with pytest.raises(subprocess.TimeoutExpired):
+        helper.wait(timeout=0.2)
+    helper.kill()
+    assert helper.wait(timeout=10) == -9
+    # and one that fails leaves with a non-zero code instead of running on as a copy
+    monkeypatch.setattr(pc, "compile_now", lambda d: 1 / 0)
+    (tmp_path / "new").mkdir()
+    assert pc._Forked((str(tmp_path / "new"), *queue[1:])).wait(timeout=30) == 1
 
 
 LINK_ONLY = r"""
@@ -184,19 +209,30 @@ def test_flags_compare_and_hash_as_numba_defines_them():
     assert (flags[0] == "flags") is False
 
 
-def _no_helper_popen(started):
-    class Popen:                          # records the start; the helper "fails to start"
-        def __init__(self, *args, **kwargs):
-            started.append(1)
-            raise OSError("not started in this test")
-    return Popen
+def test_each_function_of_the_queue_is_compiled_by_one_process(tmp_path, monkeypatch):
+    from hoprover_env import _compile as pc
+    compiled = []
+    monkeypatch.setattr(pc, "_resolve", lambda names: list(names))
+    monkeypatch.setattr(pc, "compile_now", compiled.append)
+    queue = (str(tmp_path), "m:a", "m:b", "m:c")
+    (tmp_path / "1").touch()                  # the other process took "m:b"
+    pc.compile_queue(queue)
+    assert compiled == ["m:a", "m:c"]
+    pc.compile_queue(queue)                   # a second taker finds nothing left
+    assert compiled == ["m:a", "m:c"]
+
+
+def _no_helper(started):
+    def start(names, fork):               # records the start; the helper "fails to start"
+        started.append(1)
+    return start
 
 
 def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
     from hoprover_env import _compile as pc
     from hoprover_env.tasks import torque
     started = []
-    monkeypatch.setattr(pc.subprocess, "Popen", _no_helper_popen(started))
+    monkeypatch.setattr(pc, "_start_helper", _no_helper(started))
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "0")
     pc.prepare()
@@ -211,7 +247,6 @@ def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, m
 def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
     # many workers starting at once on a cold cache (a cluster node) start one helper,
     # not one each; a lock left behind by a killed process does not block for ever
-    import time
 
     from hoprover_env import _compile as pc
 
@@ -222,7 +257,7 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
         _cache = Cache()
 
     started = []
-    monkeypatch.setattr(pc.subprocess, "Popen", _no_helper_popen(started))
+    monkeypatch.setattr(pc, "_start_helper", _no_helper(started))
     monkeypatch.setattr(pc, "_cached", lambda d: False)
     monkeypatch.setattr(pc, "_cores", lambda: 2)
     monkeypatch.setattr(pc, "_resolve", lambda names: [Dispatcher()])
