@@ -19,11 +19,12 @@ for the cold start (the first use after installing or editing):
 * stale caches are dropped: numba keys a cached function on its own file only, so a
   caller would keep an old callee's code linked in. One fingerprint over the kernel
   sources guards every module's cache.
-* two changes to numba's compiler (`_numba_layer`): a function only jitted code calls
-  is neither optimised as a module nor turned into machine code on its own, since its
+* changes to numba's compiler (`_numba_layer`): a function only jitted code calls is
+  neither optimised as a module nor turned into machine code on its own, since its
   callers optimise and emit it with themselves (the cache keeps its linkable bitcode);
-  compiler flags are hashed and compared without rebuilding their option dicts.
-  ``HOPROVER_NUMBA_LAYER=0`` leaves numba as it is.
+  compiler flags are hashed and compared without rebuilding their option dicts; no
+  events around numba's LLVM lock, IR variables listed by type, error messages marked
+  up without colorama. ``HOPROVER_NUMBA_LAYER=0`` leaves numba as it is.
 * `prepare()`: on a cold cache with two or more cores, a helper process (a fork of this
   one on Linux) and this one compile the simulator's parts into the cache, each taking
   the next part the other has not taken, like ``make -j2``.

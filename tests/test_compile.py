@@ -209,6 +209,60 @@ def test_flags_compare_and_hash_as_numba_defines_them():
     assert (flags[0] == "flags") is False
 
 
+def test_the_layer_lists_ir_variables_and_marks_up_errors_as_numba_does():
+    # the layer's faster list_vars gives numba's lists, in numba's order, on the IR of
+    # hoprover's largest kernels; its error mark-up gives numba's strings
+    from numba.core import compiler, errors, ir
+    from hoprover_env import _compile
+    from hoprover_env.core import contact_phases, phase_end
+    if not _compile._layer_active():
+        pytest.skip("the layer is off")
+    fast = ir.Inst._rec_list_vars
+    stmts = [stmt for f in (contact_phases.contact_phase, phase_end.after_phase)
+             for block in compiler.run_frontend(f.py_func).blocks.values()
+             for stmt in block.body]
+    ours = [[v.name for v in stmt.list_vars()] for stmt in stmts]
+    try:
+        ir.Inst._rec_list_vars = fast.numba_version
+        theirs = [[v.name for v in stmt.list_vars()] for stmt in stmts]
+    finally:
+        ir.Inst._rec_list_vars = fast
+    assert len(stmts) > 300 and sum(map(len, ours)) > 500 and ours == theirs
+    scheme = errors.termcolor()
+    markup = type(scheme)._markup
+    if hasattr(markup, "numba_version"):
+        for color in (None, errors.Fore.RED):
+            for msg in ("", "No implementation of function getitem"):
+                assert markup(scheme, msg, color) == markup.numba_version(scheme, msg, color)
+
+
+def test_the_layer_broadcasts_no_llvm_lock_events():
+    # numba's events around its LLVM lock (one pair per call into LLVM) are dropped
+    from numba import njit
+    from numba.core import event
+    from hoprover_env import _compile
+    if not _compile._layer_active():
+        pytest.skip("the layer is off")
+    seen = []
+
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            seen.append(ev.kind)
+
+        def on_end(self, ev):
+            pass
+
+    listener = Listener()
+    event.register("numba:llvm_lock", listener)
+    event.register("numba:compile", listener)
+    try:
+        njit(lambda x: x + 1.5)(2.0)
+    finally:
+        event.unregister("numba:llvm_lock", listener)
+        event.unregister("numba:compile", listener)
+    assert seen == ["numba:compile"]
+
+
 def test_each_function_of_the_queue_is_compiled_by_one_process(tmp_path, monkeypatch):
     from hoprover_env import _compile as pc
     compiled = []
