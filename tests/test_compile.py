@@ -229,7 +229,7 @@ def test_the_layer_lists_ir_variables_and_marks_up_errors_as_numba_does():
         ir.Inst._rec_list_vars = fast
     assert len(stmts) > 300 and sum(map(len, ours)) > 500 and ours == theirs
     scheme = errors.termcolor()
-    markup = type(scheme)._markup
+    markup = getattr(type(scheme), "_markup", None)     # none without colorama
     if hasattr(markup, "numba_version"):
         for color in (None, errors.Fore.RED):
             for msg in ("", "No implementation of function getitem"):
