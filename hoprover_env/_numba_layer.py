@@ -108,19 +108,27 @@ def _list_vars_by_type(ir) -> None:
                     else MAP if issubclass(t, dict) else LEAF)      # numba's order of tests
         return kinds[t]
 
-    def collect(val, out):
-        k = kinds.get(type(val)) or kind(type(val))
-        if k == VAR:
-            out.append(val)
-        elif k == INST:
-            out.extend(val.list_vars())
-        elif k != LEAF:
-            for v in (val if k == SEQ else val.values()):
+    def collect(values, out):       # depth first, as numba's recursion
+        for v in values:
+            k = kinds.get(type(v)) or kind(type(v))
+            if k == VAR:
+                out.append(v)
+            elif k == INST:
+                out.extend(v.list_vars())
+            elif k == SEQ:
                 collect(v, out)
+            elif k == MAP:
+                collect(v.values(), out)
 
     def _rec_list_vars(self, val):
+        k = kinds.get(type(val)) or kind(type(val))
+        if k == VAR:
+            return [val]
+        if k == INST:
+            return val.list_vars()
         out = []
-        collect(val, out)
+        if k != LEAF:
+            collect(val if k == SEQ else val.values(), out)
         return out
 
     _rec_list_vars.numba_version = ir.Inst._rec_list_vars
