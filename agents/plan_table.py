@@ -23,13 +23,17 @@ the plans are then made alike wherever that costs (almost) nothing:
 
 What is left is a smooth family on long hops (the launch torque and the landing attitude
 change smoothly with the target; one flight law) and two kinds of short hop.
-`PlanTableTeacher` flies a table plan as the search flew it (mpc's plan controller, no
-replanning until the plan's predicted TTRTP has passed, then mpc's replanning), so its
+`PlanTableTeacher` flies a table plan as the search flew it (mpc's plan controller), from
+the start and again, at once, from any rest state off target (the start shifted in x);
+other states keep the plan until its predicted TTRTP has passed, then mpc replans. So its
 labels are one function of the state and the target; `collect` records it with DART
 noise or shadowing a learner (DAgger), and `python -m agents.clone_study fit` fits the
 network.
 
     python -m agents.plan_table build --out runs/plan_table/table.npz
+    python -m agents.plan_table edge --table runs/plan_table/table.npz \\
+        --out runs/plan_table/table_edge.npz \\
+        --offsets 0.1002 0.1004 0.1006 0.1008 0.101 0.1012
     python -m agents.plan_table judge --table runs/plan_table/table.npz     # as an agent
     python -m agents.plan_table collect --table runs/plan_table/table.npz \\
         --out runs/plan_table/demo_1.npz --noise 0 --seed 1
@@ -58,6 +62,9 @@ LONG_HOP = BINS[-1][0]   # m: beyond, one long hop
 # `build`'s settings (module docstring), also the defaults of the pipeline's `table`
 TABLE_DEFAULTS = {"step": 0.003, "budget": 3000, "passes": 3, "local_budget": 300,
                   "keep": 0.005, "tol": 0.001, "mirror_tol": 0.03}
+# m: nearer than the default grid's first target (just beyond the band's edge, where the
+# nudge's time rises steeply; `refine_edge`), the teacher flies the next row out
+ROUND_OUT = BAND_EDGE + TABLE_DEFAULTS["step"] / 2
 KP, KD = 2, 3            # the flight gains' coordinates in the search space
 LAUNCH_WINDOW = 1        # the launch window's coordinate (1: the longest, 20 s)
 CORRECTION_LENGTHS = (9, 6)   # the correction windows' duration coordinates
@@ -189,21 +196,65 @@ def mirror_short_hops(table: dict, mirror_tol: float, log=print, probs=None) -> 
     return {**table, "u": u, "ttrtp": ttrtp}
 
 
+def refine_edge(table: dict, offsets, budget: int = 3000, log=print) -> dict:
+    """The table with rows added at `offsets` (m, beyond the band's edge and nearer than
+    the grid's first target), on both sides: just beyond the edge the best nudge's time
+    rises steeply (8.1 s at 0.1002 m, 12.5 s at the grid's 0.1015 m; level-v1's target
+    at -0.10044 m has a reference of 9.0 s, which the grid's plan takes 1.39 times). Each offset is searched afresh and from the plan of
+    the grid's first target; the better is kept, and its mirror image flies the negative
+    side (mirrored plans take the same time, tests/test_plan_table.py)."""
+    start, params = start_state()
+    xs = np.asarray(offsets, dtype=float)
+    probs = _problems(xs, start, params)
+    n = len(xs)
+    first = table["u"][int(np.searchsorted(table["targets"], 0.0))]
+    a = search(probs, budget=budget, seed=list(range(1, n + 1)))
+    b = search(probs, budget=max(budget // 6, 200), starts=1, sigma=0.03,
+               warm=np.tile(first, (n, 1)), seed=list(range(n + 1, 2 * n + 1)))
+    ta, tb = np.nan_to_num(a.ttrtp, nan=np.inf), np.nan_to_num(b.ttrtp, nan=np.inf)
+    u, t = np.where((ta <= tb)[:, None], a.u, b.u), np.fmin(ta, tb)
+    mirror = u.copy()
+    mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
+    targets = np.concatenate([table["targets"], xs, -xs])
+    order = np.argsort(targets)
+    log(f"edge rows: {np.round(xs, 5).tolist()} take {np.round(t, 2).tolist()} s")
+    return {**table, "targets": targets[order],
+            "u": np.concatenate([table["u"], u, mirror])[order],
+            "ttrtp": np.concatenate([table["ttrtp"], t, t])[order]}
+
+
 class PlanTableTeacher(MPCPolicy):
-    """mpc whose plan from the start state comes from a table (`build`): the plan of the
-    nearest grid target, or with `interpolate` the linear blend of its two neighbours'
-    points in the search space. A rover in the band at the start gets no plan (zero
-    torque); a table plan is flown without replanning until its predicted TTRTP plus
-    `grace` s has passed, then mpc replans (with `budget` candidates) as it would."""
+    """mpc whose plans from rest come from a table (`build`): the plan of the nearest
+    grid target (of the next one out nearer than `ROUND_OUT`), or with `interpolate` the
+    linear blend of its two neighbours' points in the search space. A rover in the band
+    at the start gets no plan (zero torque).
+
+    The table holds plans from the start state, but on the table's ground a rover at
+    rest on a face anywhere is that state shifted in x (`rest_offset`): the kernel puts
+    every double contact at theta = omega = vy = 0 and y = h (`set_double_contact`), so
+    a quarter turn of the cube never shows, and the plans are relative to their start
+    time t0 (`plans_from_points`; the physics does not depend on t). So at every control
+    instant at which the rover is at rest (state F) out of the band, the teacher flies,
+    from that instant, the table plan for the remaining offset: at rest with zero torque
+    it never moves again, so waiting (mpc's GROUND_WAIT is for a rover on the ground that
+    has not come to rest) would only add time, and the label at such a state is the one
+    at t = 0 for the same offset (a launch), even while an earlier plan's windows run (a
+    learner that rocks back onto its face): on every grid target the teacher alone
+    takes the table's time to 1e-12 either way. Any other state (in flight, rocking,
+    sliding) keeps the current plan until its predicted TTRTP plus `grace` s has passed,
+    then mpc replans (with `budget` candidates) as it would; so does a rest state the
+    table does not cover (beyond its farthest target, or too late in the episode)."""
 
     def __init__(self, table: dict, interpolate: bool = False, grace: float = 5.0, **kw):
         super().__init__(**kw)
         self.targets, self.points, self.ttrtp = table["targets"], table["u"], table["ttrtp"]
         self.start = np.asarray(table["start"])
+        self.ground = start_state()[1]     # the ground and rover the table was searched on
         self.interpolate, self.grace = interpolate, grace
         self.name = "plan-table"
         self.table_plans = 0
         self.until = []
+        self.episode = ([], 600.0)   # (params, episode time) of the env `act` last saw
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         super().reset(n, first_episode)
@@ -212,13 +263,37 @@ class PlanTableTeacher(MPCPolicy):
     def point(self, target: float) -> np.ndarray:
         side = np.sign(self.targets) == np.sign(target)
         xs, us = self.targets[side], self.points[side]
+        if abs(target) < ROUND_OUT:
+            # a nudge that falls a fraction of a millimetre short misses and must be
+            # tried again; one that goes a little further still ends in the 10 cm band
+            out = np.where(np.abs(xs) >= abs(target), np.abs(xs), np.inf)
+            return us[int(np.argmin(out))]
         k = int(np.searchsorted(xs, target))
         if k == 0 or k == len(xs) or not self.interpolate:
             return us[int(np.argmin(np.abs(xs - target)))]
         w = (target - xs[k - 1]) / (xs[k] - xs[k - 1])
         return (1.0 - w) * us[k - 1] + w * us[k]
 
+    def rest_offset(self, s: np.ndarray, params, t_total: float = 600.0):
+        """The target's offset from a rover at rest out of the band in `s` (a state row)
+        if the table has a plan for it that ends within the episode (`t_total` s), else
+        None: the rover must be in the table's start state shifted in x, on its ground."""
+        offset = float(s[core.S_XT] - s[core.S_X])
+        if (int(s[core.S_MODE]) != core.MODE_F or s[core.S_INBAND] != 0.0
+                or not np.array_equal(s[1:core.S_T], self.start[1:])
+                or params != self.ground
+                or abs(offset) <= BAND_EDGE or abs(offset) > np.abs(self.targets).max()):
+            return None
+        end = float(s[core.S_T]) + float(np.interp(offset, self.targets, self.ttrtp))
+        return offset if end + self.grace <= t_total else None
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        self.episode = (venv.params, float(venv.config.episode_time))   # for needs_plan
+        return super().act(obs, venv)
+
     def needs_plan(self, i: int, S: np.ndarray) -> bool:
+        if self.rest_offset(S, self.episode[0][i], self.episode[1]) is not None:
+            return True            # at rest off target: the table's plan (class docstring)
         if float(S[core.S_T]) < self.until[i]:
             return False
         return super().needs_plan(i, S)
@@ -226,18 +301,21 @@ class PlanTableTeacher(MPCPolicy):
     def _replan(self, todo: list, venv, S, params) -> None:
         rest = []
         for i in todo:
-            s, p, target = S[i], params[i], float(venv.targets[i])
-            if s[core.S_T] != 0.0 or not np.array_equal(s[:core.S_T], self.start):
+            t = float(S[i, core.S_T])
+            self.plans[i] = None
+            offset = self.rest_offset(S[i], params[i], float(venv.config.episode_time))
+            if offset is None:
+                if t == 0.0 and np.array_equal(S[i, :core.S_T], self.start):
+                    continue           # in the band at the start: nothing to do
                 rest.append(i)
                 continue
-            self.plans[i] = None
-            if abs(target - s[0]) > p.half_width + p.band_half_width:
-                self.plans[i] = plans_from_points(self.point(target)[None],
-                                                  np.array([np.sign(target - s[0])]),
-                                                  np.array([0.0]), p)[0]
-                self.until[i] = float(np.interp(target, self.targets, self.ttrtp)) + self.grace
-                self.replanned_aloft[i] = False
-                self.table_plans += 1
+            self.plans[i] = plans_from_points(self.point(offset)[None],
+                                              np.array([np.sign(offset)]), np.array([t]),
+                                              params[i])[0]
+            self.until[i] = (t + float(np.interp(offset, self.targets, self.ttrtp))
+                             + self.grace)
+            self.replanned_aloft[i] = False
+            self.table_plans += 1
         if rest:
             super()._replan(rest, venv, S, params)
 
@@ -333,6 +411,11 @@ def main(argv=None) -> int:
     b.add_argument("--out", required=True)
     for key, value in TABLE_DEFAULTS.items():
         b.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value)
+    e = sub.add_parser("edge", help="add rows just beyond the band's edge (refine_edge)")
+    e.add_argument("--table", required=True)
+    e.add_argument("--out", required=True)
+    e.add_argument("--offsets", type=float, nargs="+", required=True)
+    e.add_argument("--budget", type=int, default=TABLE_DEFAULTS["budget"])
     j = sub.add_parser("judge", help="the table itself as an agent, on the suite")
     j.add_argument("--table", required=True)
     j.add_argument("--interpolate", action="store_true")
@@ -355,6 +438,9 @@ def main(argv=None) -> int:
         table = build({key: getattr(args, key) for key in TABLE_DEFAULTS}, log)
         write_npz(args.out, **table)
         log(f"{len(table['targets'])} plans -> {args.out}")
+    elif args.cmd == "edge":
+        table = refine_edge(load_table(args.table), args.offsets, args.budget, log)
+        write_npz(args.out, **table)
     elif args.cmd == "judge":
         import json
         from agents.clone_study import judge
