@@ -200,9 +200,10 @@ def refine_edge(table: dict, offsets, budget: int = 3000, log=print) -> dict:
     """The table with rows added at `offsets` (m, beyond the band's edge and nearer than
     the grid's first target), on both sides: just beyond the edge the best nudge's time
     rises steeply (8.1 s at 0.1002 m, 12.5 s at the grid's 0.1015 m; level-v1's target
-    at -0.10044 m has a reference of 9.0 s, which the grid's plan takes 1.39 times). Each offset is searched afresh and from the plan of
-    the grid's first target; the better is kept, and its mirror image flies the negative
-    side (mirrored plans take the same time, tests/test_plan_table.py)."""
+    at -0.10044 m has a reference of 9.0 s, which the grid's plan takes 1.39 times).
+    Each offset is searched afresh and from the plan of the grid's first target; the
+    better is kept, and its mirror image flies the negative side (mirrored plans take
+    the same time, tests/test_plan_table.py)."""
     start, params = start_state()
     xs = np.asarray(offsets, dtype=float)
     probs = _problems(xs, start, params)
