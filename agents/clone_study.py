@@ -70,16 +70,13 @@ def load_clone(path, activation: str | None = None, arch=None, name="learner"):
 
 def export(cfg, venv, model, out) -> None:
     """The clone as a run directory `load_policy` reads (best_model.zip, its metadata
-    and VecNormalize statistics)."""
+    and VecNormalize statistics), written as train.py writes its models."""
     from pathlib import Path
-    from hoprover_env.files import write_json
+    from hoprover_env.cli.train import save_model
     from hoprover_env.sb3_agents import env_kwargs
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    model.save(str(out / "best_model.zip"))
-    venv.save(str(out / "best_model_vecnormalize.pkl"))
-    write_json(out / "best_model.json", {"algo": "ppo", "env_id": "HopRover-v0",
-                                         "env_kwargs": env_kwargs(cfg), "config": cfg})
+    save_model(model, venv, Path(out) / "best_model",
+               {"algo": cfg["algo"], "env_id": cfg["env_id"], "env_kwargs": env_kwargs(cfg),
+                "config": cfg})
 
 
 def collect_cmd(args) -> None:

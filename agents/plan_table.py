@@ -180,14 +180,21 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float,
     return out
 
 
+def mirrored(u: np.ndarray) -> np.ndarray:
+    """Plans (rows of search-space points) for the opposite target: the signed
+    coordinates flip about the middle of their range."""
+    mirror = np.array(u, dtype=float)
+    mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
+    return mirror
+
+
 def mirror_short_hops(table: dict, mirror_tol: float, log=print, probs=None) -> dict:
     """Step 4 (module docstring). The grid is symmetric: row k mirrors row n-1-k.
     `probs`: the table's planning problems, if the caller has them already."""
     targets, u, ttrtp = table["targets"], table["u"].copy(), table["ttrtp"].copy()
     if probs is None:
         probs = _problems(targets, *start_state())
-    mirror = u[::-1].copy()
-    mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
+    mirror = mirrored(u[::-1])
     _, tm = evaluate(probs, np.arange(len(targets)), mirror)
     short = (targets < 0) & (np.abs(targets) <= LONG_HOP)
     ok = short & np.isfinite(tm) & (tm <= ttrtp * (1 + mirror_tol))
@@ -214,8 +221,7 @@ def refine_edge(table: dict, offsets, budget: int = 3000, log=print) -> dict:
                warm=np.tile(first, (n, 1)), seed=list(range(n + 1, 2 * n + 1)))
     ta, tb = np.nan_to_num(a.ttrtp, nan=np.inf), np.nan_to_num(b.ttrtp, nan=np.inf)
     u, t = np.where((ta <= tb)[:, None], a.u, b.u), np.fmin(ta, tb)
-    mirror = u.copy()
-    mirror[:, SIGNED] = 1.0 - mirror[:, SIGNED]
+    mirror = mirrored(u)
     targets = np.concatenate([table["targets"], xs, -xs])
     order = np.argsort(targets)
     log(f"edge rows: {np.round(xs, 5).tolist()} take {np.round(t, 2).tolist()} s")
