@@ -38,9 +38,10 @@ option names only) and two flags of one class are compared on the options either
 set, the others holding their defaults in both; flags of two classes are compared as
 numba does.
 
-**Three Python-side costs.** Together about 5 % of a cold first step in one process
-(9.9 s against 10.5 s, medians of 8 alternating runs, 2026-11-26), each with the same
-result as numba's own:
+**Three Python-side costs.** The first two together took about 5 % of a cold first
+step in one process (9.9 s against 10.5 s, medians of 8 alternating runs, 2026-11-26;
+the third, measured only with the others, matters only where colorama is installed),
+each with the same result as numba's own:
 
 * numba broadcasts an event at every acquire and release of its LLVM lock, around
   every one of the ~40 000 calls into LLVM of a cold first step, to as many listeners
