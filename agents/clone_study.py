@@ -32,7 +32,8 @@ CONFIG = "configs/ppo_mpc.yaml"
 BINS = ((0.0, 0.1), (0.1, 0.32), (0.32, 1.01))
 
 
-def _model(action_map: str, arch=None, activation: str | None = None):
+def _model(action_map: str, arch=None, activation: str | None = None,
+           features: str | None = None):
     from hoprover_env.cli.train import build_env
     from hoprover_env.sb3_agents import load_config, make_agent
     cfg = load_config(CONFIG)
@@ -42,6 +43,8 @@ def _model(action_map: str, arch=None, activation: str | None = None):
         cfg["policy"]["net_arch"] = list(arch)
     if activation:
         cfg["policy"]["activation_fn"] = activation
+    if features:
+        cfg["policy"]["features"] = features
     venv = build_env(cfg)
     return cfg, venv, make_agent(cfg, venv)
 
@@ -53,17 +56,36 @@ def _policy(cfg, venv, model, name="clone"):
                      env_kwargs=env_kwargs(cfg))
 
 
-def _load(path, venv, model):
+def _load(path, venv, model, log=None):
+    """Weights and statistics of a clone saved by `fit --save`. A clone fitted without
+    `--features` loads into one with them: its first layers' weights on the new inputs
+    are zero (the same function to start from), and the features get the statistics."""
+    import torch
+    from hoprover_env.features import set_statistics
     with open(path, "rb") as f:
         saved = pickle.load(f)
-    model.policy.load_state_dict(saved["policy"])
+    state = model.policy.state_dict()
+    for key, value in saved["policy"].items():
+        if key in state and state[key].shape != value.shape and value.dim() == 2 \
+                and state[key].shape[0] == value.shape[0] \
+                and state[key].shape[1] > value.shape[1]:
+            padded = torch.zeros_like(state[key])
+            padded[:, :value.shape[1]] = value
+            value = padded
+            if log:
+                log(f"{key}: zero weights on the {padded.shape[1] - saved['policy'][key].shape[1]}"
+                    " new inputs")
+        state[key] = value
+    model.policy.load_state_dict(state)
     venv.obs_rms.mean, venv.obs_rms.var = saved["mean"], saved["var"]
+    set_statistics(model.policy, venv)
 
 
-def load_clone(path, activation: str | None = None, arch=None, name="learner"):
-    """A clone saved by `fit --save`, as a policy (the activation and layers it was
-    fitted with: the pickle holds the weights only)."""
-    cfg, venv, model = _model("linear", arch, activation)
+def load_clone(path, activation: str | None = None, arch=None, name="learner",
+               features: str | None = None):
+    """A clone saved by `fit --save`, as a policy (the activation, layers and features
+    it was fitted with: the pickle holds the weights only)."""
+    cfg, venv, model = _model("linear", arch, activation, features)
     _load(path, venv, model)
     return _policy(cfg, venv, model, name)
 
@@ -83,7 +105,7 @@ def collect_cmd(args) -> None:
     from hoprover_env.imitation import collect
     from hoprover_env.policies import load_policy
     from hoprover_env.sb3_agents import env_kwargs
-    cfg, venv, model = _model(args.action_map, args.arch, args.activation)
+    cfg, venv, model = _model(args.action_map, args.arch, args.activation, args.features)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
     learner = None
     if args.learner:
@@ -122,18 +144,19 @@ def judge(policy) -> dict:
 
 def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weight=10.0,
         launch_weight=None, start_weight=None, action_map="linear", arch=None,
-        activation=None, init=None, save=None, export_dir=None, log=print) -> dict:
+        activation=None, features=None, init=None, save=None, export_dir=None,
+        log=print) -> dict:
     """Fit a clone to the collections `data` (paths), save it (`save`: weights and
     statistics; `export_dir`: a run directory), and return `judge`'s results."""
     import torch
     from hoprover_env.imitation import clone
     torch.set_num_threads(1)
-    cfg, venv, model = _model(action_map, arch, activation)
+    cfg, venv, model = _model(action_map, arch, activation, features)
     loaded = [np.load(p) for p in data]
     obs, act, ret = (np.concatenate([d[k] for d in loaded]) for k in ("obs", "act", "ret"))
     log(f"{len(obs)} samples from {len(data)} collections")
     if init:
-        _load(init, venv, model)
+        _load(init, venv, model, log)
     # a warm start keeps normalising with the statistics its weights were fitted to
     clone(model, venv, obs, act, ret, epochs=epochs, batch_size=batch_size,
           learning_rate=lr, learning_rate_end=lr_end, value_epochs=0,
@@ -165,7 +188,7 @@ def fit_cmd(args) -> None:
                lr_end=args.lr_end, ground_weight=args.ground_weight,
                launch_weight=args.launch_weight, start_weight=args.start_weight,
                action_map=args.action_map, arch=args.arch, activation=args.activation,
-               init=args.init, save=args.save, export_dir=args.export, log=log), log)
+               features=args.features, init=args.init, save=args.save, export_dir=args.export, log=log), log)
 
 
 def main(argv=None) -> int:
@@ -201,6 +224,8 @@ def main(argv=None) -> int:
                        help="hidden layer sizes (default: the config's 256 256)")
         p.add_argument("--activation", default=None,
                        help="hidden activation (default: the config's tanh)")
+        p.add_argument("--features", default=None, choices=("micro",),
+                       help="inputs at fine scales (hoprover_env.features)")
     args = ap.parse_args(argv)
     (collect_cmd if args.cmd == "collect" else fit_cmd)(args)
     return 0

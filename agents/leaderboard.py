@@ -30,9 +30,12 @@ ROOT = Path(__file__).resolve().parent.parent
 SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}
 AGENTS = {
     # every bundled agent on every suite, each task's own learned policy first
-    "level": ["mpc", "scratch", "hop", "bundled", "terrain", "mission", "scripted", "random"],
-    "terrain": ["mpc", "terrain", "scratch", "hop", "bundled", "mission", "scripted", "random"],
-    "contest": ["mpc", "scratch", "hop", "bundled", "terrain", "mission", "scripted", "random"],
+    "level": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "mission",
+              "scripted", "random"],
+    "terrain": ["mpc", "terrain", "plan_clone", "scratch", "hop", "bundled", "mission",
+                "scripted", "random"],
+    "contest": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "mission",
+                "scripted", "random"],
 }
 # what each agent knows beyond the observation
 PRIVILEGE = {
@@ -41,6 +44,8 @@ PRIVILEGE = {
     "mpc": "the simulator as its model and the exact state (not the bumps)",
     "scripted": "the simulator as its look-ahead and the exact state (plans on the mean "
                 "plane)",
+    "plan_clone": "observation only (a network cloned from a table of the planner's plans "
+                  "from the start state on level ground, and a nudge law; no slope input)",
     "scratch": "observation only (learned)", "hop": "observation only (learned)",
     "bundled": "observation only (learned, cloned from the scripted hopper)",
     "terrain": "observation only (learned)",

@@ -262,6 +262,10 @@ class PlanTableTeacher(MPCPolicy):
         self.table_plans = 0
         self.until = []
         self.episode = ([], 600.0)   # (params, episode time) of the env `act` last saw
+        # the nudge at the band's edge, flown as state feedback (agents/nudge.py)
+        self.nudge = ({k[len("nudge_"):]: table[k] for k in table if k.startswith("nudge_")}
+                      or None)
+        self.nudged = np.zeros(0, dtype=bool)   # rows of the last `act` the nudge labelled
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         super().reset(n, first_episode)
@@ -296,9 +300,22 @@ class PlanTableTeacher(MPCPolicy):
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         self.episode = (venv.params, float(venv.config.episode_time))   # for needs_plan
-        return super().act(obs, venv)
+        self.nudged = np.zeros(len(obs), dtype=bool)
+        if self.nudge is not None:
+            from agents.nudge import near_edge
+            self.nudged = near_edge(obs, float(self.nudge["offsets"].max())) & np.array(
+                [p == self.ground for p in venv.params])
+        out = super().act(obs, venv)
+        if self.nudged.any():
+            from agents.nudge import family_at, nudge_actions
+            o = obs[self.nudged]
+            out[self.nudged, 0] = nudge_actions(o, *family_at(self.nudge, o[:, 0]))
+        return out
 
     def needs_plan(self, i: int, S: np.ndarray) -> bool:
+        if i < len(self.nudged) and self.nudged[i]:
+            self.plans[i] = None       # the nudge law acts; no plan is searched
+            return False
         if self.rest_offset(S, self.episode[0][i], self.episode[1]) is not None:
             return True            # at rest off target: the table's plan (class docstring)
         if float(S[core.S_T]) < self.until[i]:
@@ -335,8 +352,11 @@ def build(settings: dict, log=print) -> dict:
 
 
 def load_table(path) -> dict:
+    """A table written by `build` / `edge` (and `python -m agents.nudge search`: its
+    nudge_* arrays)."""
     with np.load(path) as f:
-        return {k: f[k] for k in ("targets", "u", "ttrtp", "start")}
+        return {k: f[k] for k in f.files
+                if k in ("targets", "u", "ttrtp", "start") or k.startswith("nudge_")}
 
 
 def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=None,
@@ -351,7 +371,8 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
-PIPELINE_KEYS = {"table", "in_band", "demonstrations", "fit", "dagger", "dagger_fit"}
+PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
+                 "dagger_fit"}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -359,11 +380,12 @@ def pipeline(config_path, out, log=print) -> dict:
     demonstrations, a fit, and DAgger rounds each followed by a fit on everything so
     far (warm-started from the clone before it, with `dagger_fit` overriding `fit`'s
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
-    and judged into OUT/judge.json. Each table and collection is kept in OUT, so a
+    and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
+    gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged. Each table and collection is kept in OUT, so a
     killed run starts again from its last finished one."""
     from pathlib import Path
     import yaml
-    from agents.clone_study import fit, load_clone, report
+    from agents.clone_study import fit, judge, load_clone, report
     from hoprover_env.files import write_json
     cfg = yaml.safe_load(Path(config_path).read_text())
     unknown = set(cfg) - PIPELINE_KEYS
@@ -375,6 +397,19 @@ def pipeline(config_path, out, log=print) -> dict:
     tpath = out / "table.npz"
     if not tpath.exists():
         write_npz(tpath, **build({**TABLE_DEFAULTS, **cfg.get("table", {})}, log))
+    if cfg.get("edge"):              # rows just beyond the band's edge
+        epath = out / "table_edge.npz"
+        if not epath.exists():
+            write_npz(epath, **refine_edge(load_table(tpath), cfg["edge"], log=log))
+        tpath = epath
+    if cfg.get("nudge"):             # the edge's nudges as state feedback (agents/nudge.py)
+        from agents.nudge import choose, search
+        npath = out / "table_nudge.npz"
+        if not npath.exists():
+            family = choose(search(log=log))
+            write_npz(npath, **load_table(tpath),
+                      **{f"nudge_{k}": v for k, v in family.items()})
+        tpath = npath
     table = load_table(tpath)
     in_band = cfg.get("in_band", 120)
     data = []
@@ -386,13 +421,15 @@ def pipeline(config_path, out, log=print) -> dict:
         data.append(str(path))
     fcfg = dict(cfg.get("fit", {}))
     activation, arch = fcfg.pop("activation", None), fcfg.pop("net_arch", None)
+    features = fcfg.pop("features", None)
     rounds = cfg.get("dagger") or []
     res = None
     for r in range(len(rounds) + 1):
         last = r == len(rounds)
         clone_path = out / f"clone_{r}.pkl"
         settings = fcfg if r == 0 else {**fcfg, **cfg.get("dagger_fit", {})}
-        res = fit(data, activation=activation, arch=arch, save=str(clone_path),
+        res = fit(data, activation=activation, arch=arch, features=features,
+                  save=str(clone_path),
                   init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
                   export_dir=str(out) if last else None, log=log, **settings)
         log(f"clone {r} ({len(data)} collections):")
@@ -402,11 +439,21 @@ def pipeline(config_path, out, log=print) -> dict:
             break
         path = out / f"dagger_{r + 1}_seed{rounds[r]['seed']}.npz"
         if not path.exists():
-            learner = load_clone(str(clone_path), activation, arch)
+            learner = load_clone(str(clone_path), activation, arch, features=features)
             obs, act, ret = collect_table(table, 0.0, rounds[r]["seed"], in_band, learner,
                                           log=log)
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
+    if cfg.get("nudge"):
+        # the network's nudge branch, fitted to the edge states of every collection, and
+        # the gated network of both (hoprover_env.gated): OUT/plan_clone.pt
+        from agents.nudge import assemble, fit_branch
+        fit_branch(data, save=str(out / "nudge_branch.pkl"), log=log)
+        assemble(str(out), str(out / "nudge_branch.pkl"), str(out / "plan_clone.pt"))
+        from hoprover_env.policies import load_policy
+        res = judge(load_policy(str(out / "plan_clone.pt")))
+        log("gated network (main clone + nudge branch):")
+        report(res, log)
     write_json(out / "judge.json", res)
     return res
 
@@ -434,6 +481,8 @@ def main(argv=None) -> int:
     c.add_argument("--in-band", type=int, default=120)
     c.add_argument("--learner", default=None, help="a clone saved by clone_study fit --save")
     c.add_argument("--activation", default="relu", help="the learner's activation")
+    c.add_argument("--features", default=None, choices=("micro",),
+                   help="the learner's input features (hoprover_env.features)")
     p = sub.add_parser("pipeline", help="table, demonstrations, fits and DAgger rounds")
     p.add_argument("--config", default="configs/plan_clone.yaml")
     p.add_argument("--out", required=True)
@@ -457,7 +506,7 @@ def main(argv=None) -> int:
         learner = None
         if args.learner:
             from agents.clone_study import load_clone
-            learner = load_clone(args.learner, args.activation)
+            learner = load_clone(args.learner, args.activation, features=args.features)
         t0 = time.perf_counter()
         obs, act, ret = collect_table(load_table(args.table), args.noise, args.seed,
                                       args.in_band, learner, log=log)

@@ -18,6 +18,7 @@ import numpy as np
 import torch
 from gymnasium.vector import AutoresetMode
 
+from hoprover_env.features import set_statistics
 from hoprover_env.planning import UPPER
 from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
 from hoprover_env.vector_env import HopRoverVectorEnv
@@ -121,6 +122,7 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
         vecnorm.ret_rms.var = np.array(scale ** 2)
         vecnorm.ret_rms.mean = np.array(0.0)
         vecnorm.ret_rms.count = float(len(returns))
+    set_statistics(model.policy, vecnorm)     # a features layer that undoes them
     x = torch.as_tensor(vecnorm.normalize_obs(obs), dtype=torch.float32)
     y = torch.as_tensor(np.clip(actions, -1.0, 1.0), dtype=torch.float32)
     z = torch.as_tensor(np.clip(returns / scale, -vecnorm.clip_reward * 10,

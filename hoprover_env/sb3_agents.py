@@ -32,7 +32,7 @@ TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize",
             "hyperparams", "pretrain", "evaluation", "checkpoint"}
 NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
 POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
-               "squash_output", "n_critics", "share_features_extractor"}
+               "squash_output", "n_critics", "share_features_extractor", "features"}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {"expert": "scripted", "episodes": 400, "epochs": 30, "batch_size": 1024,
                      "learning_rate": 1e-3, "seed": 1, "value_epochs": 10, "log_std": -2.5,
@@ -156,6 +156,14 @@ def validate(cfg: dict) -> None:
     if "activation_fn" in cfg["policy"] and cfg["policy"]["activation_fn"] not in ACTIVATIONS:
         raise ConfigError(f"config key 'policy.activation_fn' must be one of "
                           f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}")
+    if "features" in cfg["policy"]:
+        if cfg["policy"]["features"] != "micro":
+            raise ConfigError(f"config key 'policy.features' must be 'micro', got "
+                              f"{cfg['policy']['features']!r}")
+        if cfg["normalize"].get("update", True) or not cfg["normalize"].get("obs", True):
+            raise ConfigError("config key 'policy.features' needs normalize.obs: true and "
+                              "normalize.update: false (the features undo the frozen "
+                              "observation statistics)")
     params = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env",
                                                                  "policy_kwargs", "seed",
                                                                  "tensorboard_log", "_init_setup_model"}
@@ -262,6 +270,9 @@ def env_kwargs(cfg: dict) -> dict:
 def policy_kwargs(cfg: dict) -> dict:
     import torch.nn as nn
     kw = dict(cfg["policy"])
+    if "features" in kw:          # hoprover_env.features: inputs at fine scales
+        from hoprover_env.features import FEATURE_EXTRACTORS
+        kw["features_extractor_class"] = FEATURE_EXTRACTORS[kw.pop("features")]
     if "activation_fn" in kw:
         kw["activation_fn"] = getattr(nn, ACTIVATIONS[kw["activation_fn"]])
     return kw

@@ -75,23 +75,39 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     monkeypatch.setattr(cs, "judge", lambda policy: judged.append(policy) or {
         "validation_success": 0.0, "validation_median": float("nan"), "suite_success": 0.0,
         "median_regret": float("inf"), "worst_regret": float("inf"), "by_distance": []})
+    import agents.nudge as nudge
+    # a nudge family searched on a tiny grid at two offsets
+    monkeypatch.setattr(nudge, "PUSH_GRID", np.array([0.06, 0.07]))
+    monkeypatch.setattr(nudge, "TILT_GRID", np.array([1.17e-3]))
+    monkeypatch.setattr(nudge, "BRAKE_GRID", np.array([0.05, 0.06]))
+    monkeypatch.setattr(nudge, "OFFSETS", (0.102, 0.104))
     cfg = {"table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
-           "in_band": 2, "demonstrations": [{"noise": 0.0, "seed": 1}],
-           "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1},
+           "nudge": True, "in_band": 2, "demonstrations": [{"noise": 0.0, "seed": 1}],
+           "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
+                   "features": "micro"},
            "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4}}
     path = tmp_path / "plan.yaml"
     path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "run"
     pt.pipeline(path, out, log=lambda m: None)
-    assert len(judged) == 2                               # the clone, then after DAgger
+    assert len(judged) == 3          # the clone, after DAgger, the gated network
     kept = sorted(p.name for p in out.glob("*.npz"))
-    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "table.npz"]
+    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "table.npz",
+                    "table_nudge.npz"]
+    assert sorted(pt.load_table(out / "table_nudge.npz")["nudge_offsets"]) == [0.102, 0.104]
     policy = load_policy(str(out))
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
+    assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
+    gated = load_policy(str(out / "plan_clone.pt"))
+    assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
+    assert judged[-1] is not None and type(judged[-1]).__name__ == "GatedPolicy"
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     calls = []
     monkeypatch.setattr(pt, "collect_table", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(pt, "sweep", lambda *a, **k: calls.append(a))
+    monkeypatch.setattr(nudge, "search", lambda *a, **k: calls.append(a))
+    monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)   # fits are redone
+    monkeypatch.setattr(nudge, "assemble", lambda *a, **k: None)
     pt.pipeline(path, out, log=lambda m: None)            # again: nothing collected
     assert calls == [] and stamps == {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))

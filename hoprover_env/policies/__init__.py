@@ -41,6 +41,9 @@ BUNDLED_NAME = "ppo_hoprover"
 BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop",
            "terrain": "ppo_terrain", "scratch_medium": "ppo_scratch_medium",
            "mission": "ppo_mission"}
+# bundled networks that are not SB3 models: the plan-table clone with its nudge branch
+# (hoprover_env.gated; .pt weights and .json metadata)
+BUNDLED_NETS = {"plan_clone": "plan_clone"}
 ALGOS = ("ppo", "sac", "td3")
 
 
@@ -275,7 +278,9 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
     """A policy by name: 'bundled', 'scratch', 'hop', 'terrain', 'mission' (the bundled
-    models; 'mission' acts on HopRoverMission-v0's estimate, hoprover_env.mission_hop), 'scripted'
+    models; 'mission' acts on HopRoverMission-v0's estimate, hoprover_env.mission_hop),
+    'plan_clone' (the bundled gated network, hoprover_env.gated; or any saved one's
+    .pt), 'scripted'
     (hoprover_env.scripted.ScriptedHopper every `control_dt` [s]), 'random' (seeded with
     `seed`), a model .zip or run directory (`load_sb3`), or 'module.py:Control'
     (`load_controller`).
@@ -283,6 +288,12 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
     Returns an SB3Policy, ControllerPolicy or RandomPolicy: ``act(obs, venv)`` on a
     batch. Raises ValueError for an unknown name and FileNotFoundError for a missing file.
     """
+    if spec in BUNDLED_NETS or spec.endswith(".pt"):
+        from hoprover_env import gated
+        path = BUNDLED_DIR / f"{BUNDLED_NETS[spec]}.pt" if spec in BUNDLED_NETS else Path(spec)
+        net, meta = gated.load(path)
+        return gated.GatedPolicy(net, name=spec if spec in BUNDLED_NETS else path.stem,
+                                 env_kwargs=meta["env_kwargs"])
     if spec in BUNDLED:
         path = BUNDLED_DIR / f"{BUNDLED[spec]}.zip"
         if not path.exists():
@@ -301,5 +312,5 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, mission, scripted, mpc, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, mission, plan_clone, scripted, mpc, random, a model "
                      ".zip or run directory, or module.py:Control")

@@ -1,0 +1,239 @@
+"""A nudge at the band's edge as state feedback, for the plan-table teacher (issue 28).
+
+Just beyond the band's edge (a target 0.1-0.115 m from the rover at rest) the best-known
+plans are nudges: a small push, then a brake held for a few seconds, timed by the plan's
+clock. A clone cannot copy that timing: the states it must tell apart differ by a
+fraction of a milliradian and of a millimetre, and the same state gets "brake" from one
+plan and "nothing" from another (BENCHMARKS.md, "A learned policy within 5 %"). So the
+teacher flies the nudge as a law of the observed state alone, with three numbers per
+offset, chosen by a grid search and made to change smoothly with the offset:
+
+* at rest on a face, out of the band: push toward the target with `push` of T_max;
+* pivoting on a corner (states B-E), tilted toward the target and still tipping that
+  way: push while the tilt |theta| is below `tilt` [rad], brake with `brake` of T_max
+  beyond it;
+* anything else: no torque (the rover rocks back and settles; at rest off target the
+  law pushes again).
+
+`nudge_actions` is that law on HopRover-v0's observations (the teacher labels with it,
+and stored collections are relabelled with it), on the states `near_edge`
+(hoprover_env.gated) picks: nearly still within NUDGE_MAX of the target; `search` flies a grid of the three
+numbers for each offset in one vector env; `choose` picks per offset the point whose
+worst TTRTP over its grid neighbours (a clone's error: +-1 step of each number) is
+smallest, with a penalty on jumps between neighbouring offsets.
+
+    python -m agents.nudge search --table runs/plan_table/table_edge.npz \\
+        --out runs/plan_table/table_nudge.npz
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+from hoprover_env.gated import NUDGE_MAX, near_edge  # noqa: F401  (the law's states)
+from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, POS_SCALE,
+                                            RATE_SCALE)
+
+BAND_EDGE = 0.1              # m: the rover's half-width plus the band's (plan_table)
+MODE_F = 5
+PIVOTS = (1, 2, 3, 4)        # B-E: on one corner
+# the grid `search` flies (fractions of T_max, rad, fractions of T_max)
+PUSH_GRID = np.arange(0.02, 0.2001, 0.005)
+TILT_GRID = np.geomspace(1e-4, 6e-3, 16)
+BRAKE_GRID = np.arange(0.0, 0.3001, 0.005)
+OFFSETS = (0.10005, 0.1001, 0.1002, 0.1003, 0.1004, 0.1006, 0.1008, 0.101, 0.1013, 0.1016,
+           0.102, 0.1025, 0.103, 0.1035, 0.104, 0.105, 0.106, 0.107, 0.108, 0.109, 0.11,
+           0.1115, 0.113, 0.115)
+
+
+def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
+    """The nudge law's actions (torque / T_max) for observations `obs` (N, 19); `push`,
+    `tilt`, `brake` per row (or scalars). Rows in flight, in the band at rest, or
+    rocking back get 0."""
+    obs = np.asarray(obs, dtype=np.float64)
+    offset = -obs[:, OBS_DX] * POS_SCALE                 # target minus c.m. [m]
+    d = np.where(offset >= 0.0, 1.0, -1.0)
+    mode = np.argmax(obs[:, OBS_MODE:OBS_MODE + 7], axis=1)
+    theta = np.arcsin(np.clip(obs[:, OBS_SIN], -1.0, 1.0))
+    omega = obs[:, OBS_RATE] * RATE_SCALE
+    push, tilt, brake = (np.broadcast_to(np.asarray(v, dtype=float), len(obs))
+                         for v in (push, tilt, brake))
+    rest = (mode == MODE_F) & (np.abs(offset) > BAND_EDGE)
+    tipping = np.isin(mode, PIVOTS) & (theta * d > 0.0) & (omega * d > 0.0)
+    a = np.where(rest | (tipping & (np.abs(theta) < tilt)), push, 0.0)
+    a = np.where(tipping & (np.abs(theta) >= tilt), -brake, a)
+    return a * d
+
+
+def family_at(family: dict, offset) -> tuple:
+    """(push, tilt, brake) at |offset| [m], linear between the family's offsets (the
+    nearest end beyond them)."""
+    x = np.abs(np.asarray(offset, dtype=float))
+    return tuple(np.interp(x, family["offsets"], family[k]) for k in ("push", "tilt", "brake"))
+
+
+class _GridFlyer:
+    """A policy flying the nudge law with per-episode numbers (for `search`)."""
+
+    def __init__(self, push, tilt, brake):
+        self.push, self.tilt, self.brake = push, tilt, brake
+        self.name, self.env_kwargs, self.first = "nudge-grid", {"control_dt": 0.5}, 0
+
+    def reset(self, n: int, first_episode: int = 0) -> None:
+        self.first = first_episode
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        s = slice(self.first, self.first + len(obs))
+        return nudge_actions(obs, self.push[s], self.tilt[s], self.brake[s])[:, None]
+
+
+def search(offsets=None, log=print) -> dict:
+    """TTRTP [s] (inf: missed) of every grid point for each offset (default `OFFSETS`),
+    from the start."""
+    from hoprover_env.evaluation import run_episodes
+    offsets = OFFSETS if offsets is None else offsets
+    P, T, B = (a.ravel() for a in np.meshgrid(PUSH_GRID, TILT_GRID, BRAKE_GRID,
+                                              indexing="ij"))
+    out = {}
+    for x in offsets:
+        t0 = time.perf_counter()
+        res = run_episodes(_GridFlyer(P, T, B), np.full(len(P), x), batch=len(P))
+        tt = np.array([r.ttrtp if r.success else np.inf for r in res])
+        out[x] = tt.reshape(len(PUSH_GRID), len(TILT_GRID), len(BRAKE_GRID))
+        log(f"offset {x}: best {tt.min():.2f} s ({time.perf_counter() - t0:.0f} s)")
+    return out
+
+
+def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60) -> dict:
+    """Per offset the grid point with the smallest worst TTRTP over its neighbours (+-1
+    step of each number), relative to the offset's best; among each offset's `keep`
+    best, the path that also pays `jump_cost` per grid step between neighbouring
+    offsets (dynamic programming)."""
+    from scipy.ndimage import maximum_filter
+    xs = sorted(grid)
+    cost, cand = [], []
+    for x in xs:
+        robust = maximum_filter(grid[x], size=3, mode="nearest")
+        order = np.argsort(robust.ravel())[:keep]
+        cost.append(robust.ravel()[order] / grid[x].min())
+        cand.append(np.array(np.unravel_index(order, robust.shape)).T)
+    total, back = cost[0].copy(), []
+    for i in range(1, len(xs)):
+        jumps = np.abs(cand[i][:, None, :] - cand[i - 1][None, :, :]).sum(axis=2)
+        paid = total[None, :] + jump_cost * jumps
+        back.append(np.argmin(paid, axis=1))
+        total = cost[i] + paid[np.arange(len(cand[i])), back[-1]]
+    path = [int(np.argmin(total))]
+    for b in reversed(back):
+        path.append(int(b[path[-1]]))
+    idx = np.array([cand[i][k] for i, k in enumerate(path[::-1])])
+    return {"offsets": np.array(xs), "push": PUSH_GRID[idx[:, 0]],
+            "tilt": TILT_GRID[idx[:, 1]], "brake": BRAKE_GRID[idx[:, 2]],
+            "robust": np.array([cost[i][k] for i, k in enumerate(path[::-1])]),
+            "ttrtp": np.array([grid[x][tuple(i)] for x, i in zip(xs, idx)])}
+
+
+def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
+               save=None, log=print):
+    """The nudge branch: configs/ppo_mpc.yaml's actor (ReLU, `features.micro` inputs)
+    fitted from scratch to the rows of the collections `data` that `near_edge` picks
+    (labelled by the nudge law: relabel older collections with `relabel`). Returns the
+    clone as a policy; `save` writes its weights and statistics as `clone_study fit
+    --save` does."""
+    import pickle
+    from agents.clone_study import _model, _policy
+    from hoprover_env.imitation import clone
+    parts = []
+    for p in data:
+        with np.load(p) as d:
+            m = near_edge(d["obs"])
+            parts.append((d["obs"][m], d["act"][m], d["ret"][m]))
+    obs, act, ret = (np.concatenate([q[k] for q in parts]) for k in range(3))
+    if not len(obs):
+        raise ValueError(f"no sample of {list(data)} is near the band's edge (near_edge)")
+    log(f"{len(obs)} samples near the edge from {len(data)} collections")
+    cfg, venv, model = _model("linear", None, "relu", "micro")
+    clone(model, venv, obs, act, ret, epochs=epochs, batch_size=1024, learning_rate=lr,
+          learning_rate_end=lr_end, value_epochs=0, seed=0, log=log)
+    if save:
+        from hoprover_env.files import atomic_write
+        atomic_write(save, pickle.dumps({"policy": model.policy.state_dict(),
+                                         "mean": venv.obs_rms.mean, "var": venv.obs_rms.var}))
+    return _policy(cfg, venv, model, "nudge-branch")
+
+
+def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
+    """`act` with the rows the table's nudge law covers labelled by it."""
+    family = {k[len("nudge_"):]: v for k, v in table.items() if k.startswith("nudge_")}
+    m = near_edge(obs, float(family["offsets"].max()))
+    out = np.array(act, dtype=np.float64, copy=True)
+    out[m, 0] = nudge_actions(obs[m], *family_at(family, -obs[m, OBS_DX] * POS_SCALE))
+    return out
+
+
+def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01) -> None:
+    """The gated network (hoprover_env.gated) of a main clone (a run directory) and a
+    nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json)."""
+    from agents.clone_study import load_clone
+    from hoprover_env import gated
+    from hoprover_env.policies import load_policy
+    net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
+                         gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
+                                                          features="micro")),
+                         deadzone=deadzone)
+    gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    s = sub.add_parser("search", help="search the nudge family and add it to a table")
+    s.add_argument("--table", required=True)
+    s.add_argument("--out", required=True)
+    r = sub.add_parser("relabel", help="label a collection's edge states by the law")
+    r.add_argument("--table", required=True, help="a table with a nudge family")
+    r.add_argument("--data", nargs="+", required=True)
+    r.add_argument("--out-dir", required=True)
+    f = sub.add_parser("fit", help="fit the nudge branch to the edge states of collections")
+    f.add_argument("--data", nargs="+", required=True)
+    f.add_argument("--epochs", type=int, default=15)
+    f.add_argument("--save", required=True)
+    g = sub.add_parser("assemble", help="main clone + nudge branch -> a gated network")
+    g.add_argument("--main", required=True, help="the main clone's run directory")
+    g.add_argument("--nudge", required=True, help="fit's pickle")
+    g.add_argument("--out", required=True, help="the network's .pt")
+    g.add_argument("--deadzone", type=float, default=0.01)
+    args = ap.parse_args(argv)
+    from pathlib import Path
+    from agents.plan_table import load_table
+    from hoprover_env.files import write_npz
+    log = lambda m: print(m, flush=True)       # noqa: E731
+    if args.cmd == "relabel":
+        table = load_table(args.table)
+        for p in args.data:
+            with np.load(p) as d:
+                obs, act, ret = d["obs"], d["act"], d["ret"]
+            out = Path(args.out_dir) / Path(p).name
+            write_npz(out, obs=obs, act=relabel(table, obs, act), ret=ret)
+            log(f"{p} -> {out}")
+        return 0
+    if args.cmd == "fit":
+        fit_branch(args.data, args.epochs, save=args.save, log=log)
+        return 0
+    if args.cmd == "assemble":
+        assemble(args.main, args.nudge, args.out, args.deadzone)
+        return 0
+    fam = choose(search(log=log))
+    for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):
+        log("offset {:.5f}: push {:.3f}, tilt {:.5f} rad, brake {:.3f}; {:.2f} s "
+            "(worst of neighbours {:.3f}x the best)".format(*row))
+    table = load_table(args.table)
+    write_npz(args.out, **table, **{f"nudge_{k}": v for k, v in fam.items()})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

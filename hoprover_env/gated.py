@@ -1,0 +1,164 @@
+"""A torque network of two branches, one for the nudge at the band's edge (issue 28).
+
+A clone of the plan-table teacher (agents/plan_table.py) flies the long and short hops
+within 1 % of the best-known plans, but one network fitted to everything at once does
+not also fit the teacher's nudge law at the band's edge (agents/nudge.py): its brakes
+are a few thousand samples among millions, and a network fitted to those states alone
+does fit them (BENCHMARKS.md, "A learned policy within 5 %"). So the network has two
+branches and a fixed gate:
+
+* the *main* branch (an MLP on the normalised observation) acts everywhere else; its
+  actions below `deadzone` in size are zero (after a landing the teacher's label is
+  zero torque, and the residual 0.01-0.02 of T_max a fit leaves there makes the rover
+  rock and slide past the target);
+* the *nudge* branch (an MLP on the normalised observation and `features.micro`
+  inputs) acts where the rover is nearly still within `nudge_max` of the target
+  (`near_edge`, the states the nudge law labels).
+
+Both branches are learned; the gate, the dead zone and the normalisations are fixed
+parts of the network. `GatedNet.forward` maps raw observations (N, 19) to actions
+(N, 1); `GatedPolicy` is the policy `load_policy` returns for a saved one (a .pt file:
+the weights, with the branches' sizes in its metadata).
+"""
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_SIN, OBS_VX, POS_SCALE,
+                                            VEL_SCALE)
+
+NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
+STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
+
+
+def near_edge(obs, nudge_max: float = NUDGE_MAX):
+    """Rows (numpy or torch, raw observations) on the ground within `nudge_max` m of
+    the target and nearly still: the nudge law's states."""
+    lib = torch if isinstance(obs, torch.Tensor) else np
+    mode = lib.argmax(obs[:, OBS_MODE:OBS_MODE + 7], 1)
+    still = ((lib.abs(obs[:, OBS_SIN]) < STILL_TILT)
+             & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED))
+    return (mode != 0) & still & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max)
+
+
+class Branch(nn.Module):
+    """An SB3 actor's deterministic path: normalise (VecNormalize's statistics and
+    clip), features, MLP, action head."""
+
+    def __init__(self, mean, var, clip: float, features: nn.Module, mlp: nn.Module,
+                 head: nn.Module, epsilon: float = 1e-8):
+        super().__init__()
+        self.register_buffer("mean", torch.as_tensor(np.asarray(mean), dtype=torch.float32))
+        self.register_buffer("std", torch.as_tensor(np.sqrt(np.asarray(var) + epsilon),
+                                                    dtype=torch.float32))
+        self.clip = float(clip)
+        self.features, self.mlp, self.head = features, mlp, head
+
+    def forward(self, obs):
+        z = torch.clamp((obs - self.mean) / self.std, -self.clip, self.clip)
+        return self.head(self.mlp(self.features(z)))
+
+    @classmethod
+    def from_sb3(cls, policy) -> "Branch":
+        """The deterministic actor of an SB3Policy (hoprover_env.policies)."""
+        p = policy.model.policy
+        rms = policy.obs_rms
+        return cls(rms.mean, rms.var, policy.clip_obs, copy.deepcopy(p.features_extractor),
+                   copy.deepcopy(p.mlp_extractor.policy_net), copy.deepcopy(p.action_net),
+                   policy.epsilon)
+
+
+class GatedNet(nn.Module):
+    """Raw observations (N, 19) -> actions (N, 1) in [-1, 1] (module docstring)."""
+
+    def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
+                 nudge_max: float = NUDGE_MAX):
+        super().__init__()
+        self.main, self.nudge = main, nudge
+        self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
+
+    def forward(self, obs):
+        a = self.main(obs)
+        a = torch.where(a.abs() < self.deadzone, torch.zeros_like(a), a)
+        a = torch.where(near_edge(obs, self.nudge_max)[:, None], self.nudge(obs), a)
+        return torch.clamp(a, -1.0, 1.0)
+
+
+def _spec(branch: Branch) -> dict:
+    layers = [m.out_features for m in branch.mlp if isinstance(m, nn.Linear)]
+    acts = {type(m).__name__ for m in branch.mlp if not isinstance(m, nn.Linear)}
+    return {"layers": layers, "activation": acts.pop() if acts else "Identity",
+            "micro": type(branch.features).__name__ == "MicroStateFeatures",
+            "clip": branch.clip}
+
+
+def _branch(spec: dict, obs_dim: int = 19) -> Branch:
+    from gymnasium import spaces
+    from stable_baselines3.common.torch_layers import FlattenExtractor
+    from hoprover_env.features import MicroStateFeatures
+    space = spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
+    features = MicroStateFeatures(space) if spec["micro"] else FlattenExtractor(space)
+    mods, width = [], features.features_dim
+    for n in spec["layers"]:
+        mods += [nn.Linear(width, n), getattr(nn, spec["activation"])()]
+        width = n
+    return Branch(np.zeros(obs_dim), np.ones(obs_dim), spec["clip"], features,
+                  nn.Sequential(*mods), nn.Linear(width, 1))
+
+
+def save(net: GatedNet, path, meta: dict | None = None) -> None:
+    """The weights (.pt) and, beside them (.json), the branches' sizes and `meta` (how
+    it was made), each written atomically."""
+    import io
+    from hoprover_env.files import atomic_write, write_json
+    path = Path(path)
+    buf = io.BytesIO()
+    torch.save(net.state_dict(), buf)
+    atomic_write(path, buf.getvalue())
+    write_json(path.with_suffix(".json"), {
+        "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
+        "deadzone": net.deadzone, "nudge_max": net.nudge_max, "env_id": "HopRover-v0",
+        "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
+
+
+def load(path) -> tuple[GatedNet, dict]:
+    """(network, metadata) of a `save`d one. Raises FileNotFoundError if either file is
+    missing and ValueError if the metadata is not a gated network's."""
+    path = Path(path)
+    meta_path = path.with_suffix(".json")
+    for p in (path, meta_path):
+        if not p.exists():
+            raise FileNotFoundError(f"gated network file missing: {p}")
+    meta = json.loads(meta_path.read_text())
+    if meta.get("kind") != "gated":
+        raise ValueError(f"{meta_path} does not describe a gated network (kind "
+                         f"{meta.get('kind')!r})")
+    net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
+                   meta["nudge_max"])
+    net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
+    net.eval()
+    return net, meta
+
+
+class GatedPolicy:
+    """A `GatedNet` acting in HopRover-v0 every `env_kwargs["control_dt"]` s."""
+
+    def __init__(self, net: GatedNet, name: str = "gated", env_kwargs: dict | None = None):
+        self.net, self.name = net, name
+        self.env_id = "HopRover-v0"
+        self.env_kwargs = dict(env_kwargs or {"control_dt": 0.5})
+
+    def reset(self, n: int, first_episode: int = 0) -> None:
+        pass
+
+    def act(self, obs: np.ndarray, venv) -> np.ndarray:
+        """Deterministic actions (N, 1) for raw observations (N, 19)."""
+        with torch.no_grad():
+            out = self.net(torch.as_tensor(np.asarray(obs), dtype=torch.float32))
+        return out.numpy().astype(np.float64)

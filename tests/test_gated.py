@@ -1,0 +1,85 @@
+"""hoprover_env.gated: the two-branch torque network and the bundled `plan_clone`."""
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from agents.clone_study import _model, _policy
+from hoprover_env import gated
+from hoprover_env.features import set_statistics
+from hoprover_env.policies import load_policy
+
+
+def _random_obs(rng, n=400):
+    obs = rng.normal(0.0, 0.5, size=(n, 19)).astype(np.float32)
+    obs[:, 7:14] = np.eye(7)[rng.integers(0, 7, n)]
+    near = rng.random(n) < 0.5            # half of them still and near the edge
+    obs[near, 0] = rng.uniform(-0.12, 0.12, near.sum())
+    obs[near, 2] = rng.normal(0.0, 0.05, near.sum())
+    obs[near, 4] = rng.normal(0.0, 0.005, near.sum())
+    return obs
+
+
+def _branches(rng):
+    cfg, venv, model = _model("linear", activation="relu")
+    venv.obs_rms.mean = rng.normal(0.0, 0.1, 19)
+    venv.obs_rms.var = rng.uniform(0.05, 1.0, 19)
+    cfg2, venv2, model2 = _model("linear", activation="relu", features="micro")
+    venv2.obs_rms.mean = rng.normal(0.0, 0.1, 19)
+    venv2.obs_rms.var = rng.uniform(0.05, 1.0, 19)
+    set_statistics(model2.policy, venv2)
+    return _policy(cfg, venv, model), _policy(cfg2, venv2, model2)
+
+
+def test_the_gate_is_the_same_in_numpy_and_torch():
+    obs = _random_obs(np.random.default_rng(0))
+    mask = gated.near_edge(obs)
+    assert 0 < mask.sum() < len(obs)
+    np.testing.assert_array_equal(gated.near_edge(torch.as_tensor(obs)).numpy(), mask)
+
+
+def test_the_network_is_the_main_branch_with_a_dead_zone_and_the_nudge_branch_near_the_edge():
+    rng = np.random.default_rng(1)
+    main, nudge = _branches(rng)
+    net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
+                         deadzone=0.05)
+    obs = _random_obs(rng)
+    want = main.act(obs, None)
+    want[np.abs(want) < 0.05] = 0.0
+    mask = gated.near_edge(obs)
+    want[mask] = nudge.act(obs[mask], None)
+    got = gated.GatedPolicy(net).act(obs, None)
+    np.testing.assert_allclose(got, np.clip(want, -1, 1), atol=2e-6)
+    assert (got[~mask] == 0.0).any()      # the dead zone did act
+
+
+def test_a_saved_network_loads_with_the_same_actions_and_refuses_a_foreign_file(tmp_path):
+    rng = np.random.default_rng(2)
+    main, nudge = _branches(rng)
+    net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge))
+    gated.save(net, tmp_path / "net.pt", {"made_from": "test"})
+    loaded = load_policy(str(tmp_path / "net.pt"))
+    obs = _random_obs(rng)
+    np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
+    assert loaded.name == "net" and loaded.env_kwargs == {"control_dt": 0.5}
+    meta = json.loads((tmp_path / "net.json").read_text())
+    meta["kind"] = "sb3"
+    (tmp_path / "net.json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="not describe a gated network"):
+        load_policy(str(tmp_path / "net.pt"))
+    with pytest.raises(FileNotFoundError, match="missing"):
+        load_policy(str(tmp_path / "other.pt"))
+
+
+def test_the_bundled_plan_clone_nudges_at_the_band_edge_within_the_regret_bound():
+    from hoprover_env import suites
+    from hoprover_env.evaluation import run_episodes
+    suite = suites.load("HopRover-v0")
+    # level-v1's targets just beyond the band's edge (a nudge of 0.4-6 mm) and a long hop
+    pick = [int(np.argmin(np.abs(suite.targets - x))) for x in (-0.1004, -0.1061, 0.1056,
+                                                                 -0.6144)]
+    res = run_episodes(load_policy("plan_clone"), suite.targets[pick])
+    for r, k in zip(res, pick):
+        assert r.success, suite.targets[k]
+        assert r.ttrtp <= 1.30 * suite.reference_ttrtp[k], (suite.targets[k], r.ttrtp)
