@@ -17,13 +17,24 @@ offset, chosen by a grid search and made to change smoothly with the offset:
 
 `nudge_actions` is that law on HopRover-v0's observations (the teacher labels with it,
 and stored collections are relabelled with it), on the states `near_edge`
-(hoprover_env.gated) picks: nearly still within NUDGE_MAX of the target; `search` flies a grid of the three
-numbers for each offset in one vector env; `choose` picks per offset the point whose
-worst TTRTP over its grid neighbours (a clone's error: +-1 step of each number) is
-smallest, with a penalty on jumps between neighbouring offsets.
+(hoprover_env.gated) picks: nearly still within NUDGE_MAX of the target. `search` flies
+a grid of the three numbers for each offset in one vector env; `choose` picks per
+offset the point whose worst TTRTP over its grid neighbours (a clone's error: +-1 step
+of each number) is smallest, with a penalty on jumps between neighbouring offsets.
 
-    python -m agents.nudge search --table runs/plan_table/table_edge.npz \\
+One network fitted to everything does not learn the law (its brakes are a few thousand
+samples among millions); `fit` fits a network to the law's states alone, and `assemble`
+puts it beside a plan-table clone as the nudge branch of a gated network
+(hoprover_env.gated), the bundled `plan_clone`:
+
+    python -m agents.nudge search --table runs/plan_table/table.npz \\
         --out runs/plan_table/table_nudge.npz
+    python -m agents.nudge relabel --table runs/plan_table/table_nudge.npz \\
+        --data runs/plan_table/demo_*.npz --out-dir runs/plan_table/relabelled
+    python -m agents.nudge fit --data runs/plan_table/relabelled/*.npz \\
+        --save runs/plan_table/nudge_branch.pkl
+    python -m agents.nudge assemble --main runs/plan_table \\
+        --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt
 """
 from __future__ import annotations
 
@@ -230,7 +241,7 @@ def main(argv=None) -> int:
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):
         log("offset {:.5f}: push {:.3f}, tilt {:.5f} rad, brake {:.3f}; {:.2f} s "
             "(worst of neighbours {:.3f}x the best)".format(*row))
-    table = load_table(args.table)
+    table = {k: v for k, v in load_table(args.table).items() if not k.startswith("nudge_")}
     write_npz(args.out, **table, **{f"nudge_{k}": v for k, v in fam.items()})
     return 0
 
