@@ -128,8 +128,8 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
 
 
 def load(path) -> tuple[GatedNet, dict]:
-    """(network, metadata) of a `save`d one. Raises FileNotFoundError if either file is
-    missing and ValueError if the metadata is not a gated network's."""
+    """(network, metadata) of a network written by `save`. Raises FileNotFoundError if
+    either file is missing and ValueError if the metadata is not a gated network's."""
     path = Path(path)
     meta_path = path.with_suffix(".json")
     for p in (path, meta_path):
