@@ -11,9 +11,11 @@ from a `HopRoverVectorEnv` and actions in [-1, 1]^(N, 1). Kinds:
 * ``RandomPolicy`` -- uniform random actions (a floor to compare against).
 * ``ArrayPolicy`` -- any function from an observation batch to an action batch, e.g. a
   network trained with TorchRL, Tianshou or skrl (examples/).
+* ``hoprover_env.gated.GatedPolicy`` -- a saved two-branch torch network (the bundled
+  ``plan_clone``), raw observation in, action out.
 
-`load_policy` turns a name ("bundled", "scripted", "random", a model path or
-"module.py:Control") into one of these.
+`load_policy` turns a name ("bundled", "plan_clone", "scripted", "random", a model path,
+a network's .pt or "module.py:Control") into one of these.
 """
 from __future__ import annotations
 
@@ -285,8 +287,9 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
     `seed`), a model .zip or run directory (`load_sb3`), or 'module.py:Control'
     (`load_controller`).
 
-    Returns an SB3Policy, ControllerPolicy or RandomPolicy: ``act(obs, venv)`` on a
-    batch. Raises ValueError for an unknown name and FileNotFoundError for a missing file.
+    Returns an SB3Policy, GatedPolicy, ControllerPolicy or RandomPolicy (or mpc's
+    MPCPolicy): ``act(obs, venv)`` on a batch. Raises ValueError for an unknown name and
+    FileNotFoundError for a missing file.
     """
     if spec in BUNDLED_NETS or spec.endswith(".pt"):
         from hoprover_env import gated
