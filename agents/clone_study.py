@@ -81,6 +81,14 @@ def _load(path, venv, model, log=None):
     set_statistics(model.policy, venv)
 
 
+def save_clone(path, model, venv) -> None:
+    """A clone's weights and observation statistics, as `_load` reads them (written
+    atomically)."""
+    from hoprover_env.files import atomic_write
+    atomic_write(str(path), pickle.dumps({"policy": model.policy.state_dict(),
+                                          "mean": venv.obs_rms.mean, "var": venv.obs_rms.var}))
+
+
 def load_clone(path, activation: str | None = None, arch=None, name="learner",
                features: str | None = None):
     """A clone saved by `fit --save`, as a policy (the activation, layers and features
@@ -163,9 +171,7 @@ def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weigh
           ground_weight=ground_weight, launch_weight=launch_weight,
           start_weight=start_weight, seed=0, log=log, fit_statistics=not init)
     if save:
-        with open(save, "wb") as f:
-            pickle.dump({"policy": model.policy.state_dict(), "mean": venv.obs_rms.mean,
-                         "var": venv.obs_rms.var}, f)
+        save_clone(save, model, venv)
     if export_dir:
         export(cfg, venv, model, export_dir)
     return judge(_policy(cfg, venv, model))
@@ -188,10 +194,12 @@ def fit_cmd(args) -> None:
                lr_end=args.lr_end, ground_weight=args.ground_weight,
                launch_weight=args.launch_weight, start_weight=args.start_weight,
                action_map=args.action_map, arch=args.arch, activation=args.activation,
-               features=args.features, init=args.init, save=args.save, export_dir=args.export, log=log), log)
+               features=args.features, init=args.init, save=args.save,
+               export_dir=args.export, log=log), log)
 
 
 def main(argv=None) -> int:
+    from hoprover_env.features import FEATURE_EXTRACTORS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("collect", help="expert demonstrations or DAgger labels")
@@ -224,7 +232,7 @@ def main(argv=None) -> int:
                        help="hidden layer sizes (default: the config's 256 256)")
         p.add_argument("--activation", default=None,
                        help="hidden activation (default: the config's tanh)")
-        p.add_argument("--features", default=None, choices=("micro",),
+        p.add_argument("--features", default=None, choices=sorted(FEATURE_EXTRACTORS),
                        help="inputs at fine scales (hoprover_env.features)")
     args = ap.parse_args(argv)
     (collect_cmd if args.cmd == "collect" else fit_cmd)(args)

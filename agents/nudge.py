@@ -44,13 +44,13 @@ import time
 
 import numpy as np
 
-from hoprover_env.gated import NUDGE_MAX, near_edge  # noqa: F401  (the law's states)
-from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, POS_SCALE,
-                                            RATE_SCALE)
+from agents.plan_table import BAND_EDGE
+from hoprover_env.core.layout import MODE_B, MODE_E, MODE_F
+from hoprover_env.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
+from hoprover_env.tasks.observation import OBS_DX, OBS_RATE, OBS_SIN, POS_SCALE, RATE_SCALE
 
-BAND_EDGE = 0.1              # m: the rover's half-width plus the band's (plan_table)
-MODE_F = 5
-PIVOTS = (1, 2, 3, 4)        # B-E: on one corner
+PIVOTS = tuple(range(MODE_B, MODE_E + 1))    # B-E: on one corner
+PREFIX = "nudge_"            # a table's arrays of the nudge family
 # the grid `search` flies (fractions of T_max, rad, fractions of T_max)
 PUSH_GRID = np.arange(0.02, 0.2001, 0.005)
 TILT_GRID = np.geomspace(1e-4, 6e-3, 16)
@@ -67,7 +67,7 @@ def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
     obs = np.asarray(obs, dtype=np.float64)
     offset = -obs[:, OBS_DX] * POS_SCALE                 # target minus c.m. [m]
     d = np.where(offset >= 0.0, 1.0, -1.0)
-    mode = np.argmax(obs[:, OBS_MODE:OBS_MODE + 7], axis=1)
+    mode = observed_mode(obs)
     theta = np.arcsin(np.clip(obs[:, OBS_SIN], -1.0, 1.0))
     omega = obs[:, OBS_RATE] * RATE_SCALE
     push, tilt, brake = (np.broadcast_to(np.asarray(v, dtype=float), len(obs))
@@ -77,6 +77,23 @@ def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
     a = np.where(rest | (tipping & (np.abs(theta) < tilt)), push, 0.0)
     a = np.where(tipping & (np.abs(theta) >= tilt), -brake, a)
     return a * d
+
+
+def family_of(table: dict) -> dict | None:
+    """The nudge family a table holds (`search`'s output), or None."""
+    return {k[len(PREFIX):]: v for k, v in table.items() if k.startswith(PREFIX)} or None
+
+
+def with_family(table: dict, family: dict) -> dict:
+    """`table` holding `family` (in place of any it had)."""
+    return {**{k: v for k, v in table.items() if not k.startswith(PREFIX)},
+            **{PREFIX + k: v for k, v in family.items()}}
+
+
+def family_actions(obs: np.ndarray, family: dict) -> np.ndarray:
+    """The law's actions for observations `obs`, with the family's numbers at each
+    row's offset."""
+    return nudge_actions(obs, *family_at(family, -obs[:, OBS_DX] * POS_SCALE))
 
 
 def family_at(family: dict, offset) -> tuple:
@@ -154,8 +171,7 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     (labelled by the nudge law: relabel older collections with `relabel`). Returns the
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
-    import pickle
-    from agents.clone_study import _model, _policy
+    from agents.clone_study import _model, _policy, save_clone
     from hoprover_env.imitation import clone
     parts = []
     for p in data:
@@ -170,18 +186,16 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     clone(model, venv, obs, act, ret, epochs=epochs, batch_size=1024, learning_rate=lr,
           learning_rate_end=lr_end, value_epochs=0, seed=0, log=log)
     if save:
-        from hoprover_env.files import atomic_write
-        atomic_write(save, pickle.dumps({"policy": model.policy.state_dict(),
-                                         "mean": venv.obs_rms.mean, "var": venv.obs_rms.var}))
+        save_clone(save, model, venv)
     return _policy(cfg, venv, model, "nudge-branch")
 
 
 def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
     """`act` with the rows the table's nudge law covers labelled by it."""
-    family = {k[len("nudge_"):]: v for k, v in table.items() if k.startswith("nudge_")}
+    family = family_of(table)
     m = near_edge(obs, float(family["offsets"].max()))
     out = np.array(act, dtype=np.float64, copy=True)
-    out[m, 0] = nudge_actions(obs[m], *family_at(family, -obs[m, OBS_DX] * POS_SCALE))
+    out[m, 0] = family_actions(obs[m], family)
     return out
 
 
@@ -241,8 +255,7 @@ def main(argv=None) -> int:
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):
         log("offset {:.5f}: push {:.3f}, tilt {:.5f} rad, brake {:.3f}; {:.2f} s "
             "(worst of neighbours {:.3f}x the best)".format(*row))
-    table = {k: v for k, v in load_table(args.table).items() if not k.startswith("nudge_")}
-    write_npz(args.out, **table, **{f"nudge_{k}": v for k, v in fam.items()})
+    write_npz(args.out, **with_family(load_table(args.table), fam))
     return 0
 
 

@@ -263,8 +263,8 @@ class PlanTableTeacher(MPCPolicy):
         self.until = []
         self.episode = ([], 600.0)   # (params, episode time) of the env `act` last saw
         # the nudge at the band's edge, flown as state feedback (agents/nudge.py)
-        self.nudge = ({k[len("nudge_"):]: table[k] for k in table if k.startswith("nudge_")}
-                      or None)
+        from agents.nudge import family_of
+        self.nudge = family_of(table)
         self.nudged = np.zeros(0, dtype=bool)   # rows of the last `act` the nudge labelled
 
     def reset(self, n: int, first_episode: int = 0) -> None:
@@ -307,9 +307,8 @@ class PlanTableTeacher(MPCPolicy):
                 [p == self.ground for p in venv.params])
         out = super().act(obs, venv)
         if self.nudged.any():
-            from agents.nudge import family_at, nudge_actions
-            o = obs[self.nudged]
-            out[self.nudged, 0] = nudge_actions(o, *family_at(self.nudge, o[:, 0]))
+            from agents.nudge import family_actions
+            out[self.nudged, 0] = family_actions(obs[self.nudged], self.nudge)
         return out
 
     def needs_plan(self, i: int, S: np.ndarray) -> bool:
@@ -381,8 +380,9 @@ def pipeline(config_path, out, log=print) -> dict:
     far (warm-started from the clone before it, with `dagger_fit` overriding `fit`'s
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
-    gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged. Each table and collection is kept in OUT, so a
-    killed run starts again from its last finished one."""
+    gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged.
+    Each table and collection is kept in OUT, so a killed run starts again from its last
+    finished one."""
     from pathlib import Path
     import yaml
     from agents.clone_study import fit, judge, load_clone, report
@@ -403,12 +403,10 @@ def pipeline(config_path, out, log=print) -> dict:
             write_npz(epath, **refine_edge(load_table(tpath), cfg["edge"], log=log))
         tpath = epath
     if cfg.get("nudge"):             # the edge's nudges as state feedback (agents/nudge.py)
-        from agents.nudge import choose, search
+        from agents.nudge import choose, search, with_family
         npath = out / "table_nudge.npz"
         if not npath.exists():
-            family = choose(search(log=log))
-            write_npz(npath, **load_table(tpath),
-                      **{f"nudge_{k}": v for k, v in family.items()})
+            write_npz(npath, **with_family(load_table(tpath), choose(search(log=log))))
         tpath = npath
     table = load_table(tpath)
     in_band = cfg.get("in_band", 120)
@@ -459,6 +457,7 @@ def pipeline(config_path, out, log=print) -> dict:
 
 
 def main(argv=None) -> int:
+    from hoprover_env.features import FEATURE_EXTRACTORS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     b = sub.add_parser("build", help="search the grid and make the plans alike")
@@ -481,7 +480,7 @@ def main(argv=None) -> int:
     c.add_argument("--in-band", type=int, default=120)
     c.add_argument("--learner", default=None, help="a clone saved by clone_study fit --save")
     c.add_argument("--activation", default="relu", help="the learner's activation")
-    c.add_argument("--features", default=None, choices=("micro",),
+    c.add_argument("--features", default=None, choices=sorted(FEATURE_EXTRACTORS),
                    help="the learner's input features (hoprover_env.features)")
     p = sub.add_parser("pipeline", help="table, demonstrations, fits and DAgger rounds")
     p.add_argument("--config", default="configs/plan_clone.yaml")

@@ -44,16 +44,17 @@ def n_features() -> int:
     return sum(len(s) for _, _, s in FEATURES) + len(EDGE_SCALES)
 
 
-def micro_features(raw: np.ndarray) -> np.ndarray:
-    """The appended features of raw (unnormalised) observations (N, 19), in numpy: the
-    reference the torch layer is tested against."""
+def micro_features(raw):
+    """The appended features of raw (unnormalised) observations (N, 19), numpy or torch:
+    one formula for the layer and for checking it."""
+    lib = torch if isinstance(raw, torch.Tensor) else np
+    ahead = lib.where(raw[:, DX_SLOT] <= 0.0, 1.0, -1.0)
     cols = []
-    ahead = np.where(raw[:, DX_SLOT] <= 0.0, 1.0, -1.0)
     for slot, factor, scales in FEATURES:
-        cols += [np.tanh(ahead * raw[:, slot] * factor / s) for s in scales]
-    edge = (np.abs(raw[:, EDGE_SLOT]) - 1.0) * BAND_HALF_WIDTH
-    cols += [np.tanh(edge / s) for s in EDGE_SCALES]
-    return np.stack(cols, axis=1)
+        cols += [lib.tanh(ahead * raw[:, slot] * (factor / s)) for s in scales]
+    edge = (lib.abs(raw[:, EDGE_SLOT]) - 1.0) * BAND_HALF_WIDTH
+    cols += [lib.tanh(edge / s) for s in EDGE_SCALES]
+    return lib.stack(cols, 1)
 
 
 class MicroStateFeatures(BaseFeaturesExtractor):
@@ -69,14 +70,7 @@ class MicroStateFeatures(BaseFeaturesExtractor):
         self.register_buffer("std", torch.ones(dim))
 
     def forward(self, obs):
-        raw = obs * self.std + self.mean
-        cols = [obs]
-        ahead = torch.where(raw[:, DX_SLOT:DX_SLOT + 1] <= 0.0, 1.0, -1.0)
-        for slot, factor, scales in FEATURES:
-            cols += [torch.tanh(ahead * raw[:, slot:slot + 1] * (factor / s)) for s in scales]
-        edge = (raw[:, EDGE_SLOT:EDGE_SLOT + 1].abs() - 1.0) * BAND_HALF_WIDTH
-        cols += [torch.tanh(edge / s) for s in EDGE_SCALES]
-        return torch.cat(cols, dim=1)
+        return torch.cat([obs, micro_features(obs * self.std + self.mean)], dim=1)
 
 
 def set_statistics(policy, vecnorm) -> None:

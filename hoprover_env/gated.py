@@ -30,6 +30,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from hoprover_env.core.layout import MODE_A, MODE_LETTERS
 from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_SIN, OBS_VX, POS_SCALE,
                                             VEL_SCALE)
 
@@ -37,14 +38,21 @@ NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the targ
 STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
 
 
+def observed_mode(obs):
+    """The contact state (0..6 = A..G) of raw observations (numpy or torch): the index
+    of their one-hot slots."""
+    lib = torch if isinstance(obs, torch.Tensor) else np
+    return lib.argmax(obs[:, OBS_MODE:OBS_MODE + len(MODE_LETTERS)], 1)
+
+
 def near_edge(obs, nudge_max: float = NUDGE_MAX):
     """Rows (numpy or torch, raw observations) on the ground within `nudge_max` m of
     the target and nearly still: the nudge law's states."""
     lib = torch if isinstance(obs, torch.Tensor) else np
-    mode = lib.argmax(obs[:, OBS_MODE:OBS_MODE + 7], 1)
     still = ((lib.abs(obs[:, OBS_SIN]) < STILL_TILT)
              & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED))
-    return (mode != 0) & still & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max)
+    return ((observed_mode(obs) != MODE_A) & still
+            & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max))
 
 
 class Branch(nn.Module):

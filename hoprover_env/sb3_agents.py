@@ -157,8 +157,10 @@ def validate(cfg: dict) -> None:
         raise ConfigError(f"config key 'policy.activation_fn' must be one of "
                           f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}")
     if "features" in cfg["policy"]:
-        if cfg["policy"]["features"] != "micro":
-            raise ConfigError(f"config key 'policy.features' must be 'micro', got "
+        from hoprover_env.features import FEATURE_EXTRACTORS
+        if cfg["policy"]["features"] not in FEATURE_EXTRACTORS:
+            raise ConfigError(f"config key 'policy.features' must be one of "
+                              f"{sorted(FEATURE_EXTRACTORS)}, got "
                               f"{cfg['policy']['features']!r}")
         if cfg["normalize"].get("update", True) or not cfg["normalize"].get("obs", True):
             raise ConfigError("config key 'policy.features' needs normalize.obs: true and "
