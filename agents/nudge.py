@@ -34,7 +34,8 @@ puts it beside a plan-table clone as the nudge branch of a gated network
     python -m agents.nudge fit --data runs/plan_table/relabelled/*.npz \\
         --save runs/plan_table/nudge_branch.pkl
     python -m agents.nudge assemble --main runs/plan_table \\
-        --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt
+        --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt \\
+        --symmetric
 """
 from __future__ import annotations
 
@@ -199,16 +200,18 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
     return out
 
 
-def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01) -> None:
+def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
+             symmetric: bool = False) -> None:
     """The gated network (hoprover_env.gated) of a main clone (a run directory) and a
-    nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json)."""
+    nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`:
+    each branch acts as the odd part of its fit under the mirror (GatedNet)."""
     from agents.clone_study import load_clone
     from hoprover_env import gated
     from hoprover_env.policies import load_policy
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
                                                           features="micro")),
-                         deadzone=deadzone)
+                         deadzone=deadzone, symmetric=symmetric)
     gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
 
 
@@ -231,6 +234,8 @@ def main(argv=None) -> int:
     g.add_argument("--nudge", required=True, help="fit's pickle")
     g.add_argument("--out", required=True, help="the network's .pt")
     g.add_argument("--deadzone", type=float, default=0.01)
+    g.add_argument("--symmetric", action="store_true",
+                   help="each branch as the odd part of its fit under the mirror x -> -x")
     args = ap.parse_args(argv)
     from pathlib import Path
     from agents.plan_table import load_table
@@ -249,7 +254,7 @@ def main(argv=None) -> int:
         fit_branch(args.data, args.epochs, save=args.save, log=log)
         return 0
     if args.cmd == "assemble":
-        assemble(args.main, args.nudge, args.out, args.deadzone)
+        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric)
         return 0
     fam = choose(search(log=log))
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):

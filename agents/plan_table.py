@@ -371,7 +371,7 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
 
 
 PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
-                 "dagger_fit"}
+                 "dagger_fit", "symmetric"}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -447,7 +447,8 @@ def pipeline(config_path, out, log=print) -> dict:
         # the gated network of both (hoprover_env.gated): OUT/plan_clone.pt
         from agents.nudge import assemble, fit_branch
         fit_branch(data, save=str(out / "nudge_branch.pkl"), log=log)
-        assemble(str(out), str(out / "nudge_branch.pkl"), str(out / "plan_clone.pt"))
+        assemble(str(out), str(out / "nudge_branch.pkl"), str(out / "plan_clone.pt"),
+                 symmetric=bool(cfg.get("symmetric", False)))
         from hoprover_env.policies import load_policy
         res = judge(load_policy(str(out / "plan_clone.pt")))
         log("gated network (main clone + nudge branch):")

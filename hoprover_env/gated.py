@@ -13,7 +13,13 @@ branches and a fixed gate:
   rock and slide past the target);
 * the *nudge* branch (an MLP on the normalised observation and `features.micro`
   inputs) acts where the rover is nearly still within `nudge_max` of the target
-  (`near_edge`, the states the nudge law labels).
+  (`near_edge`, the states the nudge law labels);
+* with `symmetric`, each branch's output is the odd part of its fit under the mirror
+  x -> -x (`tasks.observation.mirror`): (f(o) - f(mirror(o))) / 2, before the dead zone
+  and the gate (both mirror-invariant). Level ground is mirror-symmetric, so the
+  teacher is odd; an unsymmetrised fit is not, and its one-sided errors in
+  micro-flights at the band's edge cost tens of times the plan's time (BENCHMARKS.md,
+  session 11).
 
 Both branches are learned; the gate, the dead zone and the normalisations are fixed
 parts of the network. `GatedNet.forward` maps raw observations (N, 19) to actions
@@ -32,7 +38,7 @@ from torch import nn
 
 from hoprover_env.core.layout import MODE_A, MODE_LETTERS
 from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_SIN, OBS_VX, POS_SCALE,
-                                            VEL_SCALE)
+                                            VEL_SCALE, mirror)
 
 NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
 STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
@@ -86,15 +92,22 @@ class GatedNet(nn.Module):
     """Raw observations (N, 19) -> actions (N, 1) in [-1, 1] (module docstring)."""
 
     def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
-                 nudge_max: float = NUDGE_MAX):
+                 nudge_max: float = NUDGE_MAX, symmetric: bool = False):
         super().__init__()
         self.main, self.nudge = main, nudge
         self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
+        self.symmetric = bool(symmetric)
 
     def forward(self, obs):
-        a = self.main(obs)
-        a = torch.where(a.abs() < self.deadzone, torch.zeros_like(a), a)
-        a = torch.where(near_edge(obs, self.nudge_max)[:, None], self.nudge(obs), a)
+        main, nudge = self.main(obs), self.nudge(obs)
+        if self.symmetric:
+            # level ground is mirror-symmetric, so each branch acts as the odd part of
+            # its fit under the mirror: a fit's error on one side is averaged with its
+            # error on the other instead of being flown as it is
+            m = mirror(obs)
+            main, nudge = 0.5 * (main - self.main(m)), 0.5 * (nudge - self.nudge(m))
+        a = torch.where(main.abs() < self.deadzone, torch.zeros_like(main), main)
+        a = torch.where(near_edge(obs, self.nudge_max)[:, None], nudge, a)
         return torch.clamp(a, -1.0, 1.0)
 
 
@@ -131,7 +144,8 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     atomic_write(path, buf.getvalue())
     write_json(path.with_suffix(".json"), {
         "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
-        "deadzone": net.deadzone, "nudge_max": net.nudge_max, "env_id": "HopRover-v0",
+        "deadzone": net.deadzone, "nudge_max": net.nudge_max, "symmetric": net.symmetric,
+        "env_id": "HopRover-v0",
         "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
 
 
@@ -148,7 +162,7 @@ def load(path) -> tuple[GatedNet, dict]:
         raise ValueError(f"{meta_path} does not describe a gated network (kind "
                          f"{meta.get('kind')!r})")
     net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
-                   meta["nudge_max"])
+                   meta["nudge_max"], meta.get("symmetric", False))
     net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     net.eval()
     return net, meta

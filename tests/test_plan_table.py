@@ -82,7 +82,8 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     monkeypatch.setattr(nudge, "BRAKE_GRID", np.array([0.05, 0.06]))
     monkeypatch.setattr(nudge, "OFFSETS", (0.102, 0.104))
     cfg = {"table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
-           "nudge": True, "in_band": 2, "demonstrations": [{"noise": 0.0, "seed": 1}],
+           "nudge": True, "symmetric": True, "in_band": 2,
+           "demonstrations": [{"noise": 0.0, "seed": 1}],
            "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
                    "features": "micro"},
            "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4}}
@@ -100,6 +101,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
     gated = load_policy(str(out / "plan_clone.pt"))
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
+    assert gated.net.symmetric
     assert judged[-1] is not None and type(judged[-1]).__name__ == "GatedPolicy"
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     calls = []

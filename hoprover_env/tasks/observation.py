@@ -11,8 +11,9 @@ import numpy as np
 
 from .._compile import kernel, NONE, VEC, VEC32
 from ..core import corner_offset_cs
-from ..core.layout import (MODE_A, MODE_B, MODE_C, MODE_F, MODE_G, S_INBAND, S_MODE, S_T,
-                           S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W, S_X, S_XT, S_Y)
+from ..core.layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
+                           S_INBAND, S_MODE, S_T, S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W,
+                           S_X, S_XT, S_Y)
 from ..params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TMAX, P_TMIN
 from .layout import E_T_TOTAL
 
@@ -38,6 +39,26 @@ RATE_SCALE = 0.3       # rad/s
 OBS_LOW = np.array([-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -1],
                    dtype=np.float32)
 OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtype=np.float32)
+
+# The mirror x -> -x of level ground: these slots change sign, and corners A and B swap
+# (state B, pivoting on A, <-> D, pivoting on B; C <-> E sliding), so the one-hot slots
+# of B..E are permuted. The bounds above are symmetric in every slot that changes sign.
+MIRROR_SIGN = np.ones(OBS_DIM, dtype=np.float32)
+MIRROR_SIGN[[OBS_DX, OBS_VX, OBS_SIN, OBS_RATE, OBS_REF, OBS_LANDING, OBS_TORQUE]] = -1.0
+MIRROR_ORDER = np.arange(OBS_DIM)
+MIRROR_ORDER[OBS_MODE + MODE_B:OBS_MODE + MODE_E + 1] = OBS_MODE + np.array(
+    [MODE_D, MODE_E, MODE_B, MODE_C])
+
+
+def mirror(obs):
+    """Observations (N, OBS_DIM; numpy or torch) of the mirror image of each rover and
+    its target on level ground, where the mirror image of a good action is its negative
+    (hoprover_env.gated's symmetric networks act as odd functions of this map)."""
+    if isinstance(obs, np.ndarray):
+        return obs[:, MIRROR_ORDER] * MIRROR_SIGN.astype(obs.dtype)
+    import torch
+    return obs[:, torch.as_tensor(MIRROR_ORDER)] * torch.as_tensor(MIRROR_SIGN, dtype=obs.dtype,
+                                                                   device=obs.device)
 
 
 @kernel(inner=True)
