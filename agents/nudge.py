@@ -32,7 +32,7 @@ puts it beside a plan-table clone as the nudge branch of a gated network
     python -m agents.nudge relabel --table runs/plan_table/table_nudge.npz \\
         --data runs/plan_table/demo_*.npz --out-dir runs/plan_table/relabelled
     python -m agents.nudge fit --data runs/plan_table/relabelled/*.npz \\
-        --save runs/plan_table/nudge_branch.pkl
+        --save runs/plan_table/nudge_branch.pkl --mirror
     python -m agents.nudge assemble --main runs/plan_table \\
         --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt \\
         --symmetric
@@ -166,19 +166,26 @@ def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60) -> dict:
 
 
 def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
-               save=None, log=print):
+               save=None, mirror: bool = False, log=print):
     """The nudge branch: configs/ppo_mpc.yaml's actor (ReLU, `features.micro` inputs)
     fitted from scratch to the rows of the collections `data` that `near_edge` picks
-    (labelled by the nudge law: relabel older collections with `relabel`). Returns the
+    (labelled by the nudge law: relabel older collections with `relabel`); with
+    `mirror`, each collection's rows also as their mirror images (observation mirrored,
+    action negated: level ground's symmetry, for a symmetric network). Returns the
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
     from agents.clone_study import _model, _policy, save_clone
     from hoprover_env.imitation import clone
+    from hoprover_env.tasks.observation import mirror as mirrored
     parts = []
     for p in data:
         with np.load(p) as d:
             m = near_edge(d["obs"])
-            parts.append((d["obs"][m], d["act"][m], d["ret"][m]))
+            o, a, r = d["obs"][m], d["act"][m], d["ret"][m]
+        if mirror:
+            o, a, r = (np.concatenate([o, mirrored(o)]), np.concatenate([a, -a]),
+                       np.concatenate([r, r]))
+        parts.append((o, a, r))
     obs, act, ret = (np.concatenate([q[k] for q in parts]) for k in range(3))
     if not len(obs):
         raise ValueError(f"no sample of {list(data)} is near the band's edge (near_edge)")
@@ -228,6 +235,8 @@ def main(argv=None) -> int:
     f = sub.add_parser("fit", help="fit the nudge branch to the edge states of collections")
     f.add_argument("--data", nargs="+", required=True)
     f.add_argument("--epochs", type=int, default=15)
+    f.add_argument("--mirror", action="store_true",
+                   help="also fit each edge state's mirror image (for assemble --symmetric)")
     f.add_argument("--save", required=True)
     g = sub.add_parser("assemble", help="main clone + nudge branch -> a gated network")
     g.add_argument("--main", required=True, help="the main clone's run directory")
@@ -251,7 +260,7 @@ def main(argv=None) -> int:
             log(f"{p} -> {out}")
         return 0
     if args.cmd == "fit":
-        fit_branch(args.data, args.epochs, save=args.save, log=log)
+        fit_branch(args.data, args.epochs, save=args.save, mirror=args.mirror, log=log)
         return 0
     if args.cmd == "assemble":
         assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric)

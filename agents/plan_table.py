@@ -446,9 +446,10 @@ def pipeline(config_path, out, log=print) -> dict:
         # the network's nudge branch, fitted to the edge states of every collection, and
         # the gated network of both (hoprover_env.gated): OUT/plan_clone.pt
         from agents.nudge import assemble, fit_branch
-        fit_branch(data, save=str(out / "nudge_branch.pkl"), log=log)
+        symmetric = bool(cfg.get("symmetric", False))
+        fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric, log=log)
         assemble(str(out), str(out / "nudge_branch.pkl"), str(out / "plan_clone.pt"),
-                 symmetric=bool(cfg.get("symmetric", False)))
+                 symmetric=symmetric)
         from hoprover_env.policies import load_policy
         res = judge(load_policy(str(out / "plan_clone.pt")))
         log("gated network (main clone + nudge branch):")

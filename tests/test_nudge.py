@@ -76,3 +76,24 @@ def test_a_teacher_with_a_nudge_family_flies_the_family_s_time(monkeypatch):
         assert r.success
         np.testing.assert_allclose(r.ttrtp, fam["ttrtp"][0], rtol=1e-9)
     assert teacher.decisions == 0                # the law acted; mpc never searched
+
+
+def test_the_branch_fit_with_mirror_also_fits_the_mirror_images(tmp_path, monkeypatch):
+    """`fit_branch(mirror=True)` hands the fit each edge state and its mirror image with
+    the negated action, and nothing from off the edge."""
+    from hoprover_env import imitation
+    from hoprover_env.tasks.observation import mirror
+    obs = np.array([_obs(0.105, 5), _obs(-0.104, 3, -0.003, -0.001), _obs(0.3, 0)],
+                   dtype=np.float32)
+    path = tmp_path / "c.npz"
+    np.savez(path, obs=obs, act=np.array([[0.1], [-0.05], [0.7]]), ret=np.zeros(3))
+    seen = {}
+
+    def fake_clone(model, venv, o, a, r, **kw):
+        seen.update(obs=o, act=a)
+    monkeypatch.setattr(imitation, "clone", fake_clone)
+    nudge.fit_branch([str(path)], mirror=True, log=lambda m: None)
+    np.testing.assert_array_equal(seen["obs"], np.concatenate([obs[:2], mirror(obs[:2])]))
+    np.testing.assert_array_equal(seen["act"], [[0.1], [-0.05], [-0.1], [0.05]])
+    nudge.fit_branch([str(path)], log=lambda m: None)
+    assert len(seen["obs"]) == 2
