@@ -5,7 +5,7 @@ import pytest
 from agents import nudge
 from agents.plan_table import PlanTableTeacher, load_table
 from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, OBS_VX,
-                                            RATE_SCALE)
+                                            RATE_SCALE, mirror)
 
 TABLE = "benchmarks/results/plan_clone_retry/table.npz"
 
@@ -32,9 +32,7 @@ def test_the_law_pushes_from_rest_brakes_beyond_the_tilt_and_is_mirror_symmetric
     obs = np.array([r[0] for r in rows])
     want = np.array([r[1] for r in rows])
     np.testing.assert_allclose(nudge.nudge_actions(obs, push, tilt, brake), want)
-    mirror = obs.copy()
-    mirror[:, [OBS_DX, OBS_SIN, OBS_RATE]] *= -1.0
-    np.testing.assert_allclose(nudge.nudge_actions(mirror, push, tilt, brake), -want)
+    np.testing.assert_allclose(nudge.nudge_actions(mirror(obs), push, tilt, brake), -want)
 
 
 def test_only_nearly_still_rovers_near_the_edge_are_covered():
@@ -82,7 +80,6 @@ def test_the_branch_fit_with_mirror_also_fits_the_mirror_images(tmp_path, monkey
     """`fit_branch(mirror=True)` hands the fit each edge state and its mirror image with
     the negated action, and nothing from off the edge."""
     from hoprover_env import imitation
-    from hoprover_env.tasks.observation import mirror
     obs = np.array([_obs(0.105, 5), _obs(-0.104, 3, -0.003, -0.001), _obs(0.3, 0)],
                    dtype=np.float32)
     path = tmp_path / "c.npz"

@@ -57,8 +57,8 @@ def mirror(obs):
     if isinstance(obs, np.ndarray):
         return obs[:, MIRROR_ORDER] * MIRROR_SIGN.astype(obs.dtype)
     import torch
-    return obs[:, torch.as_tensor(MIRROR_ORDER)] * torch.as_tensor(MIRROR_SIGN, dtype=obs.dtype,
-                                                                   device=obs.device)
+    sign = torch.as_tensor(MIRROR_SIGN, dtype=obs.dtype, device=obs.device)
+    return obs[:, torch.as_tensor(MIRROR_ORDER)] * sign
 
 
 @kernel(inner=True)
