@@ -30,12 +30,12 @@ ROOT = Path(__file__).resolve().parent.parent
 SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}
 AGENTS = {
     # every bundled agent on every suite, each task's own learned policy first
-    "level": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "mission",
-              "scripted", "random"],
-    "terrain": ["mpc", "terrain", "plan_clone", "scratch", "hop", "bundled", "mission",
-                "scripted", "random"],
-    "contest": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "mission",
-                "scripted", "random"],
+    "level": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "terrain_base",
+              "mission", "scripted", "random"],
+    "terrain": ["mpc", "terrain", "terrain_base", "plan_clone", "scratch", "hop", "bundled",
+                "mission", "scripted", "random"],
+    "contest": ["mpc", "plan_clone", "scratch", "hop", "bundled", "terrain", "terrain_base",
+                "mission", "scripted", "random"],
 }
 # what each agent knows beyond the observation
 PRIVILEGE = {
@@ -49,6 +49,7 @@ PRIVILEGE = {
     "scratch": "observation only (learned)", "hop": "observation only (learned)",
     "bundled": "observation only (learned, cloned from the scripted hopper)",
     "terrain": "observation only (learned)",
+    "terrain_base": "observation only (learned: `terrain` before its fine-tuning)",
     "mission": "less than the others: it plays every suite under mission conditions "
                "(HopRoverMission-v0: noisy readings through the estimator, drawn ground, "
                "actuator error); learned hop choices, flown by the scripted hopper's "

@@ -12,6 +12,9 @@ A config has these sections (every key is checked; a typo is an error that names
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init
     hyperparams: {...}              # keyword arguments of PPO / SAC / TD3
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
+    init_from: terrain              # optional: start from this model's weights and its
+                                    # VecNormalize statistics (a bundled name, a run
+                                    # directory or a .zip); everything else from here
     evaluation: {freq, episodes, seed}
     checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time
 """
@@ -29,7 +32,10 @@ import yaml
 
 ALGOS = ("ppo", "sac", "td3")
 TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
-            "hyperparams", "pretrain", "evaluation", "checkpoint"}
+            "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from"}
+# hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
+# learning rate fall linearly from `learning_rate` to it over the run
+OWN_HYPER_KEYS = {"learning_rate_end"}
 NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
 POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
                "squash_output", "n_critics", "share_features_extractor", "features"}
@@ -45,7 +51,7 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
                "gelu": "GELU", "silu": "SiLU"}
 DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed": 0,
             "env": {}, "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
-            "policy": {}, "hyperparams": {}, "pretrain": None,
+            "policy": {}, "hyperparams": {}, "pretrain": None, "init_from": None,
             "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
             "checkpoint": {"freq": 200_000, "seconds": 300.0}}
 
@@ -169,7 +175,15 @@ def validate(cfg: dict) -> None:
     params = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env",
                                                                  "policy_kwargs", "seed",
                                                                  "tensorboard_log", "_init_setup_model"}
-    _check_keys("hyperparams", cfg["hyperparams"], params)
+    _check_keys("hyperparams", cfg["hyperparams"], params | OWN_HYPER_KEYS)
+    init = cfg.get("init_from")
+    if init is not None:
+        if not (isinstance(init, str) and init):
+            raise ConfigError(f"config key 'init_from' must be a model (a bundled name, a run "
+                              f"directory or a .zip), got {init!r}")
+        if cfg.get("pretrain") is not None:
+            raise ConfigError("config keys 'init_from' and 'pretrain' exclude each other: "
+                              "a run starts from a model or from cloning, not both")
     if cfg.get("pretrain") is not None:
         _check_keys("pretrain", cfg["pretrain"], PRETRAIN_KEYS)
         if cfg["algo"] != "ppo":
@@ -246,7 +260,8 @@ HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_
                "train_freq": TRAIN_FREQ, "gradient_steps": GRADIENT_STEPS,
                "policy_delay": POS_INT, "target_policy_noise": NONNEG_REAL,
                "target_noise_clip": NONNEG_REAL, "action_noise": NONNEG_REAL,
-               "target_update_interval": POS_INT, "stats_window_size": POS_INT}
+               "target_update_interval": POS_INT, "stats_window_size": POS_INT,
+               "learning_rate_end": POS_REAL}
 
 
 def _check_value(key: str, value, kind) -> None:
@@ -284,6 +299,13 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
     """A fresh PPO / SAC / TD3 from a validated config."""
     cls = algo_class(cfg["algo"])
     hyper: dict[str, Any] = dict(cfg["hyperparams"])
+    if "learning_rate_end" in hyper:
+        try:
+            from stable_baselines3.common.utils import LinearSchedule
+        except ImportError:            # stable-baselines3 < 2.7
+            from stable_baselines3.common.utils import get_linear_fn as LinearSchedule
+        hyper["learning_rate"] = LinearSchedule(hyper.get("learning_rate", 3e-4),
+                                                hyper.pop("learning_rate_end"), 1.0)
     if cfg["algo"] == "td3" and isinstance(hyper.get("action_noise"), (int, float)):
         from stable_baselines3.common.noise import NormalActionNoise
         sigma = float(hyper.pop("action_noise"))

@@ -152,15 +152,16 @@ class Suite:
         return out
 
 
-def draw_episodes(name: str) -> dict:
+def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
     """The episodes of a suite, drawn from its seed (no references): columns of
-    FIELDS[:5]."""
+    FIELDS[:5]. `seed` and `n` draw `n` other episodes the same way (fresh ones, for a
+    check on episodes nothing was chosen on: agents/fresh_targets.py)."""
     if name == "contest":
         return {"target_x": np.array([CONTEST_TARGET]), "slope": np.zeros(1),
                 "roughness": np.zeros(1), "terrain_seed": np.full(1, NO_TERRAIN_SEED),
                 "control_dt": np.full(1, CONTROL_DT)}
-    rng = np.random.default_rng(SUITE_SEEDS[name])
-    n = SIZES[name]
+    rng = np.random.default_rng(SUITE_SEEDS[name] if seed is None else seed)
+    n = SIZES[name] if n is None else n
     targets = rng.uniform(-1.0, 1.0, n)
     if name == "terrain":
         slopes = rng.uniform(*TERRAIN_SLOPES, n)

@@ -212,7 +212,7 @@ def test_controller_policy_uses_the_envs_action_map():
 
 
 # ---- the bundled from-scratch policies -------------------------------------------------
-@pytest.mark.parametrize("name", ["hop", "scratch", "mission"])
+@pytest.mark.parametrize("name", ["hop", "scratch", "mission", "terrain", "terrain_base"])
 def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
     import json
     from hoprover_env.policies import BUNDLED, BUNDLED_DIR

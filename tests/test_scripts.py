@@ -324,3 +324,67 @@ def test_off_policy_configs_train_and_resume(tmp_path, algo):
     assert meta["algo"] == algo and meta["timesteps"] >= 500
     # evaluate.py loads it back (the algorithm is read from the metadata)
     assert evaluate.main(["--policy", str(out), "--episodes", "2", "--no-progress"]) == 0
+
+
+def test_init_from_starts_a_fresh_run_from_a_models_weights_and_statistics(tmp_path):
+    """`init_from`: the model's weights (exploration noise included) and VecNormalize
+    statistics, with this config's hyperparameters (here a falling learning rate), which
+    --resume cannot change (SB3 restores them from the .zip)."""
+    import pickle
+    import torch
+    from stable_baselines3 import PPO
+    base = {**TINY, "pretrain": None}
+    first = tmp_path / "first"
+    assert train.main(["--config", write_cfg(tmp_path, base), "--out", str(first),
+                       "--timesteps", "1024", "--no-progress"]) == 0
+    cfg = {**base, "init_from": str(first),
+           "hyperparams": {**base["hyperparams"], "learning_rate": 1e-4,
+                           "learning_rate_end": 1e-5}}
+    from hoprover_env.sb3_agents import load_config
+    trainer = train.Trainer(load_config(write_cfg(tmp_path, cfg, "fine.yaml")),
+                            tmp_path / "fine", False, "cpu", False)
+    want = PPO.load(str(first / "best_model.zip"), device="cpu").policy.state_dict()
+    got = trainer.model.policy.state_dict()
+    assert want.keys() == got.keys()
+    assert all(torch.equal(want[k], got[k]) for k in want)
+    with open(first / "best_model_vecnormalize.pkl", "rb") as fh:
+        stats = pickle.load(fh)
+    np.testing.assert_array_equal(trainer.venv.obs_rms.mean, stats.obs_rms.mean)
+    np.testing.assert_array_equal(trainer.venv.ret_rms.var, stats.ret_rms.var)
+    assert trainer.model.lr_schedule(1.0) == pytest.approx(1e-4)
+    assert trainer.model.lr_schedule(0.0) == pytest.approx(1e-5)
+    # and it trains, recording where it started
+    out = tmp_path / "fine_run"
+    assert train.main(["--config", str(tmp_path / "fine.yaml"), "--out", str(out),
+                       "--timesteps", "1024", "--no-progress"]) == 0
+    assert strict_json(out / "best_model.json")["init_from"] == str(first)
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"policy": {"net_arch": [8]}}, "does not fit this config's policy"),
+    ({"init_from": "no/such/run"}, "model file not found"),
+])
+def test_init_from_errors_name_the_model(tmp_path, change, words):
+    cfg = {**TINY, "pretrain": None, "init_from": "scratch", **change}
+    with pytest.raises(SystemExit, match=words):
+        train.main(["--config", write_cfg(tmp_path, cfg), "--out", str(tmp_path / "r"),
+                    "--no-progress"])
+
+
+def test_init_from_and_pretrain_exclude_each_other(tmp_path, capsys):
+    cfg = {**TINY, "init_from": "scratch"}
+    assert train.main(["--config", write_cfg(tmp_path, cfg), "--out", str(tmp_path / "r"),
+                       "--no-progress"]) == 2
+    assert "'init_from' and 'pretrain'" in capsys.readouterr().err
+
+
+def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_path):
+    import torch
+    from hoprover_env.policies import load_policy
+    from hoprover_env.sb3_agents import load_config
+    cfg = load_config("ppo_terrain_fine", {"n_envs": 16})
+    assert cfg["init_from"] == "terrain_base" and cfg["env_id"] == "HopRoverTerrain-v0"
+    trainer = train.Trainer(cfg, tmp_path / "fine", False, "cpu", False)
+    want = load_policy("terrain_base").model.policy.state_dict()
+    got = trainer.model.policy.state_dict()
+    assert all(torch.equal(want[k], got[k]) for k in want)

@@ -189,10 +189,38 @@ class Trainer:
                              "continue it or choose another --out")
         self.out.mkdir(parents=True, exist_ok=True)
         atomic_write(self.out / "config.yaml", yaml.safe_dump(self.cfg, sort_keys=False))
+        if self.cfg.get("init_from"):
+            self._init_from(self.cfg["init_from"])
+            return
         self.venv = build_env(self.cfg)
         self.model = make_agent(self.cfg, self.venv, tensorboard_dir(self.out), self.device)
         if self.cfg.get("pretrain"):
             self._pretrain()
+
+    def _init_from(self, spec: str):
+        """A fresh run (this config's hyperparameters, schedule and env) that starts from
+        another model's weights, exploration noise and VecNormalize statistics: a
+        fine-tuning stage as one command, where --resume would keep the old run's
+        hyperparameters (SB3 restores them from the .zip)."""
+        from hoprover_env.policies import model_files
+        try:
+            zip_path, stats = model_files(spec)
+        except FileNotFoundError as exc:
+            raise SystemExit(f"error: init_from {spec!r}: {exc}") from None
+        if stats is None and self.cfg["normalize"].get("obs", True):
+            raise SystemExit(f"error: init_from {spec!r} has no VecNormalize statistics "
+                             f"beside {zip_path}, but this config normalises observations")
+        self.venv = build_env(self.cfg, stats)
+        if not self.cfg["normalize"].get("update", True):
+            self.venv.training = False
+        self.model = make_agent(self.cfg, self.venv, tensorboard_dir(self.out), self.device)
+        try:
+            self.model.set_parameters(str(zip_path), exact_match=True, device=self.device)
+        except (RuntimeError, ValueError) as exc:
+            raise SystemExit(f"error: init_from {spec!r} ({zip_path}) does not fit this "
+                             f"config's policy (algo, policy.net_arch): {exc}") from None
+        self.meta_base["init_from"] = str(spec)
+        print(f"starting from {zip_path} (init_from)", file=sys.stderr)
 
     def _load_checkpoint(self):
         meta_path = self.ckpt.with_suffix(".json")

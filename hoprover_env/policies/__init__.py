@@ -35,13 +35,16 @@ from hoprover_env.params import RoverParams
 BUNDLED_DIR = Path(__file__).resolve().parent      # the bundled models beside this file
 BUNDLED_NAME = "ppo_hoprover"
 # the bundled models by name: cloned (+ PPO), PPO from scratch, PPO from scratch on the
-# hop-level task, PPO from scratch on the terrain task, and the from-scratch run stopped
+# hop-level task, PPO on the terrain task (from scratch, then fine-tuned with a larger
+# time cost: configs/ppo_terrain_fine.yaml; `terrain_base` is the run from scratch it
+# started from, configs/ppo_terrain.yaml), and the from-scratch run stopped
 # at 1.5 M steps (52 % of its validation targets: the medium agent of the offline
 # datasets, hoprover_env.datasets), and the hop network of the mission task
 # (hoprover_env.mission_hop: it acts through the estimator and a hopper); each file's
 # .json says how it was trained
 BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop",
-           "terrain": "ppo_terrain", "scratch_medium": "ppo_scratch_medium",
+           "terrain": "ppo_terrain", "terrain_base": "ppo_terrain_base",
+           "scratch_medium": "ppo_scratch_medium",
            "mission": "ppo_mission"}
 # bundled networks that are not SB3 models: the plan-table clone with its nudge branch
 # (hoprover_env.gated; .pt weights and .json metadata)
@@ -206,17 +209,15 @@ def _algo_class(algo: str):
     return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
 
 
-def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
-    """A model saved by train.py: a .zip (with its metadata JSON and VecNormalize pickle
-    beside it), or a run directory (its best model), as an `SB3Policy` named `name`
-    (default: the file's or directory's name).
-
-    Raises FileNotFoundError if the file (or a run directory's model) is missing, and
-    ValueError if a bare .zip is not a PPO, SAC or TD3 model."""
-    path = Path(path)
+def model_files(spec: str | os.PathLike) -> tuple[Path, Path | None]:
+    """(model .zip, its VecNormalize pickle or None) of an SB3 model: a bundled name
+    ('terrain'), a run directory (its best model) or a .zip. Raises FileNotFoundError
+    if the model is missing."""
+    if str(spec) in BUNDLED:
+        path = BUNDLED_DIR / f"{BUNDLED[str(spec)]}.zip"
+    else:
+        path = Path(spec)
     if path.is_dir():
-        # every run directory holds a best_model.zip: the directory is what names the run
-        name = name or path.resolve().name
         for cand in ("best_model.zip", "final_model.zip"):
             if (path / cand).exists():
                 path = path / cand
@@ -225,6 +226,23 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
             raise FileNotFoundError(f"no best_model.zip or final_model.zip in run directory {path}")
     if not path.exists():
         raise FileNotFoundError(f"model file not found: {path}")
+    vn_path = path.with_name(path.stem + "_vecnormalize.pkl")
+    if not vn_path.exists():
+        vn_path = path.parent / "vecnormalize.pkl"
+    return path, (vn_path if vn_path.exists() else None)
+
+
+def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
+    """A model saved by train.py: a .zip (with its metadata JSON and VecNormalize pickle
+    beside it), or a run directory (its best model), as an `SB3Policy` named `name`
+    (default: the file's or directory's name).
+
+    Raises FileNotFoundError if the file (or a run directory's model) is missing, and
+    ValueError if a bare .zip is not a PPO, SAC or TD3 model."""
+    if Path(path).is_dir():
+        # every run directory holds a best_model.zip: the directory is what names the run
+        name = name or Path(path).resolve().name
+    path, vn_path = model_files(Path(path))
     meta_path = path.with_suffix(".json")
     meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
     if meta.get("policy") == "mission_hop":      # a hop network: it acts through a hopper
@@ -244,10 +262,7 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
     else:
         model = _algo_class(algo).load(str(path), device="cpu")
     obs_rms, clip = None, 10.0
-    vn_path = path.with_name(path.stem + "_vecnormalize.pkl")
-    if not vn_path.exists():
-        vn_path = path.parent / "vecnormalize.pkl"
-    if vn_path.exists():
+    if vn_path is not None:
         with open(vn_path, "rb") as fh:
             vn = pickle.load(fh)
         obs_rms, clip = vn.obs_rms, vn.clip_obs
@@ -279,8 +294,9 @@ def load_controller(spec: str, control_dt: float = 0.5) -> ControllerPolicy:
 
 
 def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
-    """A policy by name: 'bundled', 'scratch', 'hop', 'terrain', 'mission' (the bundled
-    models; 'mission' acts on HopRoverMission-v0's estimate, hoprover_env.mission_hop),
+    """A policy by name: 'bundled', 'scratch', 'hop', 'terrain', 'terrain_base',
+    'mission' (the bundled models; 'mission' acts on HopRoverMission-v0's estimate,
+    hoprover_env.mission_hop),
     'plan_clone' (the bundled gated network, hoprover_env.gated; or any saved one's
     .pt), 'scripted'
     (hoprover_env.scripted.ScriptedHopper every `control_dt` [s]), 'random' (seeded with
@@ -315,5 +331,5 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, mission, plan_clone, scripted, mpc, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, terrain_base, mission, plan_clone, scripted, mpc, random, a model "
                      ".zip or run directory, or module.py:Control")
