@@ -304,8 +304,9 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
             from stable_baselines3.common.utils import LinearSchedule
         except ImportError:            # stable-baselines3 < 2.7
             from stable_baselines3.common.utils import get_linear_fn as LinearSchedule
-        hyper["learning_rate"] = LinearSchedule(hyper.get("learning_rate", 3e-4),
-                                                hyper.pop("learning_rate_end"), 1.0)
+        start = hyper.get("learning_rate",
+                          inspect.signature(cls.__init__).parameters["learning_rate"].default)
+        hyper["learning_rate"] = LinearSchedule(start, hyper.pop("learning_rate_end"), 1.0)
     if cfg["algo"] == "td3" and isinstance(hyper.get("action_noise"), (int, float)):
         from stable_baselines3.common.noise import NormalActionNoise
         sigma = float(hyper.pop("action_noise"))

@@ -388,3 +388,16 @@ def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_
     want = load_policy("terrain_base").model.policy.state_dict()
     got = trainer.model.policy.state_dict()
     assert all(torch.equal(want[k], got[k]) for k in want)
+
+
+def test_learning_rate_end_falls_from_the_algorithms_own_default(tmp_path):
+    """Without `learning_rate` the schedule starts at the algorithm's default (TD3's is
+    1e-3, PPO's 3e-4), not at one number for all."""
+    from hoprover_env.sb3_agents import load_config, make_agent
+    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    for algo, start in (("ppo", 3e-4), ("td3", 1e-3)):
+        cfg = load_config(None, {"algo": algo, "n_envs": 2})
+        cfg["hyperparams"] = {"learning_rate_end": 1e-6}
+        model = make_agent(cfg, HopRoverSB3VecEnv(2))
+        assert model.lr_schedule(1.0) == pytest.approx(start)
+        assert model.lr_schedule(0.0) == pytest.approx(1e-6)

@@ -169,6 +169,8 @@ class Trainer:
                           "env_kwargs": env_kwargs(cfg), "seed": cfg["seed"],
                           "config": {k: v for k, v in cfg.items() if v is not None},
                           "git_commit": git_commit()}
+        if cfg.get("init_from"):            # the model a fine-tuning run started from
+            self.meta_base["init_from"] = str(cfg["init_from"])
         ev = cfg["evaluation"]
         self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
                                            *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))
@@ -219,7 +221,6 @@ class Trainer:
         except (RuntimeError, ValueError) as exc:
             raise SystemExit(f"error: init_from {spec!r} ({zip_path}) does not fit this "
                              f"config's policy (algo, policy.net_arch): {exc}") from None
-        self.meta_base["init_from"] = str(spec)
         print(f"starting from {zip_path} (init_from)", file=sys.stderr)
 
     def _load_checkpoint(self):
