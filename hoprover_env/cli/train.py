@@ -140,7 +140,11 @@ def build_env(cfg: dict, stats_path: Path | None = None):
                                         **env_kwargs(cfg)),
                       info_keywords=("broken",))
     if stats_path is not None:
-        return VecNormalize.load(str(stats_path), base)
+        venv = VecNormalize.load(str(stats_path), base)
+        # statistics read from a file (a checkpoint, init_from) stay as they are where the
+        # config says so (normalize.update: false)
+        venv.training = cfg["normalize"].get("update", True)
+        return venv
     norm = cfg["normalize"]
     gamma = cfg["hyperparams"].get("gamma", 0.99)
     return VecNormalize(base, norm_obs=norm.get("obs", True), norm_reward=norm.get("reward", True),
@@ -213,8 +217,6 @@ class Trainer:
             raise SystemExit(f"error: init_from {spec!r} has no VecNormalize statistics "
                              f"beside {zip_path}, but this config normalises observations")
         self.venv = build_env(self.cfg, stats)
-        if not self.cfg["normalize"].get("update", True):
-            self.venv.training = False
         self.model = make_agent(self.cfg, self.venv, tensorboard_dir(self.out), self.device)
         try:
             self.model.set_parameters(str(zip_path), exact_match=True, device=self.device)
@@ -234,8 +236,6 @@ class Trainer:
         self.env0 = meta.get("env_s", 0.0)
         self.pretrain = {k: v for k, v in meta.items() if k.startswith("pretrain")}
         self.venv = build_env(self.cfg, Path(str(self.ckpt) + "_vecnormalize.pkl"))
-        if not self.cfg["normalize"].get("update", True):
-            self.venv.training = False
         cls = algo_class(self.cfg["algo"])
         self.model = cls.load(str(self.ckpt) + ".zip", env=self.venv, device=self.device,
                               tensorboard_log=tensorboard_dir(self.out))

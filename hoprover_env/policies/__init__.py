@@ -215,6 +215,8 @@ def model_files(spec: str | os.PathLike) -> tuple[Path, Path | None]:
     if the model is missing."""
     if str(spec) in BUNDLED:
         path = BUNDLED_DIR / f"{BUNDLED[str(spec)]}.zip"
+        if not path.exists():
+            raise FileNotFoundError(f"the bundled policy {str(spec)!r} is missing: {path}")
     else:
         path = Path(spec)
     if path.is_dir():
@@ -314,10 +316,7 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return gated.GatedPolicy(net, name=spec if spec in BUNDLED_NETS else path.stem,
                                  env_kwargs=meta["env_kwargs"])
     if spec in BUNDLED:
-        path = BUNDLED_DIR / f"{BUNDLED[spec]}.zip"
-        if not path.exists():
-            raise FileNotFoundError(f"the bundled policy {spec!r} is missing: {path}")
-        return load_sb3(path, name=spec)
+        return load_sb3(model_files(spec)[0], name=spec)
     if spec == "scripted":
         from hoprover_env.scripted import ScriptedHopper
         return ControllerPolicy(lambda: ScriptedHopper(control_dt=control_dt), name="scripted",
