@@ -41,6 +41,7 @@ network.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import time
@@ -370,8 +371,37 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
+def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: float,
+                 budget: int = 500, log=print):
+    """(obs, labels, returns) of the teacher labelling `learner`'s flights (DAgger) to `n`
+    targets uniform in BAND_EDGE..`reach` m on alternating sides, with N(0, noise^2) on
+    the learner's actions: the states a network meets at the band's edge, where its
+    own errors decide where the rover goes next."""
+    from hoprover_env.imitation import collect
+    rng = np.random.default_rng(seed)
+    targets = rng.uniform(BAND_EDGE, reach, n) * np.where(np.arange(n) % 2, -1.0, 1.0)
+    return collect(PlanTableTeacher(table, budget=budget), {"control_dt": CONTROL_DT}, n,
+                   seed + 7, 0.995, batch=400, targets=targets, log=log,
+                   executor=_Noisy(learner, noise, np.random.default_rng(seed + 1)))
+
+
+class _Noisy:
+    """`policy`'s actions plus N(0, noise^2): a DAgger learner that also visits the
+    states around its own path."""
+
+    def __init__(self, policy, noise: float, rng):
+        self.policy, self.noise, self.rng = policy, float(noise), rng
+
+    def reset(self, n: int) -> None:
+        self.policy.reset(n)
+
+    def act(self, obs, venv):
+        a = self.policy.act(obs, venv)
+        return a + self.noise * self.rng.standard_normal(a.shape) if self.noise else a
+
+
 PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
-                 "dagger_fit", "symmetric"}
+                 "dagger_fit", "symmetric", "deadzone", "edge_dagger"}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -380,9 +410,11 @@ def pipeline(config_path, out, log=print) -> dict:
     far (warm-started from the clone before it, with `dagger_fit` overriding `fit`'s
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
-    gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged.
-    Each table and collection is kept in OUT, so a killed run starts again from its last
-    finished one."""
+    gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged,
+    after `edge_dagger` rounds: the gated network drives at the band's edge
+    (`collect_edge`), and the nudge branch is fitted again on everything.
+    Each table, collection and main-branch clone is kept in OUT, so a killed run starts
+    again from its last finished one (the nudge branch, a short fit, is redone)."""
     from pathlib import Path
     import yaml
     from agents.clone_study import fit, judge, load_clone, report
@@ -426,13 +458,19 @@ def pipeline(config_path, out, log=print) -> dict:
         last = r == len(rounds)
         clone_path = out / f"clone_{r}.pkl"
         settings = fcfg if r == 0 else {**fcfg, **cfg.get("dagger_fit", {})}
-        res = fit(data, activation=activation, arch=arch, features=features,
-                  save=str(clone_path),
-                  init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
-                  export_dir=str(out) if last else None, log=log, **settings)
-        log(f"clone {r} ({len(data)} collections):")
+        judged = out / f"judge_{r}.json"
+        if clone_path.exists() and judged.exists() and (not last or (out / "best_model.zip")
+                                                        .exists()):
+            res = json.loads(judged.read_text())
+            log(f"clone {r}: kept from an earlier run ({clone_path})")
+        else:
+            res = fit(data, activation=activation, arch=arch, features=features,
+                      save=str(clone_path),
+                      init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
+                      export_dir=str(out) if last else None, log=log, **settings)
+            log(f"clone {r} ({len(data)} collections):")
+            write_json(judged, res)
         report(res, log)
-        write_json(out / f"judge_{r}.json", res)
         if last:
             break
         path = out / f"dagger_{r + 1}_seed{rounds[r]['seed']}.npz"
@@ -446,14 +484,25 @@ def pipeline(config_path, out, log=print) -> dict:
         # the network's nudge branch, fitted to the edge states of every collection, and
         # the gated network of both (hoprover_env.gated): OUT/plan_clone.pt
         from agents.nudge import assemble, fit_branch
-        symmetric = bool(cfg.get("symmetric", False))
-        fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric, log=log)
-        assemble(str(out), str(out / "nudge_branch.pkl"), str(out / "plan_clone.pt"),
-                 symmetric=symmetric)
         from hoprover_env.policies import load_policy
-        res = judge(load_policy(str(out / "plan_clone.pt")))
-        log("gated network (main clone + nudge branch):")
-        report(res, log)
+        symmetric = bool(cfg.get("symmetric", False))
+        deadzone = float(cfg.get("deadzone", 0.01))
+        net = out / "plan_clone.pt"
+        for k, r in enumerate([None] + list(cfg.get("edge_dagger") or [])):
+            if r is not None:
+                path = out / f"edge_{k}_seed{r['seed']}.npz"
+                if not path.exists():
+                    obs, act, ret = collect_edge(table, load_policy(str(net)), r["seed"],
+                                                 r.get("n", 1200), r.get("reach", 0.125),
+                                                 r.get("noise", 0.003), log=log)
+                    write_npz(path, obs=obs, act=act, ret=ret)
+                data.append(str(path))
+            fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric, log=log)
+            assemble(str(out), str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
+                     symmetric=symmetric)
+            res = judge(load_policy(str(net)))
+            log(f"gated network (main clone + nudge branch, {k} edge rounds):")
+            report(res, log)
     write_json(out / "judge.json", res)
     return res
 

@@ -5,6 +5,7 @@ import pytest
 
 from agents import plan_table as pt
 from hoprover_env.evaluation import run_episodes
+from hoprover_env.tasks.observation import OBS_DX, POS_SCALE
 
 
 @pytest.fixture(scope="module")
@@ -86,31 +87,39 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
            "demonstrations": [{"noise": 0.0, "seed": 1}],
            "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
                    "features": "micro"},
-           "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4}}
+           "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4},
+           "deadzone": 0.0, "edge_dagger": [{"seed": 3, "n": 4, "reach": 0.11}]}
     path = tmp_path / "plan.yaml"
     path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "run"
     pt.pipeline(path, out, log=lambda m: None)
-    assert len(judged) == 3          # the clone, after DAgger, the gated network
+    # the clone, after DAgger, the gated network before and after its edge round
+    assert len(judged) == 4
     kept = sorted(p.name for p in out.glob("*.npz"))
-    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "table.npz",
-                    "table_nudge.npz"]
+    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "edge_1_seed3.npz",
+                    "table.npz", "table_nudge.npz"]
+    with np.load(out / "edge_1_seed3.npz") as d:       # four episodes at the edge
+        offset = -d["obs"][:, OBS_DX] * POS_SCALE
+    # the first episode starts in 0.1-0.11 m, and the targets alternate sides
+    assert 0.1 < abs(offset[0]) < 0.11 and offset.min() < -0.1 and offset.max() > 0.1
     assert sorted(pt.load_table(out / "table_nudge.npz")["nudge_offsets"]) == [0.102, 0.104]
     policy = load_policy(str(out))
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
     gated = load_policy(str(out / "plan_clone.pt"))
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
-    assert gated.net.symmetric
+    assert gated.net.symmetric and gated.net.deadzone == 0.0
     assert judged[-1] is not None and type(judged[-1]).__name__ == "GatedPolicy"
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     calls = []
     monkeypatch.setattr(pt, "collect_table", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(pt, "sweep", lambda *a, **k: calls.append(a))
+    monkeypatch.setattr(pt, "collect_edge", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(nudge, "search", lambda *a, **k: calls.append(a))
-    monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)   # fits are redone
+    monkeypatch.setattr(cs, "fit", lambda *a, **k: calls.append(a))    # clones are kept
+    monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)   # the branch is redone
     monkeypatch.setattr(nudge, "assemble", lambda *a, **k: None)
-    pt.pipeline(path, out, log=lambda m: None)            # again: nothing collected
+    pt.pipeline(path, out, log=lambda m: None)     # again: nothing collected or fitted
     assert calls == [] and stamps == {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))
     with pytest.raises(SystemExit, match="fit_typo"):
