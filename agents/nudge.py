@@ -25,7 +25,9 @@ of each number) is smallest, with a penalty on jumps between neighbouring offset
 One network fitted to everything does not learn the law (its brakes are a few thousand
 samples among millions); `fit` fits a network to the law's states alone, and `assemble`
 puts it beside a plan-table clone as the nudge branch of a gated network
-(hoprover_env.gated), the bundled `plan_clone`:
+(hoprover_env.gated), the bundled `plan_clone`. `gated_rounds` does this within
+`python -m agents.plan_table pipeline`, with DAgger rounds at the band's edge
+(`collect_edge`); by hand:
 
     python -m agents.nudge search --table runs/plan_table/table.npz \\
         --out runs/plan_table/table_nudge.npz
@@ -165,13 +167,95 @@ def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60) -> dict:
             "ttrtp": np.array([grid[x][tuple(i)] for x, i in zip(xs, idx)])}
 
 
+def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: float,
+                 inside: float = 0.002, budget: int = 500, log=print):
+    """(obs, labels, returns) of the teacher labelling `learner`'s flights (DAgger) to `n`
+    targets uniform in BAND_EDGE - `inside`..`reach` m on alternating sides, with
+    N(0, noise^2) on the learner's actions: the states a network meets at the band's
+    edge, where its own errors decide where the rover goes next. The starts up to
+    `inside` within the band teach it to stay still there (the teacher's push begins
+    at the edge, and a fit smooths that step into a push just inside)."""
+    from agents.plan_table import CONTROL_DT, PlanTableTeacher
+    from hoprover_env.imitation import collect
+    rng = np.random.default_rng(seed)
+    targets = (rng.uniform(BAND_EDGE - inside, reach, n)
+               * np.where(np.arange(n) % 2, -1.0, 1.0))
+    return collect(PlanTableTeacher(table, budget=budget), {"control_dt": CONTROL_DT}, n,
+                   seed + 7, 0.995, batch=400, targets=targets, log=log,
+                   executor=_Noisy(learner, noise, np.random.default_rng(seed + 1)))
+
+
+class _Noisy:
+    """`policy`'s actions plus N(0, noise^2): a DAgger learner that also visits the
+    states around its own path."""
+
+    def __init__(self, policy, noise: float, rng):
+        self.policy, self.noise, self.rng = policy, float(noise), rng
+
+    def reset(self, n: int) -> None:
+        self.policy.reset(n)
+
+    def act(self, obs, venv):
+        a = self.policy.act(obs, venv)
+        return a + self.noise * self.rng.standard_normal(a.shape) if self.noise else a
+
+
+def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, settings: dict,
+                 shape: dict, log=print) -> dict:
+    """The pipeline's last steps: the nudge branch fitted to the edge states of every
+    collection and the gated network of both (hoprover_env.gated, OUT/plan_clone.pt),
+    then each `edge_dagger` round: that network drives at the band's edge
+    (`collect_edge`), the main branch is fitted again on everything where the round says
+    `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
+    Returns `judge`'s results for the last network."""
+    from pathlib import Path
+    from agents.clone_study import fit, judge, report
+    from hoprover_env.files import write_npz
+    from hoprover_env.policies import load_policy
+    symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
+    deadzone = float(cfg.get("deadzone", 0.01))
+    net, main_run = out / "plan_clone.pt", str(out)
+    edge = list(cfg.get("edge_dagger") or [])
+    names = [f"edge_{k + 1}_seed{r['seed']}.npz" for k, r in enumerate(edge)]
+    for k in range(len(edge) + 1):
+        if k:
+            r, path = edge[k - 1], out / names[k - 1]
+            if not path.exists():
+                obs, act, ret = collect_edge(table, load_policy(str(net)), r["seed"],
+                                             r.get("n", 1200), r.get("reach", 0.125),
+                                             r.get("noise", 0.003),
+                                             r.get("inside", 0.002), log=log)
+                write_npz(path, obs=obs, act=act, ret=ret)
+            data.append(str(path))
+            if r.get("refit_main"):
+                refit, main_run = out / f"clone_edge_{k}.pkl", str(out / f"main_edge_{k}")
+                if not (refit.exists() and (Path(main_run) / "best_model.zip").exists()):
+                    report(fit(data, **shape, save=str(refit), init=main_pkl,
+                               export_dir=main_run, log=log,
+                               **{**settings, **r["refit_main"]}), log)
+                main_pkl = str(refit)
+        if k < len(edge) and (out / names[k]).exists():
+            continue              # the network that drove the next round is not needed
+        fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric,
+                   flight=flight, log=log)
+        assemble(main_run, str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
+                 symmetric=symmetric, flight=flight)
+        log(f"gated network after {k} edge rounds -> {net}")
+    res = judge(load_policy(str(net)))
+    log("gated network (main branch + nudge branch):")
+    report(res, log)
+    return res
+
+
 def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
-               save=None, mirror: bool = False, log=print):
+               save=None, mirror: bool = False, flight: bool = False, log=print):
     """The nudge branch: configs/ppo_mpc.yaml's actor (ReLU, `features.micro` inputs)
     fitted from scratch to the rows of the collections `data` that `near_edge` picks
     (labelled by the nudge law: relabel older collections with `relabel`); with
     `mirror`, each collection's rows also as their mirror images (observation mirrored,
-    action negated: level ground's symmetry, for a symmetric network). Returns the
+    action negated: level ground's symmetry, for a symmetric network); with `flight`,
+    also the slow flights there (`near_edge(flight=True)`, the gate of a network
+    assembled with `flight`), labelled by the teacher as collected. Returns the
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
     from agents.clone_study import _model, _policy, save_clone
@@ -180,7 +264,7 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     parts = []
     for p in data:
         with np.load(p) as d:
-            m = near_edge(d["obs"])
+            m = near_edge(d["obs"], flight=flight)
             o, a, r = d["obs"][m], d["act"][m], d["ret"][m]
         if mirror:
             o, a, r = (np.concatenate([o, mirrored(o)]), np.concatenate([a, -a]),
@@ -208,7 +292,7 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
 
 
 def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
-             symmetric: bool = False) -> None:
+             symmetric: bool = False, flight: bool = False) -> None:
     """The gated network (hoprover_env.gated) of a main clone (a run directory) and a
     nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`:
     each branch acts as the odd part of its fit under the mirror (GatedNet)."""
@@ -218,7 +302,7 @@ def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
                                                           features="micro")),
-                         deadzone=deadzone, symmetric=symmetric)
+                         deadzone=deadzone, symmetric=symmetric, flight=flight)
     gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
 
 
@@ -237,6 +321,8 @@ def main(argv=None) -> int:
     f.add_argument("--epochs", type=int, default=15)
     f.add_argument("--mirror", action="store_true",
                    help="also fit each edge state's mirror image (for assemble --symmetric)")
+    f.add_argument("--flight", action="store_true",
+                   help="also the slow flights near the target (for assemble --flight)")
     f.add_argument("--save", required=True)
     g = sub.add_parser("assemble", help="main clone + nudge branch -> a gated network")
     g.add_argument("--main", required=True, help="the main clone's run directory")
@@ -245,6 +331,8 @@ def main(argv=None) -> int:
     g.add_argument("--deadzone", type=float, default=0.01)
     g.add_argument("--symmetric", action="store_true",
                    help="each branch as the odd part of its fit under the mirror x -> -x")
+    g.add_argument("--flight", action="store_true",
+                   help="the nudge branch also acts in slow flights near the target")
     args = ap.parse_args(argv)
     from pathlib import Path
     from agents.plan_table import load_table
@@ -260,10 +348,11 @@ def main(argv=None) -> int:
             log(f"{p} -> {out}")
         return 0
     if args.cmd == "fit":
-        fit_branch(args.data, args.epochs, save=args.save, mirror=args.mirror, log=log)
+        fit_branch(args.data, args.epochs, save=args.save, mirror=args.mirror,
+                   flight=args.flight, log=log)
         return 0
     if args.cmd == "assemble":
-        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric)
+        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric, args.flight)
         return 0
     fam = choose(search(log=log))
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):

@@ -371,37 +371,8 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
-def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: float,
-                 budget: int = 500, log=print):
-    """(obs, labels, returns) of the teacher labelling `learner`'s flights (DAgger) to `n`
-    targets uniform in BAND_EDGE..`reach` m on alternating sides, with N(0, noise^2) on
-    the learner's actions: the states a network meets at the band's edge, where its
-    own errors decide where the rover goes next."""
-    from hoprover_env.imitation import collect
-    rng = np.random.default_rng(seed)
-    targets = rng.uniform(BAND_EDGE, reach, n) * np.where(np.arange(n) % 2, -1.0, 1.0)
-    return collect(PlanTableTeacher(table, budget=budget), {"control_dt": CONTROL_DT}, n,
-                   seed + 7, 0.995, batch=400, targets=targets, log=log,
-                   executor=_Noisy(learner, noise, np.random.default_rng(seed + 1)))
-
-
-class _Noisy:
-    """`policy`'s actions plus N(0, noise^2): a DAgger learner that also visits the
-    states around its own path."""
-
-    def __init__(self, policy, noise: float, rng):
-        self.policy, self.noise, self.rng = policy, float(noise), rng
-
-    def reset(self, n: int) -> None:
-        self.policy.reset(n)
-
-    def act(self, obs, venv):
-        a = self.policy.act(obs, venv)
-        return a + self.noise * self.rng.standard_normal(a.shape) if self.noise else a
-
-
 PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
-                 "dagger_fit", "symmetric", "deadzone", "edge_dagger"}
+                 "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight"}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -411,13 +382,12 @@ def pipeline(config_path, out, log=print) -> dict:
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
     gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged,
-    after `edge_dagger` rounds: the gated network drives at the band's edge
-    (`collect_edge`), and the nudge branch is fitted again on everything.
+    after `edge_dagger` rounds (`agents.nudge.gated_rounds`).
     Each table, collection and main-branch clone is kept in OUT, so a killed run starts
-    again from its last finished one (the nudge branch, a short fit, is redone)."""
+    again from its last finished one (the last nudge branch is fitted again)."""
     from pathlib import Path
     import yaml
-    from agents.clone_study import fit, judge, load_clone, report
+    from agents.clone_study import fit, load_clone, report
     from hoprover_env.files import write_json
     cfg = yaml.safe_load(Path(config_path).read_text())
     unknown = set(cfg) - PIPELINE_KEYS
@@ -481,28 +451,10 @@ def pipeline(config_path, out, log=print) -> dict:
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     if cfg.get("nudge"):
-        # the network's nudge branch, fitted to the edge states of every collection, and
-        # the gated network of both (hoprover_env.gated): OUT/plan_clone.pt
-        from agents.nudge import assemble, fit_branch
-        from hoprover_env.policies import load_policy
-        symmetric = bool(cfg.get("symmetric", False))
-        deadzone = float(cfg.get("deadzone", 0.01))
-        net = out / "plan_clone.pt"
-        for k, r in enumerate([None] + list(cfg.get("edge_dagger") or [])):
-            if r is not None:
-                path = out / f"edge_{k}_seed{r['seed']}.npz"
-                if not path.exists():
-                    obs, act, ret = collect_edge(table, load_policy(str(net)), r["seed"],
-                                                 r.get("n", 1200), r.get("reach", 0.125),
-                                                 r.get("noise", 0.003), log=log)
-                    write_npz(path, obs=obs, act=act, ret=ret)
-                data.append(str(path))
-            fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric, log=log)
-            assemble(str(out), str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
-                     symmetric=symmetric)
-            res = judge(load_policy(str(net)))
-            log(f"gated network (main clone + nudge branch, {k} edge rounds):")
-            report(res, log)
+        from agents.nudge import gated_rounds
+        res = gated_rounds(cfg, out, table, data, str(out / f"clone_{len(rounds)}.pkl"),
+                           {**fcfg, **cfg.get("dagger_fit", {})},
+                           dict(activation=activation, arch=arch, features=features), log)
     write_json(out / "judge.json", res)
     return res
 

@@ -14,6 +14,10 @@ branches and a fixed gate:
 * the *nudge* branch (an MLP on the normalised observation and `features.micro`
   inputs) acts where the rover is nearly still within `nudge_max` of the target
   (`near_edge`, the states the nudge law labels);
+* with `flight`, the nudge branch also acts in slow flights within `nudge_max` (a
+  nudge ends in a micro-flight of ~10 s in which the teacher coasts; the main branch's
+  few thousandths of T_max there damp the rotation whose corner touch slides the rover
+  into the band, and cost a second nudge: BENCHMARKS.md, session 13);
 * with `symmetric`, each branch's output is the odd part of its fit under the mirror
   x -> -x (`tasks.observation.mirror`): (f(o) - f(mirror(o))) / 2, before the dead zone
   and the gate (both mirror-invariant). Level ground is mirror-symmetric, so the
@@ -42,6 +46,7 @@ from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_SIN, OBS_VX, P
 
 NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
 STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
+FLIGHT_TILT = 0.05                      # rad: a nudge's micro-flight tilts up to ~0.02
 
 
 def observed_mode(obs):
@@ -51,13 +56,19 @@ def observed_mode(obs):
     return lib.argmax(obs[:, OBS_MODE:OBS_MODE + len(MODE_LETTERS)], 1)
 
 
-def near_edge(obs, nudge_max: float = NUDGE_MAX):
+def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False):
     """Rows (numpy or torch, raw observations) on the ground within `nudge_max` m of
-    the target and nearly still: the nudge law's states."""
+    the target and nearly still: the nudge law's states. With `flight`, also the slow
+    flights there (tilt below FLIGHT_TILT): the micro-flights a nudge ends in, where
+    the teacher coasts or holds a plan's attitude, which a network's main branch,
+    fitted to millions of other states, gets wrong by a few thousandths of T_max."""
     lib = torch if isinstance(obs, torch.Tensor) else np
-    still = ((lib.abs(obs[:, OBS_SIN]) < STILL_TILT)
-             & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED))
-    return ((observed_mode(obs) != MODE_A) & still
+    tilt = lib.abs(obs[:, OBS_SIN])
+    aloft = observed_mode(obs) == MODE_A
+    settled = ~aloft & (tilt < STILL_TILT)
+    if flight:
+        settled = settled | (aloft & (tilt < FLIGHT_TILT))
+    return (settled & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED)
             & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max))
 
 
@@ -92,11 +103,12 @@ class GatedNet(nn.Module):
     """Raw observations (N, 19) -> actions (N, 1) in [-1, 1] (module docstring)."""
 
     def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
-                 nudge_max: float = NUDGE_MAX, symmetric: bool = False):
+                 nudge_max: float = NUDGE_MAX, symmetric: bool = False,
+                 flight: bool = False):
         super().__init__()
         self.main, self.nudge = main, nudge
         self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
-        self.symmetric = bool(symmetric)
+        self.symmetric, self.flight = bool(symmetric), bool(flight)
 
     def forward(self, obs):
         main, nudge = self.main(obs), self.nudge(obs)
@@ -107,7 +119,7 @@ class GatedNet(nn.Module):
             m = mirror(obs)
             main, nudge = 0.5 * (main - self.main(m)), 0.5 * (nudge - self.nudge(m))
         a = torch.where(main.abs() < self.deadzone, torch.zeros_like(main), main)
-        a = torch.where(near_edge(obs, self.nudge_max)[:, None], nudge, a)
+        a = torch.where(near_edge(obs, self.nudge_max, self.flight)[:, None], nudge, a)
         return torch.clamp(a, -1.0, 1.0)
 
 
@@ -145,6 +157,7 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     write_json(path.with_suffix(".json"), {
         "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
         "deadzone": net.deadzone, "nudge_max": net.nudge_max, "symmetric": net.symmetric,
+        "flight": net.flight,
         "env_id": "HopRover-v0",
         "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
 
@@ -162,7 +175,7 @@ def load(path) -> tuple[GatedNet, dict]:
         raise ValueError(f"{meta_path} does not describe a gated network (kind "
                          f"{meta.get('kind')!r})")
     net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
-                   meta["nudge_max"], meta.get("symmetric", False))
+                   meta["nudge_max"], meta.get("symmetric", False), meta.get("flight", False))
     net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     net.eval()
     return net, meta

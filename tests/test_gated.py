@@ -72,6 +72,36 @@ def test_a_saved_network_loads_with_the_same_actions_and_refuses_a_foreign_file(
         load_policy(str(tmp_path / "other.pt"))
 
 
+def test_the_flight_gate_adds_the_slow_flights_near_the_target_and_nothing_else(tmp_path):
+    from hoprover_env.core.layout import MODE_A
+    from hoprover_env.tasks.observation import OBS_DX, OBS_SIN, OBS_VX, POS_SCALE, VEL_SCALE
+    rng = np.random.default_rng(5)
+    obs = _random_obs(rng, 4000)
+    ground, both = gated.near_edge(obs), gated.near_edge(obs, flight=True)
+    aloft = gated.observed_mode(obs) == MODE_A
+    np.testing.assert_array_equal(both[~aloft], ground[~aloft])    # the ground: as before
+    assert not ground[aloft].any()
+    extra = both & ~ground
+    assert extra.any() and aloft[extra].all()
+    assert np.all(np.abs(obs[extra, OBS_SIN]) < gated.FLIGHT_TILT)
+    assert np.all(np.abs(obs[extra, OBS_VX]) * VEL_SCALE < gated.STILL_SPEED)
+    assert np.all(np.abs(obs[extra, OBS_DX]) * POS_SCALE <= gated.NUDGE_MAX)
+    # a slow flight tilted beyond the ground's bound but within the flight's is gated
+    assert (extra & (np.abs(obs[:, OBS_SIN]) > gated.STILL_TILT)).any()
+    np.testing.assert_array_equal(gated.near_edge(torch.as_tensor(obs), flight=True).numpy(),
+                                  both)
+    main, nudge = _branches(rng)
+    net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
+                         deadzone=0.0, flight=True)
+    got = gated.GatedPolicy(net).act(obs, None)
+    np.testing.assert_allclose(got[extra], np.clip(nudge.act(obs[extra], None), -1, 1),
+                               atol=2e-6)
+    gated.save(net, tmp_path / "net.pt")
+    loaded = load_policy(str(tmp_path / "net.pt"))
+    assert loaded.net.flight
+    np.testing.assert_array_equal(loaded.act(obs, None), got)
+
+
 def test_the_mirror_of_an_episode_is_observed_as_the_mirror_of_its_observations():
     """Fly a rover to +x with torques u and its mirror image to -x with -u: at every
     step the second observation is mirror() of the first (level ground's symmetry)."""
