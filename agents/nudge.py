@@ -168,13 +168,13 @@ def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60) -> dict:
 
 
 def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: float,
-                 inside: float = 0.002, budget: int = 500, log=print):
+                 inside: float = 0.0, budget: int = 500, log=print):
     """(obs, labels, returns) of the teacher labelling `learner`'s flights (DAgger) to `n`
     targets uniform in BAND_EDGE - `inside`..`reach` m on alternating sides, with
     N(0, noise^2) on the learner's actions: the states a network meets at the band's
-    edge, where its own errors decide where the rover goes next. The starts up to
-    `inside` within the band teach it to stay still there (the teacher's push begins
-    at the edge, and a fit smooths that step into a push just inside)."""
+    edge, where its own errors decide where the rover goes next. Starts up to `inside`
+    within the band show it where to stay still (the teacher's push begins at the
+    edge, and a fit smooths that step into a small push just inside)."""
     from agents.plan_table import CONTROL_DT, PlanTableTeacher
     from hoprover_env.imitation import collect
     rng = np.random.default_rng(seed)
@@ -207,6 +207,9 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     then each `edge_dagger` round: that network drives at the band's edge
     (`collect_edge`), the main branch is fitted again on everything where the round says
     `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
+    The networks that drive the rounds have the ground gate; `flight` (the nudge branch
+    also in slow flights) is the last network's. Driven with the flight gate as well,
+    the rounds gave a worse network (BENCHMARKS.md, session 13).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
     from agents.clone_study import fit, judge, report
@@ -224,7 +227,7 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
                 obs, act, ret = collect_edge(table, load_policy(str(net)), r["seed"],
                                              r.get("n", 1200), r.get("reach", 0.125),
                                              r.get("noise", 0.003),
-                                             r.get("inside", 0.002), log=log)
+                                             r.get("inside", 0.0), log=log)
                 write_npz(path, obs=obs, act=act, ret=ret)
             data.append(str(path))
             if r.get("refit_main"):
@@ -236,10 +239,11 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
                 main_pkl = str(refit)
         if k < len(edge) and (out / names[k]).exists():
             continue              # the network that drove the next round is not needed
+        gate = flight and k == len(edge)
         fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric,
-                   flight=flight, log=log)
+                   flight=gate, log=log)
         assemble(main_run, str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
-                 symmetric=symmetric, flight=flight)
+                 symmetric=symmetric, flight=gate)
         log(f"gated network after {k} edge rounds -> {net}")
     res = judge(load_policy(str(net)))
     log("gated network (main branch + nudge branch):")

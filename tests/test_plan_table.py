@@ -89,7 +89,8 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
                    "features": "micro"},
            "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4},
            "deadzone": 0.0, "flight": True,
-           "edge_dagger": [{"seed": 3, "n": 4, "reach": 0.11, "refit_main": {"epochs": 1}}]}
+           "edge_dagger": [{"seed": 3, "n": 4, "reach": 0.11, "inside": 0.002,
+                            "refit_main": {"epochs": 1}}]}
     path = tmp_path / "plan.yaml"
     path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "run"
