@@ -180,13 +180,14 @@ def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weigh
 def report(res: dict, log=print) -> None:
     """`judge`'s results as text; also those read back from its JSON, where a NaN or an
     infinity was written as null."""
-    res = {k: float("nan") if v is None else v for k, v in res.items()}
+    def numbers(d: dict) -> dict:
+        return {k: float("nan") if v is None else v for k, v in d.items()}
+    res = numbers(res)
     log(f"validation: success {res['validation_success']:.1%}, median TTRTP "
         f"{res['validation_median']:.1f} s")
     log(f"level-v1: success {res['suite_success']:.1%}, median regret "
         f"{res['median_regret']:.3f}, worst {res['worst_regret']:.3f}")
-    for b in res["by_distance"]:
-        b = {k: float("nan") if v is None else v for k, v in b.items()}
+    for b in map(numbers, res["by_distance"]):
         log(f"  |d| in [{b['range'][0]}, {b['range'][1]}) m: {b['episodes']} episodes, "
             f"success {b['success']:.1%}, median regret {b['median_regret']:.3f}, worst "
             f"{b['worst_regret']:.3f}")
