@@ -208,7 +208,8 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     (`collect_edge`), the main branch is fitted again on everything where the round says
     `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
     The networks that drive the rounds have the ground gate; `flight` (the nudge branch
-    also in slow flights) is the last network's. Driven with the flight gate as well,
+    also in slow flights) and `hold` (zero torque at rest in the band) are the last
+    network's. Driven with the flight gate as well,
     the rounds gave a worse network (BENCHMARKS.md, session 13).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
@@ -216,6 +217,7 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     from hoprover_env.files import write_npz
     from hoprover_env.policies import load_policy
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
+    hold = bool(cfg.get("hold", False))
     deadzone = float(cfg.get("deadzone", 0.01))
     net, main_run = out / "plan_clone.pt", str(out)
     edge = list(cfg.get("edge_dagger") or [])
@@ -239,11 +241,11 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
                 main_pkl = str(refit)
         if k < len(edge) and (out / names[k]).exists():
             continue              # the network that drove the next round is not needed
-        gate = flight and k == len(edge)
+        last = k == len(edge)
         fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric,
-                   flight=gate, log=log)
+                   flight=flight and last, log=log)
         assemble(main_run, str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
-                 symmetric=symmetric, flight=gate)
+                 symmetric=symmetric, flight=flight and last, hold=hold and last)
         log(f"gated network after {k} edge rounds -> {net}")
     res = judge(load_policy(str(net)))
     log("gated network (main branch + nudge branch):")
@@ -296,17 +298,17 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
 
 
 def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
-             symmetric: bool = False, flight: bool = False) -> None:
+             symmetric: bool = False, flight: bool = False, hold: bool = False) -> None:
     """The gated network (hoprover_env.gated) of a main clone (a run directory) and a
-    nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`:
-    each branch acts as the odd part of its fit under the mirror (GatedNet)."""
+    nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`,
+    `flight`, `hold`: GatedNet's."""
     from agents.clone_study import load_clone
     from hoprover_env import gated
     from hoprover_env.policies import load_policy
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
                                                           features="micro")),
-                         deadzone=deadzone, symmetric=symmetric, flight=flight)
+                         deadzone=deadzone, symmetric=symmetric, flight=flight, hold=hold)
     gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
 
 
@@ -337,6 +339,8 @@ def main(argv=None) -> int:
                    help="each branch as the odd part of its fit under the mirror x -> -x")
     g.add_argument("--flight", action="store_true",
                    help="the nudge branch also acts in slow flights near the target")
+    g.add_argument("--hold", action="store_true",
+                   help="zero torque at rest on a face with a corner in the band")
     args = ap.parse_args(argv)
     from pathlib import Path
     from agents.plan_table import load_table
@@ -356,7 +360,8 @@ def main(argv=None) -> int:
                    flight=args.flight, log=log)
         return 0
     if args.cmd == "assemble":
-        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric, args.flight)
+        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric, args.flight,
+                 args.hold)
         return 0
     fam = choose(search(log=log))
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):

@@ -372,7 +372,7 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
 
 
 PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
-                 "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight"}
+                 "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight", "hold"}
 
 
 def pipeline(config_path, out, log=print) -> dict:

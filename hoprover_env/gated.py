@@ -18,6 +18,12 @@ branches and a fixed gate:
   nudge ends in a micro-flight of ~10 s in which the teacher coasts; the main branch's
   few thousandths of T_max there damp the rotation whose corner touch slides the rover
   into the band, and cost a second nudge: BENCHMARKS.md, session 13);
+* with `hold`, a rover at rest on a face (state F) with a corner in the band gets zero
+  torque (`at_rest_in_band`): staying still then ends the episode in the least time
+  there is, and the teacher's label is zero there, but its push one step outside the
+  band is a step a fraction of a millimetre wide that a fit smooths, so a start 0.3 mm
+  inside the band was nudged out of it (8-10 s where staying takes 5: BENCHMARKS.md,
+  session 14);
 * with `symmetric`, each branch's output is the odd part of its fit under the mirror
   x -> -x (`tasks.observation.mirror`): (f(o) - f(mirror(o))) / 2, before the dead zone
   and the gate (both mirror-invariant). Level ground is mirror-symmetric, so the
@@ -25,8 +31,8 @@ branches and a fixed gate:
   micro-flights at the band's edge cost tens of times the plan's time (BENCHMARKS.md,
   session 11).
 
-Both branches are learned; the gate, the dead zone and the normalisations are fixed
-parts of the network. `GatedNet.forward` maps raw observations (N, 19) to actions
+Both branches are learned; the gate, the hold, the dead zone and the normalisations are
+fixed parts of the network. `GatedNet.forward` maps raw observations (N, 19) to actions
 (N, 1); `GatedPolicy` is the policy `load_policy` returns for a saved one (a .pt file:
 the weights, with the branches' sizes in its metadata).
 """
@@ -40,13 +46,16 @@ import numpy as np
 import torch
 from torch import nn
 
-from hoprover_env.core.layout import MODE_A, MODE_LETTERS
-from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_SIN, OBS_VX, POS_SCALE,
-                                            VEL_SCALE, mirror)
+from hoprover_env.core.layout import MODE_A, MODE_F, MODE_LETTERS
+from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_REF, OBS_SIN, OBS_VX,
+                                            POS_SCALE, VEL_SCALE, mirror)
 
 NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
 STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
 FLIGHT_TILT = 0.05                      # rad: a nudge's micro-flight tilts up to ~0.02
+# |OBS_REF| (the contact point's offset in band half-widths) below which `hold` holds:
+# 5e-8 m inside the edge, so float32 round-off never holds a rover just outside the band
+HOLD_REF = 1.0 - 1e-6
 
 
 def observed_mode(obs):
@@ -70,6 +79,13 @@ def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False):
         settled = settled | (aloft & (tilt < FLIGHT_TILT))
     return (settled & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED)
             & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max))
+
+
+def at_rest_in_band(obs):
+    """Rows (numpy or torch, raw observations) at rest on a face (state F) with a
+    contact point in the band, by HOLD_REF: where zero torque is the best action."""
+    lib = torch if isinstance(obs, torch.Tensor) else np
+    return (observed_mode(obs) == MODE_F) & (lib.abs(obs[:, OBS_REF]) < HOLD_REF)
 
 
 class Branch(nn.Module):
@@ -104,11 +120,11 @@ class GatedNet(nn.Module):
 
     def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
                  nudge_max: float = NUDGE_MAX, symmetric: bool = False,
-                 flight: bool = False):
+                 flight: bool = False, hold: bool = False):
         super().__init__()
         self.main, self.nudge = main, nudge
         self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
-        self.symmetric, self.flight = bool(symmetric), bool(flight)
+        self.symmetric, self.flight, self.hold = bool(symmetric), bool(flight), bool(hold)
 
     def forward(self, obs):
         main, nudge = self.main(obs), self.nudge(obs)
@@ -120,6 +136,8 @@ class GatedNet(nn.Module):
             main, nudge = 0.5 * (main - self.main(m)), 0.5 * (nudge - self.nudge(m))
         a = torch.where(main.abs() < self.deadzone, torch.zeros_like(main), main)
         a = torch.where(near_edge(obs, self.nudge_max, self.flight)[:, None], nudge, a)
+        if self.hold:
+            a = torch.where(at_rest_in_band(obs)[:, None], torch.zeros_like(a), a)
         return torch.clamp(a, -1.0, 1.0)
 
 
@@ -157,7 +175,7 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     write_json(path.with_suffix(".json"), {
         "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
         "deadzone": net.deadzone, "nudge_max": net.nudge_max, "symmetric": net.symmetric,
-        "flight": net.flight,
+        "flight": net.flight, "hold": net.hold,
         "env_id": "HopRover-v0",
         "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
 
@@ -175,7 +193,8 @@ def load(path) -> tuple[GatedNet, dict]:
         raise ValueError(f"{meta_path} does not describe a gated network (kind "
                          f"{meta.get('kind')!r})")
     net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
-                   meta["nudge_max"], meta.get("symmetric", False), meta.get("flight", False))
+                   meta["nudge_max"], meta.get("symmetric", False), meta.get("flight", False),
+                   meta.get("hold", False))
     net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     net.eval()
     return net, meta

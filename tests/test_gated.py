@@ -102,6 +102,45 @@ def test_the_flight_gate_adds_the_slow_flights_near_the_target_and_nothing_else(
     np.testing.assert_array_equal(loaded.act(obs, None), got)
 
 
+def test_the_hold_zeroes_exactly_the_rests_on_a_face_in_the_band(tmp_path):
+    from hoprover_env.core.layout import MODE_F
+    from hoprover_env.tasks.observation import OBS_REF
+    rng = np.random.default_rng(6)
+    obs = _random_obs(rng, 4000)
+    obs[:, OBS_REF] = rng.uniform(-1.5, 1.5, len(obs))
+    obs[:8, 7:14] = np.eye(7)[MODE_F]
+    obs[:8, OBS_REF] = [1.0, -1.0, 1.0 - 2e-6, -(1.0 - 2e-6), 0.0, 1.00001, -1.2, 0.5]
+    rest = gated.at_rest_in_band(obs)
+    want = (gated.observed_mode(obs) == MODE_F) & (np.abs(obs[:, OBS_REF]) < gated.HOLD_REF)
+    np.testing.assert_array_equal(rest, want)
+    # the edge itself and anything beyond it is not held (float32 round-off must never
+    # hold a rover just outside the band); 2e-6 half-widths (1e-7 m) inside is
+    np.testing.assert_array_equal(rest[:8], [False, False, True, True, True, False, False,
+                                             True])
+    assert 0 < rest.sum() < (gated.observed_mode(obs) == MODE_F).sum()
+    np.testing.assert_array_equal(gated.at_rest_in_band(torch.as_tensor(obs)).numpy(), rest)
+    main, nudge = _branches(rng)
+    free = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
+                          deadzone=0.0, flight=True)
+    held = gated.GatedNet(free.main, free.nudge, deadzone=0.0, flight=True, hold=True)
+    a, b = gated.GatedPolicy(free).act(obs, None), gated.GatedPolicy(held).act(obs, None)
+    assert np.all(b[rest] == 0.0) and np.any(a[rest] != 0.0)
+    np.testing.assert_array_equal(b[~rest], a[~rest])
+    gated.save(held, tmp_path / "held.pt")
+    loaded = load_policy(str(tmp_path / "held.pt"))
+    assert loaded.net.hold
+    np.testing.assert_array_equal(loaded.act(obs, None), b)
+
+
+def test_the_bundled_plan_clone_stays_still_when_it_starts_just_inside_the_band():
+    from hoprover_env.evaluation import run_episodes
+    # starts 0.26 mm and 0.04 mm inside the band's edge that the network without the
+    # hold nudged out of the band (9.7 s and 8.2 s: BENCHMARKS.md, session 14)
+    res = run_episodes(load_policy("plan_clone"), np.array([-0.09974, 0.09996]))
+    for r in res:
+        assert r.success and r.ttrtp == 5.0, (r.target_x, r.ttrtp)
+
+
 def test_the_mirror_of_an_episode_is_observed_as_the_mirror_of_its_observations():
     """Fly a rover to +x with torques u and its mirror image to -x with -u: at every
     step the second observation is mirror() of the first (level ground's symmetry)."""
