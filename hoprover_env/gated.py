@@ -20,10 +20,10 @@ branches and a fixed gate:
   into the band, and cost a second nudge: BENCHMARKS.md, session 13);
 * with `hold`, a rover at rest on a face (state F) with a corner in the band gets zero
   torque (`at_rest_in_band`): staying still then ends the episode in the least time
-  there is, and the teacher's label is zero there, but its push one step outside the
-  band is a step a fraction of a millimetre wide that a fit smooths, so a start 0.3 mm
-  inside the band was nudged out of it (8-10 s where staying takes 5: BENCHMARKS.md,
-  session 14);
+  there is. The teacher's label there is zero too, but the nudge law's push begins at
+  the band's edge, a step that a fit smooths into a small push just inside it: without
+  the hold every start within 0.36 mm of the edge was tipped out of the band (8-14 s
+  where staying takes 5: BENCHMARKS.md, session 14);
 * with `symmetric`, each branch's output is the odd part of its fit under the mirror
   x -> -x (`tasks.observation.mirror`): (f(o) - f(mirror(o))) / 2, before the dead zone
   and the gate (both mirror-invariant). Level ground is mirror-symmetric, so the
