@@ -209,8 +209,8 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
     The networks that drive the rounds have the ground gate; `flight` (the nudge branch
     also in slow flights) and `hold` (zero torque at rest in the band) are the last
-    network's. Driven with the flight gate as well,
-    the rounds gave a worse network (BENCHMARKS.md, session 13).
+    network's. Driven with the flight gate as well, the rounds gave a worse network
+    (BENCHMARKS.md, sessions 13 and 14).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
     from agents.clone_study import fit, judge, report
