@@ -20,7 +20,8 @@ and stored collections are relabelled with it), on the states `near_edge`
 (hoprover_env.gated) picks: nearly still within NUDGE_MAX of the target. `search` flies
 a grid of the three numbers for each offset in one vector env; `choose` picks per
 offset the point whose worst TTRTP over its grid neighbours (a clone's error: +-1 step
-of each number) is smallest, with a penalty on jumps between neighbouring offsets.
+of each number; `margin` steps with the pipeline's `nudge: {margin: k}`) is smallest,
+with a penalty on jumps between neighbouring offsets.
 
 One network fitted to everything does not learn the law (its brakes are a few thousand
 samples among millions); `fit` fits a network to the law's states alone, and `assemble`
@@ -138,16 +139,16 @@ def search(offsets=None, log=print) -> dict:
     return out
 
 
-def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60) -> dict:
-    """Per offset the grid point with the smallest worst TTRTP over its neighbours (+-1
-    step of each number), relative to the offset's best; among each offset's `keep`
-    best, the path that also pays `jump_cost` per grid step between neighbouring
-    offsets (dynamic programming)."""
+def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60, margin: int = 1) -> dict:
+    """Per offset the grid point with the smallest worst TTRTP over its neighbours
+    (+-`margin` steps of each number), relative to the offset's best; among each
+    offset's `keep` best, the path that also pays `jump_cost` per grid step between
+    neighbouring offsets (dynamic programming)."""
     from scipy.ndimage import maximum_filter
     xs = sorted(grid)
     cost, cand = [], []
     for x in xs:
-        robust = maximum_filter(grid[x], size=3, mode="nearest")
+        robust = maximum_filter(grid[x], size=2 * margin + 1, mode="nearest")
         order = np.argsort(robust.ravel())[:keep]
         cost.append(robust.ravel()[order] / grid[x].min())
         cand.append(np.array(np.unravel_index(order, robust.shape)).T)

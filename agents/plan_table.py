@@ -359,20 +359,45 @@ def load_table(path) -> dict:
                 if k in ("targets", "u", "ttrtp", "start") or k.startswith("nudge_")}
 
 
+def within_cells(targets: np.ndarray, rng) -> np.ndarray:
+    """One target drawn uniformly in each row's cell: the targets the teacher flies that
+    row's plan for (`PlanTableTeacher.point`: the nearest row on the same side), from the
+    midpoints between neighbours, from the band's edge for the innermost rows, and out to
+    the row itself for the outermost (beyond it the table has no plan)."""
+    x = np.asarray(targets, dtype=float)
+    out = np.empty_like(x)
+    for side in (x > 0, x < 0):
+        a = np.sort(np.abs(x[side]))
+        lo = np.concatenate([[BAND_EDGE], (a[:-1] + a[1:]) / 2])
+        hi = np.concatenate([(a[:-1] + a[1:]) / 2, [a[-1]]])
+        drawn = rng.uniform(lo, hi)
+        order = np.argsort(np.abs(x[side]))
+        vals = np.empty(len(a))
+        vals[order] = drawn
+        out[side] = np.sign(x[side]) * vals
+    return out
+
+
 def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=None,
-                  budget: int = 500, log=print):
+                  budget: int = 500, cells: bool = False, log=print):
     """(obs, labels, returns) of the teacher on every grid target plus `in_band` targets
-    drawn in the band, with DART noise `noise` or with `learner` driving (DAgger)."""
+    drawn in the band, with DART noise `noise` or with `learner` driving (DAgger). With
+    `cells`, each grid target is replaced by one drawn in its cell (`within_cells`): a
+    network that sees only the grid's targets interpolates between neighbouring rows
+    whose plans are of different kinds, and between them it flies a mix of both."""
     from hoprover_env.imitation import collect
     teacher = PlanTableTeacher(table, budget=budget)
     rng = np.random.default_rng(seed)
     targets = np.concatenate([table["targets"], rng.uniform(-BAND_EDGE, BAND_EDGE, in_band)])
+    if cells:
+        targets[:len(table["targets"])] = within_cells(table["targets"], rng)
     return collect(teacher, {"control_dt": CONTROL_DT}, len(targets), seed, 0.995, batch=360,
                    noise=noise, executor=learner, targets=targets, log=log)
 
 
-PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "demonstrations", "fit", "dagger",
-                 "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight", "hold"}
+PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "cells", "demonstrations", "fit",
+                 "dagger", "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight",
+                 "hold"}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -382,8 +407,9 @@ def pipeline(config_path, out, log=print) -> dict:
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
     gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged,
-    after `edge_dagger` rounds (`agents.nudge.gated_rounds`).
-    Each table, collection and main-branch clone is kept in OUT, so a killed run starts
+    after `edge_dagger` rounds (`agents.nudge.gated_rounds`). With `cells`, the
+    demonstrations and DAgger rounds fly targets drawn within the grid rows' cells
+    (`collect_table`). Each table, collection and main-branch clone is kept in OUT, so a killed run starts
     again from its last finished one (the last nudge branch is fitted again)."""
     from pathlib import Path
     import yaml
@@ -408,15 +434,18 @@ def pipeline(config_path, out, log=print) -> dict:
         from agents.nudge import choose, search, with_family
         npath = out / "table_nudge.npz"
         if not npath.exists():
-            write_npz(npath, **with_family(load_table(tpath), choose(search(log=log))))
+            margin = cfg["nudge"].get("margin", 1) if isinstance(cfg["nudge"], dict) else 1
+            write_npz(npath, **with_family(load_table(tpath),
+                                           choose(search(log=log), margin=margin)))
         tpath = npath
     table = load_table(tpath)
-    in_band = cfg.get("in_band", 120)
+    in_band, cells = cfg.get("in_band", 120), bool(cfg.get("cells", False))
     data = []
     for d in cfg["demonstrations"]:
         path = out / f"demo_noise{d['noise']}_seed{d['seed']}.npz"
         if not path.exists():
-            obs, act, ret = collect_table(table, d["noise"], d["seed"], in_band, log=log)
+            obs, act, ret = collect_table(table, d["noise"], d["seed"], in_band,
+                                          cells=cells, log=log)
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     fcfg = dict(cfg.get("fit", {}))
@@ -447,7 +476,7 @@ def pipeline(config_path, out, log=print) -> dict:
         if not path.exists():
             learner = load_clone(str(clone_path), activation, arch, features=features)
             obs, act, ret = collect_table(table, 0.0, rounds[r]["seed"], in_band, learner,
-                                          log=log)
+                                          cells=cells, log=log)
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     if cfg.get("nudge"):

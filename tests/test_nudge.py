@@ -57,6 +57,20 @@ def test_choose_prefers_a_broad_basin_to_a_sharp_minimum():
     assert fam["brake"][0] in nudge.BRAKE_GRID[21:24]
 
 
+def test_a_wider_margin_gives_up_a_narrow_basin_for_a_broad_one():
+    shape = (len(nudge.PUSH_GRID), len(nudge.TILT_GRID), len(nudge.BRAKE_GRID))
+    grid = np.full(shape, 50.0)
+    grid[2:5, 2:5, 2:5] = 9.5                     # narrow: 9.5 s within +-1 step of its
+    grid[3, 3, 3] = 9.0                           # middle, 50 s two steps out
+    grid[10:17, 5:12, 20:27] = 10.0               # broad: 10 s within +-3 steps
+    narrow, broad = nudge.choose({0.102: grid}), nudge.choose({0.102: grid}, margin=2)
+    # +-1 step: the middle of the narrow basin, whose worst neighbour takes 9.5 s
+    assert (narrow["push"][0], narrow["ttrtp"][0]) == (nudge.PUSH_GRID[3], 9.0)
+    assert narrow["robust"][0] == pytest.approx(9.5 / 9.0)
+    assert broad["ttrtp"][0] == 10.0 and broad["robust"][0] == pytest.approx(10.0 / 9.0)
+    assert broad["push"][0] in nudge.PUSH_GRID[12:15]
+
+
 def test_a_teacher_with_a_nudge_family_flies_the_family_s_time(monkeypatch):
     from hoprover_env.evaluation import run_episodes
     # a small grid around the nudges that work at 0.102 m

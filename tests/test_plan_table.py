@@ -5,7 +5,7 @@ import pytest
 
 from agents import plan_table as pt
 from hoprover_env.evaluation import run_episodes
-from hoprover_env.tasks.observation import OBS_DX, POS_SCALE
+from hoprover_env.tasks.observation import OBS_DX, OBS_TIME, POS_SCALE
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +54,35 @@ def test_mirrored_plans_take_the_same_time_on_level_ground(table):
     assert np.all(mirrored["ttrtp"] <= alike["ttrtp"] + 1e-9)
 
 
+def test_targets_within_cells_get_their_own_row_s_plan():
+    targets = pt.grid(0.003)
+    teacher = pt.PlanTableTeacher({"targets": targets, "u": np.arange(len(targets))[:, None],
+                                   "ttrtp": np.ones(len(targets)), "start": np.zeros(3)})
+    drawn = pt.within_cells(targets, np.random.default_rng(3))
+    assert np.all(np.sign(drawn) == np.sign(targets)) and np.all(drawn != targets)
+    assert np.abs(drawn).min() > pt.BAND_EDGE and np.abs(drawn).max() <= np.abs(targets).max()
+    # the teacher flies the plan of the row each target was drawn for
+    assert [int(teacher.point(x)[0]) for x in drawn] == list(range(len(targets)))
+    # the cells tile the grid's span: the draws reach out to the cells' ends
+    assert np.abs(drawn - targets).max() > 0.0014
+    np.testing.assert_array_equal(drawn, pt.within_cells(targets, np.random.default_rng(3)))
+
+
+def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
+    import hoprover_env.imitation as imitation
+    seen = []
+    monkeypatch.setattr(imitation, "collect", lambda *a, targets, **k: seen.append(targets))
+    monkeypatch.setattr(pt, "PlanTableTeacher", lambda *a, **k: None)
+    table = {"targets": pt.grid(0.3)}
+    for cells in (False, True):
+        pt.collect_table(table, 0.0, 5, 2, cells=cells)
+    grid_run, cell_run = seen
+    np.testing.assert_array_equal(grid_run[:6], table["targets"])
+    np.testing.assert_array_equal(cell_run[6:], grid_run[6:])     # the same starts in band
+    assert np.all(np.abs(cell_run[:6] - table["targets"]) <= 0.15) and np.all(
+        cell_run[:6] != table["targets"])
+
+
 def test_the_teacher_flies_the_table_plans(table):
     _, alike = table
     teacher = pt.PlanTableTeacher(alike, budget=200)
@@ -83,7 +112,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     monkeypatch.setattr(nudge, "BRAKE_GRID", np.array([0.05, 0.06]))
     monkeypatch.setattr(nudge, "OFFSETS", (0.102, 0.104))
     cfg = {"table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
-           "nudge": True, "symmetric": True, "in_band": 2,
+           "nudge": {"margin": 1}, "symmetric": True, "in_band": 2, "cells": True,
            "demonstrations": [{"noise": 0.0, "seed": 1}],
            "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
                    "features": "micro"},
@@ -116,6 +145,12 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     # targets alternate sides
     assert 0.098 < abs(offset[0]) < 0.11 and offset.min() < -0.098 and offset.max() > 0.098
     assert sorted(pt.load_table(out / "table_nudge.npz")["nudge_offsets"]) == [0.102, 0.104]
+    with np.load(out / "demo_noise0.0_seed1.npz") as d:     # `cells`: off the grid's rows
+        starts = -d["obs"][d["obs"][:, OBS_TIME] == 0.0, OBS_DX] * POS_SCALE
+    beyond = np.sort(starts[np.abs(starts) > pt.BAND_EDGE])
+    rows = pt.grid(0.3)
+    assert len(beyond) == 6 and not np.isin(beyond, rows).any()
+    assert np.all(np.abs(beyond - rows) <= 0.15)
     policy = load_policy(str(out))
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
