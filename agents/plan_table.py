@@ -367,14 +367,12 @@ def within_cells(targets: np.ndarray, rng) -> np.ndarray:
     x = np.asarray(targets, dtype=float)
     out = np.empty_like(x)
     for side in (x > 0, x < 0):
-        a = np.sort(np.abs(x[side]))
-        lo = np.concatenate([[BAND_EDGE], (a[:-1] + a[1:]) / 2])
-        hi = np.concatenate([(a[:-1] + a[1:]) / 2, [a[-1]]])
-        drawn = rng.uniform(lo, hi)
         order = np.argsort(np.abs(x[side]))
-        vals = np.empty(len(a))
-        vals[order] = drawn
-        out[side] = np.sign(x[side]) * vals
+        a = np.abs(x[side])[order]                 # the side's rows, nearest first
+        mid = (a[:-1] + a[1:]) / 2
+        drawn = np.empty_like(a)
+        drawn[order] = rng.uniform(np.r_[BAND_EDGE, mid], np.r_[mid, a[-1]])
+        out[side] = np.sign(x[side]) * drawn
     return out
 
 
@@ -409,8 +407,9 @@ def pipeline(config_path, out, log=print) -> dict:
     gated network of both (OUT/plan_clone.pt, hoprover_env.gated) is what is judged,
     after `edge_dagger` rounds (`agents.nudge.gated_rounds`). With `cells`, the
     demonstrations and DAgger rounds fly targets drawn within the grid rows' cells
-    (`collect_table`). Each table, collection and main-branch clone is kept in OUT, so a killed run starts
-    again from its last finished one (the last nudge branch is fitted again)."""
+    (`collect_table`). Each table, collection and main-branch clone is kept in OUT, so
+    a killed run starts again from its last finished one (the last nudge branch is
+    fitted again)."""
     from pathlib import Path
     import yaml
     from agents.clone_study import fit, load_clone, report
@@ -420,6 +419,11 @@ def pipeline(config_path, out, log=print) -> dict:
     if unknown:
         raise SystemExit(f"error: unknown config key(s) {sorted(unknown)} in {config_path}; "
                          f"expected {sorted(PIPELINE_KEYS)}")
+    nudge_cfg = cfg["nudge"] if isinstance(cfg.get("nudge"), dict) else {}
+    if set(nudge_cfg) - {"margin"}:
+        raise SystemExit(f"error: unknown key(s) {sorted(set(nudge_cfg) - {'margin'})} under "
+                         f"`nudge` in {config_path}; expected ['margin']")
+    nudge_margin = int(nudge_cfg.get("margin", 1))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     tpath = out / "table.npz"
@@ -434,9 +438,8 @@ def pipeline(config_path, out, log=print) -> dict:
         from agents.nudge import choose, search, with_family
         npath = out / "table_nudge.npz"
         if not npath.exists():
-            margin = cfg["nudge"].get("margin", 1) if isinstance(cfg["nudge"], dict) else 1
             write_npz(npath, **with_family(load_table(tpath),
-                                           choose(search(log=log), margin=margin)))
+                                           choose(search(log=log), margin=nudge_margin)))
         tpath = npath
     table = load_table(tpath)
     in_band, cells = cfg.get("in_band", 120), bool(cfg.get("cells", False))

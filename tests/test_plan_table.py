@@ -178,6 +178,9 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))
     with pytest.raises(SystemExit, match="fit_typo"):
         pt.pipeline(path, out, log=lambda m: None)
+    path.write_text(yaml.safe_dump({**cfg, "nudge": {"margn": 2}}))
+    with pytest.raises(SystemExit, match="margn"):
+        pt.pipeline(path, out, log=lambda m: None)
 
 
 def _fly_then_rest(plan, target, teacher=None):
