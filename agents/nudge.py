@@ -209,16 +209,18 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     (`collect_edge`), the main branch is fitted again on everything where the round says
     `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
     The networks that drive the rounds have the ground gate; `flight` (the nudge branch
-    also in slow flights) and `hold` (zero torque at rest in the band) are the last
-    network's. Driven with the flight gate as well, the rounds gave a worse network
-    (BENCHMARKS.md, sessions 13 and 14).
+    also in slow flights), `hold` (zero torque at rest in the band) and `rest` (the gate
+    on the ground by the rest offset, hoprover_env.gated) are the last network's; the
+    nudge branch is fitted to the rows of the teacher's own gate either way. Driven with
+    the flight gate as well, the rounds gave a worse network (BENCHMARKS.md, sessions 13
+    and 14).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
     from agents.clone_study import fit, judge, report
     from hoprover_env.files import write_npz
     from hoprover_env.policies import load_policy
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
-    hold = bool(cfg.get("hold", False))
+    hold, rest = bool(cfg.get("hold", False)), bool(cfg.get("rest", False))
     deadzone = float(cfg.get("deadzone", 0.01))
     net, main_run = out / "plan_clone.pt", str(out)
     edge = list(cfg.get("edge_dagger") or [])
@@ -246,7 +248,8 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
         fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric,
                    flight=flight and last, log=log)
         assemble(main_run, str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
-                 symmetric=symmetric, flight=flight and last, hold=hold and last)
+                 symmetric=symmetric, flight=flight and last, hold=hold and last,
+                 rest=rest and last)
         log(f"gated network after {k} edge rounds -> {net}")
     res = judge(load_policy(str(net)))
     log("gated network (main branch + nudge branch):")
@@ -299,17 +302,19 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
 
 
 def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
-             symmetric: bool = False, flight: bool = False, hold: bool = False) -> None:
+             symmetric: bool = False, flight: bool = False, hold: bool = False,
+             rest: bool = False) -> None:
     """The gated network (hoprover_env.gated) of a main clone (a run directory) and a
     nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`,
-    `flight`, `hold`: GatedNet's."""
+    `flight`, `hold`, `rest`: GatedNet's."""
     from agents.clone_study import load_clone
     from hoprover_env import gated
     from hoprover_env.policies import load_policy
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
                                                           features="micro")),
-                         deadzone=deadzone, symmetric=symmetric, flight=flight, hold=hold)
+                         deadzone=deadzone, symmetric=symmetric, flight=flight, hold=hold,
+                         rest=rest)
     gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
 
 
@@ -342,6 +347,8 @@ def main(argv=None) -> int:
                    help="the nudge branch also acts in slow flights near the target")
     g.add_argument("--hold", action="store_true",
                    help="zero torque at rest on a face with a corner in the band")
+    g.add_argument("--rest", action="store_true",
+                   help="gate on the ground by the rest offset (the corner stood on)")
     args = ap.parse_args(argv)
     from pathlib import Path
     from agents.plan_table import load_table
@@ -362,7 +369,7 @@ def main(argv=None) -> int:
         return 0
     if args.cmd == "assemble":
         assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric, args.flight,
-                 args.hold)
+                 args.hold, args.rest)
         return 0
     fam = choose(search(log=log))
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):

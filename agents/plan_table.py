@@ -395,7 +395,7 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
 
 PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "cells", "demonstrations", "fit",
                  "dagger", "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight",
-                 "hold"}
+                 "hold", "rest"}
 
 
 def pipeline(config_path, out, log=print) -> dict:

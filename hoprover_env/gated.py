@@ -18,6 +18,12 @@ branches and a fixed gate:
   nudge ends in a micro-flight of ~10 s in which the teacher coasts; the main branch's
   few thousandths of T_max there damp the rotation whose corner touch slides the rover
   into the band, and cost a second nudge: BENCHMARKS.md, session 13);
+* with `rest`, the gate measures the offset on the ground as the *rest offset*: where
+  the c.m. would be if the rover were set down flat on the corner it stands on
+  (`rest_offset`). A launch's pivot carries the c.m. toward the target while the corner
+  stays put, so with the c.m.'s offset a plan launched from just beyond `nudge_max`
+  was handed to the nudge branch half a second later: in a window of 0.07 mm beyond
+  0.115 m every start took 41 s where a hop takes 30 (BENCHMARKS.md, session 16);
 * with `hold`, a rover at rest on a face (state F) with a corner in the band gets zero
   torque (`at_rest_in_band`): staying still then ends the episode in the least time
   there is. The teacher's label there is zero too, but the nudge law's push begins at
@@ -47,6 +53,7 @@ import torch
 from torch import nn
 
 from hoprover_env.core.layout import MODE_A, MODE_F, MODE_LETTERS
+from hoprover_env.params import RoverParams
 from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_REF, OBS_SIN, OBS_VX,
                                             POS_SCALE, VEL_SCALE, mirror)
 
@@ -65,20 +72,37 @@ def observed_mode(obs):
     return lib.argmax(obs[:, OBS_MODE:OBS_MODE + len(MODE_LETTERS)], 1)
 
 
-def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False):
+def rest_offset(obs):
+    """c.m. minus target [m] of a rover set down flat on the corner it stands on, for raw
+    observations (numpy or torch) of HopRover-v0's rover on the ground: OBS_REF is that
+    corner (the one nearer the target at rest on a face), and the c.m. rests half a
+    width beyond it on the c.m.'s side. At rest on a face it is the c.m.'s offset;
+    pivoting on a corner it does not move with the tilt, only with the corner's slip."""
+    lib = torch if isinstance(obs, torch.Tensor) else np
+    p = RoverParams()
+    corner = obs[:, OBS_REF] * p.band_half_width
+    return corner + p.half_width * lib.sign(obs[:, OBS_DX] * POS_SCALE - corner)
+
+
+def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False, rest: bool = False):
     """Rows (numpy or torch, raw observations) on the ground within `nudge_max` m of
     the target and nearly still: the nudge law's states. With `flight`, also the slow
     flights there (tilt below FLIGHT_TILT): the micro-flights a nudge ends in, where
     the teacher coasts or holds a plan's attitude, which a network's main branch,
-    fitted to millions of other states, gets wrong by a few thousandths of T_max."""
+    fitted to millions of other states, gets wrong by a few thousandths of T_max. With
+    `rest`, the offset on the ground is `rest_offset`'s instead of the c.m.'s (module
+    docstring); they differ by under 0.5 mm on the rows the tilt bound lets in."""
     lib = torch if isinstance(obs, torch.Tensor) else np
     tilt = lib.abs(obs[:, OBS_SIN])
     aloft = observed_mode(obs) == MODE_A
     settled = ~aloft & (tilt < STILL_TILT)
     if flight:
         settled = settled | (aloft & (tilt < FLIGHT_TILT))
+    offset = lib.abs(obs[:, OBS_DX]) * POS_SCALE
+    if rest:
+        offset = lib.where(aloft, offset, lib.abs(rest_offset(obs)))
     return (settled & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED)
-            & (lib.abs(obs[:, OBS_DX]) * POS_SCALE <= nudge_max))
+            & (offset <= nudge_max))
 
 
 def at_rest_in_band(obs):
@@ -120,11 +144,12 @@ class GatedNet(nn.Module):
 
     def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
                  nudge_max: float = NUDGE_MAX, symmetric: bool = False,
-                 flight: bool = False, hold: bool = False):
+                 flight: bool = False, hold: bool = False, rest: bool = False):
         super().__init__()
         self.main, self.nudge = main, nudge
         self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
         self.symmetric, self.flight, self.hold = bool(symmetric), bool(flight), bool(hold)
+        self.rest = bool(rest)
 
     def forward(self, obs):
         main, nudge = self.main(obs), self.nudge(obs)
@@ -135,7 +160,8 @@ class GatedNet(nn.Module):
             m = mirror(obs)
             main, nudge = 0.5 * (main - self.main(m)), 0.5 * (nudge - self.nudge(m))
         a = torch.where(main.abs() < self.deadzone, torch.zeros_like(main), main)
-        a = torch.where(near_edge(obs, self.nudge_max, self.flight)[:, None], nudge, a)
+        gate = near_edge(obs, self.nudge_max, self.flight, self.rest)
+        a = torch.where(gate[:, None], nudge, a)
         if self.hold:
             a = torch.where(at_rest_in_band(obs)[:, None], torch.zeros_like(a), a)
         return torch.clamp(a, -1.0, 1.0)
@@ -175,7 +201,7 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     write_json(path.with_suffix(".json"), {
         "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
         "deadzone": net.deadzone, "nudge_max": net.nudge_max, "symmetric": net.symmetric,
-        "flight": net.flight, "hold": net.hold,
+        "flight": net.flight, "hold": net.hold, "rest": net.rest,
         "env_id": "HopRover-v0",
         "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
 
@@ -194,7 +220,7 @@ def load(path) -> tuple[GatedNet, dict]:
                          f"{meta.get('kind')!r})")
     net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
                    meta["nudge_max"], meta.get("symmetric", False), meta.get("flight", False),
-                   meta.get("hold", False))
+                   meta.get("hold", False), meta.get("rest", False))
     net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     net.eval()
     return net, meta

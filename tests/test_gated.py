@@ -198,3 +198,74 @@ def test_the_bundled_plan_clone_nudges_at_the_band_edge_within_the_regret_bound(
     for r, k in zip(res, pick):
         assert r.success, suite.targets[k]
         assert r.ttrtp <= 1.30 * suite.reference_ttrtp[k], (suite.targets[k], r.ttrtp)
+
+
+def _pivot_observations(target, torque, steps=6):
+    """Observations of a rover pushed with `torque` (of T_max) from rest toward `target`."""
+    from hoprover_env.vector_env import HopRoverVectorEnv
+    venv = HopRoverVectorEnv(1, control_dt=0.5)
+    obs, _ = venv.reset(seed=0, options={"target_x": np.array([target])})
+    out = [obs[0]]
+    for _ in range(steps):
+        obs, *_ = venv.step(np.array([[torque * np.sign(target)]]))
+        out.append(obs[0])
+    return np.array(out)
+
+
+def test_the_rest_offset_is_the_c_m_at_rest_and_the_corner_stood_on_in_a_pivot():
+    from hoprover_env.core.layout import MODE_F
+    from hoprover_env.params import RoverParams
+    from hoprover_env.tasks.observation import OBS_DX, OBS_SIN
+    p = RoverParams()
+    obs = np.concatenate([_pivot_observations(x, u) for x in (0.3, -0.3, 0.11503, -0.6)
+                          for u in (0.06, 0.25)])
+    rest, dx = gated.rest_offset(obs), obs[:, OBS_DX].astype(np.float64)
+    mode = gated.observed_mode(obs)
+    face = mode == MODE_F
+    assert face.any() and (~face & (mode != 0)).any()
+    np.testing.assert_allclose(rest[face], dx[face], atol=1e-7)
+    # on a corner, the c.m. stands off the corner's rest position by the body's turn
+    # about it: r (1 - cos th) + h |sin th| at most
+    th = np.arcsin(obs[:, OBS_SIN].astype(np.float64))
+    pivot = ~face & (mode != 0) & (np.abs(th) < 0.02)
+    assert pivot.sum() >= 4
+    bound = p.half_width * (1 - np.cos(th)) + p.half_height * np.abs(np.sin(th)) + 1e-7
+    assert np.all(np.abs(rest - dx)[pivot] <= bound[pivot])
+    assert np.all(np.abs(rest - dx)[pivot & (np.abs(th) > 2e-3)] > 1e-5)
+    np.testing.assert_allclose(gated.rest_offset(torch.as_tensor(obs)).numpy(), rest,
+                               atol=1e-9)
+
+
+def test_the_rest_gate_keeps_a_launch_from_beyond_the_reach_off_the_nudge_branch(tmp_path):
+    # a hop launched from 0.03 mm beyond nudge_max: half a second later the c.m. is
+    # within the reach (the c.m. gate hands it to the nudge branch), the corner is not
+    obs = _pivot_observations(0.11503, 0.2542, steps=1)
+    assert abs(obs[1, 0]) < gated.NUDGE_MAX < abs(obs[0, 0])
+    np.testing.assert_array_equal(gated.near_edge(obs), [False, True])
+    np.testing.assert_array_equal(gated.near_edge(obs, rest=True), [False, False])
+    np.testing.assert_array_equal(gated.near_edge(torch.as_tensor(obs), rest=True).numpy(),
+                                  [False, False])
+    # at rest, and in flight, the two gates are one
+    rng = np.random.default_rng(8)
+    o = _random_obs(rng, 4000)
+    o[:, 16] = (o[:, 0] - np.sign(o[:, 0]) * 0.05) / 0.05     # the corner nearer the target
+    from hoprover_env.core.layout import MODE_A, MODE_F
+    keep = np.isin(gated.observed_mode(o), [MODE_A, MODE_F])
+    np.testing.assert_array_equal(gated.near_edge(o[keep], flight=True, rest=True),
+                                  gated.near_edge(o[keep], flight=True))
+    main, nudge = _branches(rng)
+    net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
+                         deadzone=0.0, rest=True)
+    gated.save(net, tmp_path / "rest.pt")
+    loaded = load_policy(str(tmp_path / "rest.pt"))
+    assert loaded.net.rest
+    np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
+
+
+def test_the_bundled_plan_clone_hops_from_just_beyond_the_nudge_reach_without_a_detour():
+    from hoprover_env.evaluation import run_episodes
+    # 0.01-0.07 mm beyond 0.115 m the network with the c.m. gate took 41 s (the nudge
+    # branch took over the launch); a hop from 0.1153 m takes 31
+    x = np.array([0.11503, -0.11503, 0.11506, 0.1153])
+    t = np.array([r.ttrtp for r in run_episodes(load_policy("plan_clone"), x)])
+    assert np.all(t[:3] <= 1.05 * t[3]), t

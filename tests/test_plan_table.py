@@ -117,7 +117,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
            "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
                    "features": "micro"},
            "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4},
-           "deadzone": 0.0, "flight": True, "hold": True,
+           "deadzone": 0.0, "flight": True, "hold": True, "rest": True,
            "edge_dagger": [{"seed": 3, "n": 4, "reach": 0.11, "inside": 0.002,
                             "refit_main": {"epochs": 1}}]}
     path = tmp_path / "plan.yaml"
@@ -126,13 +126,13 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     drivers, collect_edge = [], nudge.collect_edge
 
     def spy(table, learner, *a, **k):
-        drivers.append((learner.net.flight, learner.net.hold))
+        drivers.append((learner.net.flight, learner.net.hold, learner.net.rest))
         return collect_edge(table, learner, *a, **k)
     monkeypatch.setattr(nudge, "collect_edge", spy)
     pt.pipeline(path, out, log=lambda m: None)
-    # the network that drove the edge round had the ground gate and no hold: both are
-    # the last network's only
-    assert drivers == [(False, False)]
+    # the network that drove the edge round had the ground gate on the c.m.'s offset and
+    # no hold: the flight gate, the hold and the rest gate are the last network's only
+    assert drivers == [(False, False, False)]
     # the clone, after DAgger, the main branch fitted again after the edge round, and
     # the gated network
     assert len(judged) == 4
@@ -156,7 +156,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
     gated = load_policy(str(out / "plan_clone.pt"))
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
-    assert gated.net.symmetric and gated.net.flight and gated.net.hold
+    assert gated.net.symmetric and gated.net.flight and gated.net.hold and gated.net.rest
     assert gated.net.deadzone == 0.0
     import torch
     from hoprover_env.gated import Branch
