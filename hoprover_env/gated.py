@@ -63,6 +63,10 @@ FLIGHT_TILT = 0.05                      # rad: a nudge's micro-flight tilts up t
 # |OBS_REF| (the contact point's offset in band half-widths) below which `hold` holds:
 # 5e-8 m inside the edge, so float32 round-off never holds a rover just outside the band
 HOLD_REF = 1.0 - 1e-6
+# HopRover-v0's rover and band (the only task a gated network acts in): `rest_offset`
+# reads them on every forward pass, so they are taken once here
+_LEVEL = RoverParams()
+HALF_WIDTH, BAND_HALF_WIDTH = _LEVEL.half_width, _LEVEL.band_half_width
 
 
 def observed_mode(obs):
@@ -79,9 +83,8 @@ def rest_offset(obs):
     width beyond it on the c.m.'s side. At rest on a face it is the c.m.'s offset;
     pivoting on a corner it does not move with the tilt, only with the corner's slip."""
     lib = torch if isinstance(obs, torch.Tensor) else np
-    p = RoverParams()
-    corner = obs[:, OBS_REF] * p.band_half_width
-    return corner + p.half_width * lib.sign(obs[:, OBS_DX] * POS_SCALE - corner)
+    corner = obs[:, OBS_REF] * BAND_HALF_WIDTH
+    return corner + HALF_WIDTH * lib.sign(obs[:, OBS_DX] * POS_SCALE - corner)
 
 
 def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False, rest: bool = False):

@@ -237,6 +237,7 @@ def test_the_rest_offset_is_the_c_m_at_rest_and_the_corner_stood_on_in_a_pivot()
 
 
 def test_the_rest_gate_keeps_a_launch_from_beyond_the_reach_off_the_nudge_branch(tmp_path):
+    from hoprover_env.tasks.observation import OBS_DX, OBS_REF
     # a hop launched from 0.03 mm beyond nudge_max: half a second later the c.m. is
     # within the reach (the c.m. gate hands it to the nudge branch), the corner is not
     obs = _pivot_observations(0.11503, 0.2542, steps=1)
@@ -248,7 +249,9 @@ def test_the_rest_gate_keeps_a_launch_from_beyond_the_reach_off_the_nudge_branch
     # at rest, and in flight, the two gates are one
     rng = np.random.default_rng(8)
     o = _random_obs(rng, 4000)
-    o[:, 16] = (o[:, 0] - np.sign(o[:, 0]) * 0.05) / 0.05     # the corner nearer the target
+    # the contact point at rest on a face: the corner nearer the target
+    corner = o[:, OBS_DX] - np.sign(o[:, OBS_DX]) * gated.HALF_WIDTH
+    o[:, OBS_REF] = corner / gated.BAND_HALF_WIDTH
     from hoprover_env.core.layout import MODE_A, MODE_F
     keep = np.isin(gated.observed_mode(o), [MODE_A, MODE_F])
     np.testing.assert_array_equal(gated.near_edge(o[keep], flight=True, rest=True),
