@@ -12,8 +12,8 @@ baseline loses at most a checkpoint interval). Runs that are done are not traine
 
 Then every finished run's model (its `best_model`, chosen on train.py's validation
 episodes, which the suites never share) plays the suite of its task
-(`hoprover_env.suites`), and the runs' score matrix (seeds x episodes) is summarised by
-`hoprover_env.scores.summarize`: success, median regret, and the mean and IQM normalised
+(`hoprover_env.evaluation.suites`), and the runs' score matrix (seeds x episodes) is summarised by
+`hoprover_env.evaluation.scores.summarize`: success, median regret, and the mean and IQM normalised
 score with 95 % stratified bootstrap intervals over seeds (rliable). Per run: success,
 median and worst regret, and the wall time and environment steps to 95 % validation
 success. Written atomically into OUT: `summary.json`, `summary.md` (the tables) and
@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hoprover_env.files import atomic_write
+from hoprover_env.util.files import atomic_write
 
 ROOT = Path(__file__).resolve().parent.parent
 SUCCESS_GOAL = 0.95
@@ -100,9 +100,9 @@ def curve(run: Path) -> dict:
 
 def score(out: Path, seeds: list[int], name: str) -> dict:
     """Every finished run on its task's suite; the summary over seeds."""
-    from hoprover_env.policies import load_sb3
-    from hoprover_env import suites
-    from hoprover_env.scores import episode_regrets, summarize
+    from hoprover_env.agents.policies import load_sb3
+    from hoprover_env.evaluation import suites
+    from hoprover_env.evaluation.scores import episode_regrets, summarize
     runs, matrix = [], []
     suite = None
     for seed in seeds:
@@ -131,7 +131,7 @@ def score(out: Path, seeds: list[int], name: str) -> dict:
 
 
 def markdown(result: dict) -> str:
-    from hoprover_env.scores import format_table
+    from hoprover_env.evaluation.scores import format_table
     lines = [f"### {result['name']} on the {result['suite']} suite ({result['env_id']})", "",
              format_table([result["_summary"]]), "",
              "| seed | success | median regret | worst regret | steps to 95 % | "

@@ -1,7 +1,7 @@
 """One launch-and-land run as a single compiled call, for timing the integrators.
 
 The scenario: from rest, a constant launch torque held until the rover lifts off; the
-PD attitude hold (hoprover_env.controllers.attitude_hold) in flight at control
+PD attitude hold (hoprover_env.sim.controllers.attitude_hold) in flight at control
 instants; zero torque from the first touchdown on, through the bounces and the slide,
 until the rover rests (F) and the judge has decided. `run_scenario` loops
 `core.advance` itself, so a run's wall time is the integrator's and not Python's (a
@@ -17,9 +17,9 @@ import math
 import numpy as np
 
 from hoprover_env import core
-from hoprover_env._compile import kernel
-from hoprover_env.controllers import attitude_hold
-from hoprover_env.params import P_I
+from hoprover_env.jit.compiler import kernel
+from hoprover_env.sim.controllers import attitude_hold
+from hoprover_env.core.params import P_I
 
 # Slots of the result vector the driver fills (NaN until the thing happens).
 R_LIFTOFF_T = 0     # first lift-off

@@ -4,8 +4,8 @@
     python -m agents.offline_baselines --data datasets --level medium --algo iql --steps 50000
 
 Each (algorithm, seed) trains with d3rlpy on `hoprover/<task>/<level>-v0` (built into
---data by hoprover_env.datasets if it is not there), acts deterministically through
-`hoprover_env.policies.ArrayPolicy` in the dataset's own env, and is judged on the task's
+--data by hoprover_env.evaluation.datasets if it is not there), acts deterministically through
+`hoprover_env.agents.policies.ArrayPolicy` in the dataset's own env, and is judged on the task's
 suite: success, median regret, mean and IQM score with rliable intervals over the seeds.
 Rows are appended to --out (JSON, written atomically).
 """
@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hoprover_env import datasets, suites
-from hoprover_env.files import atomic_write
-from hoprover_env.policies import ArrayPolicy
-from hoprover_env.scores import Summary, format_table, summarize
+from hoprover_env.evaluation import datasets
+from hoprover_env.evaluation import suites
+from hoprover_env.util.files import atomic_write
+from hoprover_env.agents.policies import ArrayPolicy
+from hoprover_env.evaluation.scores import Summary, format_table, summarize
 
 OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "offline.json"
 

@@ -1,4 +1,4 @@
-"""Train the hop policy of the mission task (hoprover_env/mission_hop.py) with PPO.
+"""Train the hop policy of the mission task (hoprover_env/agents/mission_hop.py) with PPO.
 
     python -m agents.train_mission --config configs/ppo_mission_hop.yaml --seed 0 --out runs/mh0
     python -m agents.baselines --config configs/ppo_mission_hop.yaml --seeds 0-2 \\
@@ -9,7 +9,7 @@ and the scripted hopper's flight controller), so the budget `timesteps` counts h
 The run directory gets what train.py writes, so agents.baselines scores and plots it
 alike: config.yaml, evaluations.csv (validation success every evaluation.freq hops, on
 episodes the suite never uses), best_model.zip with its .json (what
-`hoprover_env.mission_hop.load_mission_policy` and `load_policy` read),
+`hoprover_env.agents.mission_hop.load_mission_policy` and `load_policy` read),
 final_model.zip, and checkpoints/last.zip with progress.json, all written atomically.
 --resume continues from the last checkpoint to the requested total.
 """
@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hoprover_env.buildinfo import git_commit
-from hoprover_env.files import atomic_write, write_json
-from hoprover_env.mission_hop import MissionHopEnv
+from hoprover_env.util.buildinfo import git_commit
+from hoprover_env.util.files import atomic_write, write_json
+from hoprover_env.agents.mission_hop import MissionHopEnv
 
 ENV_ID = "HopRoverMission-v0"
 KEYS = {"trainer", "env_id", "env", "n_envs", "timesteps", "policy", "hyperparams",

@@ -37,7 +37,7 @@ REFERENCE = (
     "the API's floor, 1e-15, differs from it by at most {floor_liftoff_t} s in lift-off "
     "time, {floor_land_t} s in landing time, {floor_land_x} m in landing point, "
     "{floor_rest_x} m in rest position and {floor_ttrtp} s in TTRTP (its noise). "
-    "Independently, hoprover_env.reference.Ref integrates MODEL.md section 4's corner-A "
+    "Independently, hoprover_env.sim.reference.Ref integrates MODEL.md section 4's corner-A "
     "equations with scipy's DOP853 (rtol 1e-13, atol 1e-16, located events) to the "
     "lift-off; from there the flight is closed form (parabola; theta quadratic between "
     "control instants, the PD torque recomputed at each) and the touchdown is the first "

@@ -13,7 +13,7 @@ What is measured, in the order the code does it:
    integrators' and not Python's (a Python controller costs ~8 us per control step,
    more than the event integrator's whole flight step).
 2. The reference: `event` at rtol REFERENCE_RTOL, cross-checked against an
-   independent solution: hoprover_env.reference.Ref (MODEL.md section 4 by scipy's
+   independent solution: hoprover_env.sim.reference.Ref (MODEL.md section 4 by scipy's
    DOP853 with located events) up to the lift-off, then the flight in closed form
    (parabola; theta quadratic between control instants) with the touchdown found by
    root finding.
@@ -53,9 +53,9 @@ from benchmarks import accuracy_report
 from benchmarks.report import Section, best_of
 from hoprover_env import RoverParams, RoverSim, simulate
 from hoprover_env import core
-from hoprover_env.controllers import attitude_hold
-from hoprover_env.simulate import make_options, make_state
-from hoprover_env.reference import Ref
+from hoprover_env.sim.controllers import attitude_hold
+from hoprover_env.sim.simulate import make_options, make_state
+from hoprover_env.sim.reference import Ref
 
 # ----------------------------------------------------------------------------------
 # The scenario: launch, attitude hold in flight, idle once landed

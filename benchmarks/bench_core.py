@@ -7,7 +7,7 @@ flight, bounces, slides, rest, repeat) drives every integrator, closed loop thro
 contest controller interface (a Python controller: `simulate` runs its Python loop).
 The next tables replay closed-loop torque schedules through `simulate()` (the whole run
 in one kernel call), through a jitted loop of `core.advance` (the kernel alone), run a
-numba-compiled hop plan (hoprover_env/compiled.py) inside the kernel against its Python twin,
+numba-compiled hop plan (hoprover_env/agents/compiled.py) inside the kernel against its Python twin,
 and time `simulate_batch` against a Python loop over `simulate` on 1 and all threads.
 Ratios are within this one run. Compile time is measured in fresh subprocesses: cold
 (empty numba cache) and cached.
@@ -24,11 +24,11 @@ from numba import njit
 
 import numba
 
-from hoprover_env.compiled import hop_plan, plan_torque
+from hoprover_env.agents.compiled import hop_plan, plan_torque
 from benchmarks.report import best_of
 from benchmarks.scenarios import HopSequence, hop_schedule
-from hoprover_env import RoverParams, core, simulate, simulate_batch
-from hoprover_env.simulate import make_options, make_state
+from hoprover_env import RoverParams, core, simulate_batch, simulate
+from hoprover_env.sim.simulate import make_options, make_state
 
 
 RUNS = [("event", {}), ("euler dt=1e-3", {"integrator": "euler", "euler_dt": 1e-3}),

@@ -29,7 +29,7 @@ import hoprover_env  # noqa: F401  (registers the envs)
 from benchmarks.report import Section, best_of, table
 from hoprover_env import core
 from hoprover_env.tasks import torque
-from hoprover_env.vector_env import HopRoverVectorEnv
+from hoprover_env.envs.vector_env import HopRoverVectorEnv
 
 
 def single_step_us(env_id: str, n: int, **kw) -> float:

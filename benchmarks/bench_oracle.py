@@ -5,7 +5,7 @@
 For 20 fixed targets in [-1, 1] m (the first 20 of evaluate.py's seeded targets) and the
 contest target 0.5 m, CMA-ES (the `cma` package) searches parametrised hop plans for the
 smallest TTRTP, every candidate population simulated in one `simulate_batch` call. A plan
-(hoprover_env/compiled.py `planned_hops`, a numba-compiled contest controller) is a launch
+(hoprover_env/agents/compiled.py `planned_hops`, a numba-compiled contest controller) is a launch
 torque held for a time window from t = 0 while the rover is on the ground, a PD attitude
 hold in flight with searched gains, and one correction hop (start time, window, torque);
 contest parameters, control period 0.5 s (the environments' default, as the policies
@@ -26,9 +26,9 @@ import time
 
 import numpy as np
 
-from hoprover_env.compiled import PLAN_HEAD, PLAN_HOP, hop_plan, planned_hops
+from hoprover_env.agents.compiled import PLAN_HEAD, PLAN_HOP, hop_plan, planned_hops
 from benchmarks.report import Section, table
-from hoprover_env import RoverParams, simulate, simulate_batch
+from hoprover_env import RoverParams, simulate_batch, simulate
 
 CONTROL_DT = 0.5
 T_END = 600.0
@@ -46,7 +46,7 @@ MISS_COST = 600.0      # a failed run scores this plus 100 s per metre of final 
 
 
 def plan_args(u: np.ndarray) -> np.ndarray:
-    """Rows of controller_args (hoprover_env/compiled.py layout) from points of [0, 1]^7."""
+    """Rows of controller_args (hoprover_env/agents/compiled.py layout) from points of [0, 1]^7."""
     v = LOWER + np.clip(u, 0.0, 1.0) * (UPPER - LOWER)
     n = len(v)
     args = np.zeros((n, PLAN_HEAD + 2 * PLAN_HOP))
@@ -112,8 +112,8 @@ def search(target: float, quick: bool, seed: int = 0):
 
 def policy_ttrtps(targets, quick):
     """TTRTP per target of each bundled policy that loads (None: missed)."""
-    from hoprover_env.evaluation import run_episodes
-    from hoprover_env.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes
+    from hoprover_env.agents.policies import load_policy
     out = {}
     for name in POLICIES:
         try:
@@ -127,7 +127,7 @@ def policy_ttrtps(targets, quick):
 
 
 def fixed_targets(quick: bool) -> np.ndarray:
-    from hoprover_env.evaluation import seeded_targets
+    from hoprover_env.evaluation.episodes import seeded_targets
     return np.append(seeded_targets(2 if quick else 20), CONTEST_TARGET)
 
 

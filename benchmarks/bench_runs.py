@@ -153,14 +153,14 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     ev = walls["event"]
     md = "\n\n".join([
         f"`simulate()` with a torque schedule runs the whole episode in one kernel call "
-        f"(`hoprover_env/rollout.py`). Schedules: {len(scheds)} closed-loop HopSequence "
+        f"(`hoprover_env/sim/rollout.py`). Schedules: {len(scheds)} closed-loop HopSequence "
         f"runs recorded and replayed, {t_end:g} s episodes at control_dt 0.1 s, best of "
         f"{repeat}, mean over the schedules:",
         table(["integrator", "ms per episode", "x event"],
               [[k, v * 1e3, v / ev] for k, v in walls.items()],
               {"ms per episode": ".3f", "x event": ".1f"}),
         "A numba-compiled contest controller runs inside the same compiled loop "
-        "(hoprover_env/compiled.py, a hop plan: launch window, PD attitude hold in flight); the "
+        "(hoprover_env/agents/compiled.py, a hop plan: launch window, PD attitude hold in flight); the "
         "same plan as a Python controller runs simulate's Python loop (identical "
         "trajectories, checked):",
         table(["controller", "ms per episode", "x compiled"],

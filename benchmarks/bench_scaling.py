@@ -39,8 +39,8 @@ def ppo_steps_per_s(quick: bool) -> float:
 
 
 def eval_episodes_per_s(policy: str, n: int) -> float:
-    from hoprover_env.evaluation import run_episodes, seeded_targets
-    from hoprover_env.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
+    from hoprover_env.agents.policies import load_policy
     pol = load_policy(policy, control_dt=0.5)
     targets = seeded_targets(n, 11)
     run_episodes(pol, targets[:4])                    # warm-up (compiles, loads)
@@ -50,7 +50,7 @@ def eval_episodes_per_s(policy: str, n: int) -> float:
 
 
 def ray_task_overhead(n: int) -> dict:
-    from hoprover_env.ray_utils import init_ray
+    from hoprover_env.training.ray_utils import init_ray
     ray = init_ray(num_cpus=2)
 
     @ray.remote(num_cpus=1)

@@ -26,9 +26,9 @@ import time
 
 import numpy as np
 
-from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.files import write_json
-from hoprover_env.policies import BUNDLED, BUNDLED_DIR, load_policy
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.util.files import write_json
+from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR, load_policy
 from benchmarks.report import Section, table
 from hoprover_env import RoverParams, RoverSim, simulate
 

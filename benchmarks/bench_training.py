@@ -1,7 +1,7 @@
 """Training cost: SB3 PPO on the native batched env against PPO on a DummyVecEnv of
 single envs (the usual SB3 setup), same hyperparameters, same number of steps, one run;
 and the share of wall time spent stepping the environment. Also reports the recorded
-training time of the bundled policy (hoprover_env/policies/*.json).
+training time of the bundled policy (hoprover_env/agents/policies/*.json).
 
     python -m benchmarks.bench_training [--quick]
 """
@@ -49,7 +49,7 @@ def ppo_run(kind: str, n_envs: int, steps: int) -> tuple[float, float]:
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
     torch.set_num_threads(1)
     if kind == "native":
-        from hoprover_env.sb3 import HopRoverSB3VecEnv
+        from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
         base = HopRoverSB3VecEnv(n_envs, seed=0)
         inner = VecMonitor(base)
         env_time = lambda: base.step_seconds  # noqa: E731
@@ -86,7 +86,7 @@ def ppo_speed(torch_threads, numba_threads, n_envs, n_steps, batch, epochs, net,
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
-    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     old = torch.get_num_threads(), numba.get_num_threads()
     torch.set_num_threads(torch_threads)
     numba.set_num_threads(min(numba_threads, numba.config.NUMBA_NUM_THREADS))
@@ -128,7 +128,7 @@ def bundled_training_record() -> list:
     """Phases of the bundled policy's training, from the metadata train.py wrote."""
     rows = []
     for meta_path in sorted(Path(__file__).resolve().parent.parent.glob(
-            "hoprover_env/policies/*.json")):
+            "hoprover_env/agents/policies/*.json")):
         meta = json.loads(meta_path.read_text())
         if "wall_s" not in meta:
             continue

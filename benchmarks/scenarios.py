@@ -2,7 +2,7 @@
 import numpy as np
 
 from hoprover_env import RoverParams
-from hoprover_env.controllers import attitude_hold
+from hoprover_env.sim.controllers import attitude_hold
 
 HOLD_KP, HOLD_KD = 0.1, 0.8         # the PD attitude hold's gains in flight
 

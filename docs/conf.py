@@ -56,7 +56,7 @@ autodoc_typehints = "description"
 autodoc_inherit_docstrings = False       # gymnasium's / SB3's docstrings are not ours
 autodoc_default_options = {"show-inheritance": True}
 autosummary_generate = False
-# hoprover_env.rllib needs Ray, an optional extra ([ray]): document it without importing Ray
+# hoprover_env.envs.rllib needs Ray, an optional extra ([ray]): document it without importing Ray
 autodoc_mock_imports = ["ray"]
 
 html_theme = "furo"

@@ -21,10 +21,10 @@ What RLlib needs from an environment, and how hoprover gives it:
   sub-envs in one numba call. RLlib's runners expect gymnasium's default NEXT_STEP
   autoreset, which is the vector env's default too.
 * **Code the runners can import.** The creator and the metrics callback live in the
-  installed package (`hoprover_env/rllib.py`), so every runner process unpickles them.
+  installed package (`hoprover_env/envs/rllib.py`), so every runner process unpickles them.
   On a cluster the runners import the hoprover installed on their node (checked against
   this driver's before training starts), or this checkout's copy with --ship-code:
-  the same mechanism as sweep.py and evaluate.py --ray (hoprover_env/ray_utils.py).
+  the same mechanism as sweep.py and evaluate.py --ray (hoprover_env/training/ray_utils.py).
 * **Episode metrics.** `HopRoverMetrics.on_episode_end` reads the judge's verdict from
   the last step's info (`is_success`, `ttrtp`, `broken`) and logs it with RLlib's
   MetricsLogger: `env_runners/hoprover_success`, `hoprover_ttrtp`, `hoprover_broken` in
@@ -43,7 +43,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))           # agents/ of this checkout, run from anywhere
-from hoprover_env.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
+from hoprover_env.training.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
 ENV_NAME = "hoprover"
 ENV_CONFIG = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0, "gamma": 0.995}
 
@@ -53,7 +53,7 @@ def build_config(env_runners: int = 2, envs_per_runner: int = 32, env_config: di
                  lr: float = 3e-4):
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.tune.registry import register_env
-    from hoprover_env.rllib import HopRoverMetrics, make_env
+    from hoprover_env.envs.rllib import HopRoverMetrics, make_env
     register_env(ENV_NAME, make_env)
     rollout = 64                                    # steps per sub-env per iteration
     batch = train_batch or max(env_runners, 1) * envs_per_runner * rollout

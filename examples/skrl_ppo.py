@@ -110,10 +110,10 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 51
 
 
 def judge(policy: Policy, episodes: int, seed: int = 2015) -> dict:
-    """The contest judge (hoprover_env/evaluation.py, as evaluate.py) on the seeded targets,
+    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded targets,
     acting with the mean action."""
-    from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-    from hoprover_env.policies import ArrayPolicy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+    from hoprover_env.agents.policies import ArrayPolicy
 
     def act(obs):
         with torch.no_grad():

@@ -5,15 +5,23 @@ Contest (2015) as an exact, fast simulator and a Gymnasium environment.
     import gymnasium as gym, hoprover_env                   # registers the envs
     env = gym.make("HopRover-v0")                           # random targets in [-1, 1] m
     envs = gym.make_vec("HopRover-v0", num_envs=1024)       # native batched vector env
+
+The package has one subpackage per layer, each importing only from those below it
+(docs/ARCHITECTURE.md): `jit`, `util`, `core` (the physics kernel), `sim` (simulate,
+batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
 from dataclasses import dataclass, field
 
 from gymnasium.envs.registration import register, registry
 
-from .params import RoverParams
-from .rollout import Rollout
-from .simulate import RoverSim, simulate
-from .batch import BatchRollout, simulate_batch
+from hoprover_env.util import moved as _moved
+from hoprover_env.util.buildinfo import VERSION as __version__
+from hoprover_env.core.params import RoverParams
+from hoprover_env.sim.rollout import Rollout
+from hoprover_env.sim.simulate import RoverSim, simulate
+from hoprover_env.sim.batch import BatchRollout, simulate_batch
+
+_moved.install()
 
 __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "HopRoverEnv",
@@ -21,7 +29,7 @@ __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "HopRoverTerrainEnv", "HopRoverTerrainVectorEnv", "HopRoverMissionEnv",
            "HopRoverMissionVectorEnv", "ENVS", "Task",
            "task", "env_class", "vector_env_class", "config_class"]
-__version__ = "0.1.0"
+
 
 @dataclass(frozen=True)
 class Task:
@@ -39,18 +47,18 @@ class Task:
 
 
 ENVS = {
-    "HopRover-v0": Task("hoprover_env.env:HopRoverEnv",
-                        "hoprover_env.vector_env:HopRoverVectorEnv"),
-    "HopRoverContest-v0": Task("hoprover_env.env:HopRoverEnv",
-                               "hoprover_env.vector_env:HopRoverVectorEnv",
+    "HopRover-v0": Task("hoprover_env.envs.env:HopRoverEnv",
+                        "hoprover_env.envs.vector_env:HopRoverVectorEnv"),
+    "HopRoverContest-v0": Task("hoprover_env.envs.env:HopRoverEnv",
+                               "hoprover_env.envs.vector_env:HopRoverVectorEnv",
                                {"target_x": 0.5}, suite="contest"),
-    "HopRoverHop-v0": Task("hoprover_env.hop_env:HopRoverHopEnv",
-                           "hoprover_env.hop_env:HopRoverHopVectorEnv", hops=True),
-    "HopRoverTerrain-v0": Task("hoprover_env.terrain_env:HopRoverTerrainEnv",
-                               "hoprover_env.terrain_env:HopRoverTerrainVectorEnv",
+    "HopRoverHop-v0": Task("hoprover_env.envs.hop_env:HopRoverHopEnv",
+                           "hoprover_env.envs.hop_env:HopRoverHopVectorEnv", hops=True),
+    "HopRoverTerrain-v0": Task("hoprover_env.envs.terrain_env:HopRoverTerrainEnv",
+                               "hoprover_env.envs.terrain_env:HopRoverTerrainVectorEnv",
                                suite="terrain"),
-    "HopRoverMission-v0": Task("hoprover_env.mission_env:HopRoverMissionEnv",
-                               "hoprover_env.mission_env:HopRoverMissionVectorEnv",
+    "HopRoverMission-v0": Task("hoprover_env.envs.mission_env:HopRoverMissionEnv",
+                               "hoprover_env.envs.mission_env:HopRoverMissionVectorEnv",
                                suite="terrain"),
 }
 for _id, _task in ENVS.items():
@@ -91,18 +99,18 @@ def config_class(env_id: str):
 
 def __getattr__(name):          # the envs import gymnasium spaces etc. only when used
     if name == "HopRoverEnv":
-        from .env import HopRoverEnv
+        from hoprover_env.envs.env import HopRoverEnv
         return HopRoverEnv
     if name == "HopRoverVectorEnv":
-        from .vector_env import HopRoverVectorEnv
+        from hoprover_env.envs.vector_env import HopRoverVectorEnv
         return HopRoverVectorEnv
     if name in ("HopRoverHopEnv", "HopRoverHopVectorEnv"):
-        from . import hop_env
+        from hoprover_env.envs import hop_env
         return getattr(hop_env, name)
     if name in ("HopRoverTerrainEnv", "HopRoverTerrainVectorEnv"):
-        from . import terrain_env
+        from hoprover_env.envs import terrain_env
         return getattr(terrain_env, name)
     if name in ("HopRoverMissionEnv", "HopRoverMissionVectorEnv"):
-        from . import mission_env
+        from hoprover_env.envs import mission_env
         return getattr(mission_env, name)
     raise AttributeError(name)

@@ -1,15 +1,16 @@
 """Small shared pieces of the tests (contest-signature controllers). The state checks
-live in hoprover_env.testing, shared with the benchmarks."""
+live in hoprover_env.sim.testing, shared with the benchmarks."""
 import math
 
 import numpy as np
 
-from hoprover_env import RoverSim, controllers
+from hoprover_env import RoverSim
+from hoprover_env.sim import controllers
 
 
 def attitude_hold(the, omg, inertia=0.0017, kp=0.1, kd=0.8):
     """A PD torque that brings theta to 0 and omega to 0 in flight
-    (hoprover_env.controllers.attitude_hold with the tests' default gains)."""
+    (hoprover_env.sim.controllers.attitude_hold with the tests' default gains)."""
     return controllers.attitude_hold(float(the), float(omg), inertia, kp, kd)
 
 

@@ -126,8 +126,9 @@ def test_jit_only_kernel_functions_raise_instead_of_crashing():
 
     import importlib
     import pkgutil
-
-    from hoprover_env import _compile, core, reward, tasks
+    from hoprover_env import core, tasks
+    from hoprover_env.jit import compiler as _compile
+    from hoprover_env.tasks import reward
     kernel_modules = [importlib.import_module(f"hoprover_env.core.{m.name}")
                       for m in pkgutil.iter_modules(core.__path__)] + [
         importlib.import_module(f"hoprover_env.tasks.{m.name}")

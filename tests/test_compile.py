@@ -1,4 +1,4 @@
-"""Compilation (hoprover_env/_compile.py): one progress line on a cold numba cache, none
+"""Compilation (hoprover_env/jit/compiler.py): one progress line on a cold numba cache, none
 on a warm one; what a cold first step compiles, in one process or with the
 parallel-compile helper; the fallback to plain numba when its internals are missing."""
 import json
@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from hoprover_env._compile import MESSAGE
+from hoprover_env.jit.compiler import MESSAGE
 
 
 def test_one_progress_line_when_compiling_none_when_cached(tmp_path):
@@ -92,7 +92,7 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     # on a cold cache a helper process (a fork of this one on Linux, or a fresh
     # interpreter) takes the contact phases off the queue while this process compiles the
     # end of a phase; the env step then loads them from the cache
-    from hoprover_env import _compile as pc
+    from hoprover_env.jit import compiler as pc
     if pc._cores() < 2:
         pytest.skip("the helper only starts with two or more cores")
     serial = first_steps(tmp_path / "serial")
@@ -118,7 +118,7 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
 
 def test_a_forked_helper_is_waited_for_killed_and_fails_cleanly(tmp_path, monkeypatch):
     # prepare() waits for the helper at most HELPER_TIMEOUT, then kills it
-    from hoprover_env import _compile as pc
+    from hoprover_env.jit import compiler as pc
     if not pc._can_fork():
         pytest.skip("forks only on Linux, from a process with one Python thread")
     monkeypatch.setattr(pc, "compile_now", lambda d: time.sleep(60))   # in the child
@@ -139,7 +139,7 @@ LINK_ONLY = r"""
 import json, pickle, sys
 import numpy as np, gymnasium as gym, hoprover_env
 from hoprover_env.core import contact_phases
-from hoprover_env import _compile
+from hoprover_env.jit import compiler as _compile
 env = gym.make("HopRover-v0"); env.reset(seed=0)
 obs, *_ = env.step(np.array([0.5], np.float32))
 for _ in range(30):
@@ -186,7 +186,7 @@ def test_flags_compare_and_hash_as_numba_defines_them():
     import itertools
     import random
     from numba.core.compiler import Flags
-    from hoprover_env import _compile
+    from hoprover_env.jit import compiler as _compile
     _compile._numba_internals()
     rng = random.Random(0)
     names = [n for n, o in Flags.options.items() if o.type is bool][:6]
@@ -213,7 +213,7 @@ def test_the_layer_lists_ir_variables_and_marks_up_errors_as_numba_does():
     # the layer's faster list_vars gives numba's lists, in numba's order, on the IR of
     # hoprover's largest kernels; its error mark-up gives numba's strings
     from numba.core import compiler, errors, ir
-    from hoprover_env import _compile
+    from hoprover_env.jit import compiler as _compile
     from hoprover_env.core import contact_phases, phase_end
     if not _compile._layer_active():
         pytest.skip("the layer is off")
@@ -240,7 +240,7 @@ def test_the_layer_broadcasts_no_llvm_lock_events():
     # numba's events around its LLVM lock (one pair per call into LLVM) are dropped
     from numba import njit
     from numba.core import event
-    from hoprover_env import _compile
+    from hoprover_env.jit import compiler as _compile
     if not _compile._layer_active():
         pytest.skip("the layer is off")
     seen = []
@@ -264,7 +264,7 @@ def test_the_layer_broadcasts_no_llvm_lock_events():
 
 
 def test_each_function_of_the_queue_is_compiled_by_one_process(tmp_path, monkeypatch):
-    from hoprover_env import _compile as pc
+    from hoprover_env.jit import compiler as pc
     compiled = []
     monkeypatch.setattr(pc, "_resolve", lambda names: list(names))
     monkeypatch.setattr(pc, "compile_now", compiled.append)
@@ -283,7 +283,7 @@ def _no_helper(started):
 
 
 def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
-    from hoprover_env import _compile as pc
+    from hoprover_env.jit import compiler as pc
     from hoprover_env.tasks import torque
     started = []
     monkeypatch.setattr(pc, "_start_helper", _no_helper(started))
@@ -302,7 +302,7 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
     # many workers starting at once on a cold cache (a cluster node) start one helper,
     # not one each; a lock left behind by a killed process does not block for ever
 
-    from hoprover_env import _compile as pc
+    from hoprover_env.jit import compiler as pc
 
     class Cache:
         cache_path = str(tmp_path)
@@ -333,7 +333,7 @@ RUN = r"""
 import numpy as np
 from numba import njit
 from hoprover_env import RoverParams, simulate
-from hoprover_env.controllers import attitude_hold
+from hoprover_env.sim.controllers import attitude_hold
 INERTIA = RoverParams().inertia
 
 @njit

@@ -1,4 +1,4 @@
-"""Offline-RL datasets (hoprover_env.datasets): built by the command into an empty
+"""Offline-RL datasets (hoprover_env.evaluation.datasets): built by the command into an empty
 directory, loaded with Minari, every episode replayed in the env bit for bit from its
 recorded seed (for any number of sub-envs), the reference scores, and bad input."""
 import os
@@ -8,7 +8,7 @@ import pytest
 
 minari = pytest.importorskip("minari", reason="pip install 'hoprover[offline]'")
 
-from hoprover_env import datasets  # noqa: E402
+from hoprover_env.evaluation import datasets
 
 
 @pytest.fixture

@@ -11,8 +11,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import RoverParams
-from hoprover_env.env import HopRoverEnv
-from hoprover_env.vector_env import HopRoverVectorEnv
+from hoprover_env.envs.env import HopRoverEnv
+from hoprover_env.envs.vector_env import HopRoverVectorEnv
 
 IDS = ["HopRover-v0", "HopRoverContest-v0"]
 
@@ -91,7 +91,7 @@ def test_env_steps_with_the_integrator_it_was_made_with(integrator):
     """The env's kernels (an event-only one and one for any integrator) integrate what
     simulate() integrates for the same torques, start and target."""
     from hoprover_env import simulate
-    from hoprover_env.params import RoverParams
+    from hoprover_env.core.params import RoverParams
     env = HopRoverEnv(integrator=integrator, control_dt=0.5, episode_time=60.0,
                       target_x=0.3)
     env.reset(seed=0)
@@ -334,7 +334,7 @@ def test_rendering_is_off_unless_asked():
 
 
 def test_sb3_adapter_contract():
-    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     venv = HopRoverSB3VecEnv(3, seed=0, **ENV_KW)
     obs = venv.reset()
     assert obs.shape == (3, 19)
@@ -354,7 +354,7 @@ def test_sb3_adapter_contract():
 def test_sb3_ppo_trains_on_the_adapter(tmp_path):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
-    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     venv = VecNormalize(VecMonitor(HopRoverSB3VecEnv(8, seed=0, **ENV_KW)), norm_reward=False)
     model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=2, seed=0, verbose=0)
     model.learn(3000)

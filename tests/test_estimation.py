@@ -1,4 +1,4 @@
-"""The mission estimator (hoprover_env.estimation): its attitude estimate is consistent
+"""The mission estimator (hoprover_env.agents.estimation): its attitude estimate is consistent
 with its covariance, a rest calibrates the bias, the gyro tells flight from contact, and
 the scripted hopper acting on the estimate reaches hidden targets of HopRoverMission-v0
 (evaluate.py --env HopRoverMission-v0 --policy scripted)."""
@@ -8,9 +8,9 @@ import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import core
-from hoprover_env.evaluation import run_episodes
-from hoprover_env.mission_env import HopRoverMissionVectorEnv
-from hoprover_env.policies import load_policy
+from hoprover_env.evaluation.episodes import run_episodes
+from hoprover_env.envs.mission_env import HopRoverMissionVectorEnv
+from hoprover_env.agents.policies import load_policy
 from hoprover_env.tasks import mission
 
 

@@ -1,15 +1,15 @@
-"""hoprover_env.features: inputs at fine scales, part of the network."""
+"""agents.plan_clone.features: inputs at fine scales, part of the network."""
 import pickle
 
 import numpy as np
 import pytest
 import torch
 
-from agents.clone_study import _load, _model, _policy, export
-from hoprover_env.features import (MicroStateFeatures, micro_features, n_features,
+from agents.plan_clone.clone_study import _load, _model, _policy, export
+from agents.plan_clone.features import (MicroStateFeatures, micro_features, n_features,
                                    set_statistics)
-from hoprover_env.policies import load_policy
-from hoprover_env.sb3_agents import ConfigError, load_config, validate
+from hoprover_env.agents.policies import load_policy
+from hoprover_env.training.sb3_agents import ConfigError, load_config, validate
 
 
 def test_the_layer_passes_the_observation_on_and_appends_the_numpy_features():
@@ -71,12 +71,14 @@ def test_an_exported_clone_with_them_keeps_its_statistics_in_the_weights(tmp_pat
 
 def test_a_config_asks_for_them_by_name_with_frozen_statistics():
     cfg = load_config("configs/ppo_mpc.yaml")
-    cfg["policy"]["features"] = "micro"
+    micro = "agents.plan_clone.features:MicroStateFeatures"
+    cfg["policy"]["features_extractor"] = micro
     validate(cfg)
-    cfg["policy"]["features"] = "fourier"
-    with pytest.raises(ConfigError, match="policy.features"):
-        validate(cfg)
-    cfg["policy"]["features"] = "micro"
+    for bad in ("agents.plan_clone.features:Fourier", "micro", "numpy:ndarray"):
+        cfg["policy"]["features_extractor"] = bad
+        with pytest.raises(ConfigError, match="policy.features_extractor"):
+            validate(cfg)
+    cfg["policy"]["features_extractor"] = micro
     cfg["normalize"]["update"] = True
     with pytest.raises(ConfigError, match="normalize.update: false"):
         validate(cfg)

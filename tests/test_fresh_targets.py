@@ -1,11 +1,11 @@
-"""agents/fresh_targets.py: a policy against a reference on freshly drawn targets."""
+"""agents/yardstick/fresh_targets.py: a policy against a reference on freshly drawn targets."""
 import json
 import math
 
 import numpy as np
 import pytest
 
-from agents import fresh_targets
+from agents.yardstick import fresh_targets
 
 
 def test_draw_is_seeded_in_range_and_puts_the_edge_set_beyond_the_band():
@@ -53,7 +53,7 @@ def test_a_missing_policy_file_is_a_clear_error(tmp_path, capsys):
 
 
 def test_terrain_episodes_are_drawn_as_the_suites_are():
-    from hoprover_env import suites
+    from hoprover_env.evaluation import suites
     suite = suites.load("HopRoverTerrain-v0")
     same = fresh_targets.draw_terrain(suites.SUITE_SEEDS["terrain"], len(suite))
     np.testing.assert_array_equal(same["targets"], suite.targets)
@@ -74,7 +74,7 @@ def test_terrain_task_flies_both_agents_on_each_episodes_ground(tmp_path, capsys
     assert saved["uniform"]["reference_success"] == 1.0
     # without the drawn grounds the task draws its own, and the times differ: the
     # episodes were flown on the grounds drawn
-    from hoprover_env.policies import load_policy
+    from hoprover_env.agents.policies import load_policy
     level = fresh_targets.times(load_policy("terrain"), np.array(saved["targets"]))
     assert not np.array_equal(level, saved["policy_ttrtp"])
     with pytest.raises(SystemExit):       # edge targets are a level-ground set

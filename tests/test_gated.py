@@ -1,14 +1,14 @@
-"""hoprover_env.gated: the two-branch torque network and the bundled `plan_clone`."""
+"""agents.plan_clone.gated: the two-branch torque network and the bundled `plan_clone`."""
 import json
 
 import numpy as np
 import pytest
 import torch
 
-from agents.clone_study import _model, _policy
-from hoprover_env import gated
-from hoprover_env.features import set_statistics
-from hoprover_env.policies import load_policy
+from agents.plan_clone.clone_study import _model, _policy
+from agents.plan_clone import gated
+from agents.plan_clone.features import set_statistics
+from hoprover_env.agents.policies import load_policy
 
 
 def _random_obs(rng, n=400):
@@ -59,7 +59,7 @@ def test_a_saved_network_loads_with_the_same_actions_and_refuses_a_foreign_file(
     main, nudge = _branches(rng)
     net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge))
     gated.save(net, tmp_path / "net.pt", {"made_from": "test"})
-    loaded = load_policy(str(tmp_path / "net.pt"))
+    loaded = gated.load_policy(tmp_path / "net.pt")
     obs = _random_obs(rng)
     np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
     assert loaded.name == "net" and loaded.env_kwargs == {"control_dt": 0.5}
@@ -67,9 +67,9 @@ def test_a_saved_network_loads_with_the_same_actions_and_refuses_a_foreign_file(
     meta["kind"] = "sb3"
     (tmp_path / "net.json").write_text(json.dumps(meta))
     with pytest.raises(ValueError, match="not describe a gated network"):
-        load_policy(str(tmp_path / "net.pt"))
+        gated.load_policy(tmp_path / "net.pt")
     with pytest.raises(FileNotFoundError, match="missing"):
-        load_policy(str(tmp_path / "other.pt"))
+        gated.load_policy(tmp_path / "other.pt")
 
 
 def test_the_flight_gate_adds_the_slow_flights_near_the_target_and_nothing_else(tmp_path):
@@ -97,7 +97,7 @@ def test_the_flight_gate_adds_the_slow_flights_near_the_target_and_nothing_else(
     np.testing.assert_allclose(got[extra], np.clip(nudge.act(obs[extra], None), -1, 1),
                                atol=2e-6)
     gated.save(net, tmp_path / "net.pt")
-    loaded = load_policy(str(tmp_path / "net.pt"))
+    loaded = gated.load_policy(tmp_path / "net.pt")
     assert loaded.net.flight
     np.testing.assert_array_equal(loaded.act(obs, None), got)
 
@@ -127,13 +127,13 @@ def test_the_hold_zeroes_exactly_the_rests_on_a_face_in_the_band(tmp_path):
     assert np.all(b[rest] == 0.0) and np.any(a[rest] != 0.0)
     np.testing.assert_array_equal(b[~rest], a[~rest])
     gated.save(held, tmp_path / "held.pt")
-    loaded = load_policy(str(tmp_path / "held.pt"))
+    loaded = gated.load_policy(tmp_path / "held.pt")
     assert loaded.net.hold
     np.testing.assert_array_equal(loaded.act(obs, None), b)
 
 
 def test_the_bundled_plan_clone_stays_still_when_it_starts_just_inside_the_band():
-    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.evaluation.episodes import run_episodes
     # starts 0.26 mm and 0.04 mm inside the band's edge that the network without the
     # hold nudged out of the band (9.7 s and 8.2 s: BENCHMARKS.md, session 14)
     res = run_episodes(load_policy("plan_clone"), np.array([-0.09974, 0.09996]))
@@ -145,7 +145,7 @@ def test_the_mirror_of_an_episode_is_observed_as_the_mirror_of_its_observations(
     """Fly a rover to +x with torques u and its mirror image to -x with -u: at every
     step the second observation is mirror() of the first (level ground's symmetry)."""
     from hoprover_env.tasks.observation import mirror
-    from hoprover_env.vector_env import HopRoverVectorEnv
+    from hoprover_env.envs.vector_env import HopRoverVectorEnv
     venv = HopRoverVectorEnv(2, control_dt=0.5)
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([0.37, -0.37])})
     rng = np.random.default_rng(3)
@@ -182,14 +182,14 @@ def test_a_symmetric_network_is_odd_under_the_mirror_and_keeps_it_when_saved(tmp
     want[np.abs(want) < sym.deadzone] = 0.0
     np.testing.assert_allclose(a[off], np.clip(want, -1, 1)[off], atol=2e-6)
     gated.save(sym, tmp_path / "sym.pt")
-    loaded = load_policy(str(tmp_path / "sym.pt"))
+    loaded = gated.load_policy(tmp_path / "sym.pt")
     assert loaded.net.symmetric
     np.testing.assert_array_equal(loaded.act(obs, None), a)
 
 
 def test_the_bundled_plan_clone_nudges_at_the_band_edge_within_the_regret_bound():
-    from hoprover_env import suites
-    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.evaluation import suites
+    from hoprover_env.evaluation.episodes import run_episodes
     suite = suites.load("HopRover-v0")
     # level-v1's targets just beyond the band's edge (a nudge of 0.4-6 mm) and a long hop
     pick = [int(np.argmin(np.abs(suite.targets - x))) for x in (-0.1004, -0.1061, 0.1056,
@@ -202,7 +202,7 @@ def test_the_bundled_plan_clone_nudges_at_the_band_edge_within_the_regret_bound(
 
 def _pivot_observations(target, torque, steps=6):
     """Observations of a rover pushed with `torque` (of T_max) from rest toward `target`."""
-    from hoprover_env.vector_env import HopRoverVectorEnv
+    from hoprover_env.envs.vector_env import HopRoverVectorEnv
     venv = HopRoverVectorEnv(1, control_dt=0.5)
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target])})
     out = [obs[0]]
@@ -214,7 +214,7 @@ def _pivot_observations(target, torque, steps=6):
 
 def test_the_rest_offset_is_the_c_m_at_rest_and_the_corner_stood_on_in_a_pivot():
     from hoprover_env.core.layout import MODE_F
-    from hoprover_env.params import RoverParams
+    from hoprover_env.core.params import RoverParams
     from hoprover_env.tasks.observation import OBS_DX, OBS_SIN
     p = RoverParams()
     obs = np.concatenate([_pivot_observations(x, u) for x in (0.3, -0.3, 0.11503, -0.6)
@@ -260,15 +260,49 @@ def test_the_rest_gate_keeps_a_launch_from_beyond_the_reach_off_the_nudge_branch
     net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
                          deadzone=0.0, rest=True)
     gated.save(net, tmp_path / "rest.pt")
-    loaded = load_policy(str(tmp_path / "rest.pt"))
+    loaded = gated.load_policy(tmp_path / "rest.pt")
     assert loaded.net.rest
     np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
 
 
 def test_the_bundled_plan_clone_hops_from_just_beyond_the_nudge_reach_without_a_detour():
-    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.evaluation.episodes import run_episodes
     # 0.01-0.07 mm beyond 0.115 m the network with the c.m. gate took 41 s (the nudge
     # branch took over the launch); a hop from 0.1153 m takes 31
     x = np.array([0.11503, -0.11503, 0.11506, 0.1153])
     t = np.array([r.ttrtp for r in run_episodes(load_policy("plan_clone"), x)])
     assert np.all(t[:3] <= 1.05 * t[3]), t
+
+
+def test_the_exported_module_acts_as_the_network_and_loads_with_no_research_code(tmp_path):
+    """gated.export writes the package's generic policy file: the gate, hold and mirror
+    travel inside it, so load_policy runs it as a TorchPolicy, action for action."""
+    from hoprover_env.agents.base import TorchPolicy
+    rng = np.random.default_rng(11)
+    main, nudge = _branches(rng)
+    net = gated.GatedNet(gated.Branch.from_sb3(main), gated.Branch.from_sb3(nudge),
+                         symmetric=True, flight=True, hold=True, rest=True)
+    gated.save(net, tmp_path / "net.pt", {"made_from": "test"})
+    loaded_net, meta = gated.load(tmp_path / "net.pt")
+    gated.export(loaded_net, tmp_path / "net.pt2", meta)
+    loaded = load_policy(str(tmp_path / "net.pt2"))
+    assert isinstance(loaded, TorchPolicy) and loaded.env_kwargs == {"control_dt": 0.5}
+    assert loaded.meta["made_by"] == "imitation of a planner" and loaded.meta["hand_written"]
+    for n in (1, 7, 300):
+        obs = _random_obs(rng, n)
+        np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
+
+
+def test_the_bundled_plan_clone_is_the_research_network_exported():
+    """The package's plan_clone.pt2 acts exactly as the state-dict network the pipeline
+    made (agents/plan_clone/plan_clone.pt), on observations of real episodes."""
+    import gymnasium as gym
+    bundled = load_policy("plan_clone")
+    research = gated.load_policy(gated.Path(__file__).parents[1] / "agents" / "plan_clone"
+                                 / "plan_clone.pt")
+    envs = gym.make_vec("HopRover-v0", num_envs=32)
+    obs, _ = envs.reset(seed=4)
+    for _ in range(60):
+        a = bundled.act(obs, envs)
+        np.testing.assert_array_equal(a, research.act(obs, envs))
+        obs, *_ = envs.step(a)

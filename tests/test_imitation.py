@@ -1,10 +1,10 @@
-"""Cloning an expert (hoprover_env.imitation): the weighted fit, and mpc's labels while a
+"""Cloning an expert (hoprover_env.training.imitation): the weighted fit, and mpc's labels while a
 learner drives (DAgger)."""
 import numpy as np
 import pytest
 import torch
 
-from hoprover_env.imitation import _fit, collect
+from hoprover_env.training.imitation import _fit, collect
 
 
 def _constant_fit(weight, lr_end=None, epochs=200):
@@ -36,8 +36,8 @@ def test_cosine_decay_settles_where_a_constant_rate_keeps_jumping():
 def test_mpc_replans_from_the_learners_flight_when_shadowing():
     # driving itself, mpc plans once per hop; labelling a learner's episode (DAgger) it
     # plans again at the learner's liftoff, from the flight the learner actually made
-    from hoprover_env.mpc import MPCPolicy
-    from hoprover_env.policies import load_policy
+    from hoprover_env.agents.mpc import MPCPolicy
+    from hoprover_env.agents.policies import load_policy
     kw = {"control_dt": 0.5, "episode_time": 300.0, "target_range": (0.6, 0.6)}
     alone = MPCPolicy(budget=200)
     collect(alone, kw, 1, seed=0, gamma=0.99)
@@ -50,7 +50,7 @@ def test_mpc_replans_from_the_learners_flight_when_shadowing():
 
 
 def test_sample_weights_single_out_the_launch_and_the_first_decision():
-    from hoprover_env.imitation import sample_weights
+    from hoprover_env.training.imitation import sample_weights
     from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
     obs = np.zeros((4, OBS_DIM), dtype=np.float32)
     obs[:, OBS_TIME] = np.array([0.0, 10.0, 30.0, 10.0]) / 600.0
@@ -68,7 +68,7 @@ def test_sample_weights_single_out_the_launch_and_the_first_decision():
 
 
 def test_collect_runs_the_targets_it_is_given():
-    from hoprover_env.policies import load_policy
+    from hoprover_env.agents.policies import load_policy
     from hoprover_env.tasks.observation import OBS_DX, OBS_TIME
     targets = np.array([0.3, -0.7, 0.05])
     obs, act, _ = collect(load_policy("scripted", control_dt=2.0),

@@ -8,13 +8,13 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from gymnasium.vector import AutoresetMode
 
 import hoprover_env  # noqa: F401  (registers the envs)
-from hoprover_env.policies import ControllerPolicy, torque_to_action
-from hoprover_env.scripted import ScriptedHopper
-from hoprover_env import reward
+from hoprover_env.agents.policies import ControllerPolicy, torque_to_action
+from hoprover_env.agents.scripted import ScriptedHopper
+from hoprover_env.tasks import reward
 from hoprover_env.tasks import hop, torque
-from hoprover_env.env import HopRoverEnv
-from hoprover_env.hop_env import HopRoverHopEnv, HopRoverHopVectorEnv
-from hoprover_env.params import RoverParams
+from hoprover_env.envs.env import HopRoverEnv
+from hoprover_env.envs.hop_env import HopRoverHopEnv, HopRoverHopVectorEnv
+from hoprover_env.core.params import RoverParams
 
 GAMED = dict(shaping="landing", attitude_weight=1.0, gamma=0.995)   # the probe's setting
 
@@ -202,7 +202,7 @@ def test_hop_policy_through_controller_matches_hop_env():
 def test_controller_policy_uses_the_envs_action_map():
     env_kwargs = {"action_map": "cubic", "action_scale": 0.5}
     pol = ControllerPolicy(lambda: (lambda *a: 1e-5), env_kwargs=env_kwargs)
-    from hoprover_env.vector_env import HopRoverVectorEnv
+    from hoprover_env.envs.vector_env import HopRoverVectorEnv
     venv = HopRoverVectorEnv(2, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
     obs, _ = venv.reset(seed=0)
     pol.reset(2)
@@ -215,7 +215,7 @@ def test_controller_policy_uses_the_envs_action_map():
 @pytest.mark.parametrize("name", ["hop", "scratch", "mission", "terrain", "terrain_base"])
 def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
     import json
-    from hoprover_env.policies import BUNDLED, BUNDLED_DIR
+    from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR
     path = BUNDLED_DIR / f"{BUNDLED[name]}.json"
     if name == "scratch" and not path.exists():
         pytest.skip("no bundled torque-level policy from scratch")
@@ -230,8 +230,8 @@ def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
 
 
 def test_bundled_hop_policy_runs_in_the_hop_task():
-    from hoprover_env.evaluation import run_episodes, summarize
-    from hoprover_env.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, summarize
+    from hoprover_env.agents.policies import load_policy
     pol = load_policy("hop")
     assert pol.env_id == "HopRoverHop-v0" and pol.name == "hop"
     res = summarize(run_episodes(pol, np.linspace(-0.9, 0.9, 7)))

@@ -1,4 +1,4 @@
-"""The mission task decided hop by hop (hoprover_env/mission_hop.py): the training view
+"""The mission task decided hop by hop (hoprover_env/agents/mission_hop.py): the training view
 (MissionHopEnv) and the deployed policy (LearnedHopper through ControllerPolicy in the
 mission's vector env) are the same loop, and the hopper's memory is what it says."""
 import math
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from hoprover_env.mission_env import HopRoverMissionVectorEnv
-from hoprover_env.mission_hop import (F_HOPS, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO,
+from hoprover_env.envs.mission_env import HopRoverMissionVectorEnv
+from hoprover_env.agents.mission_hop import (F_HOPS, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO,
                                       F_TO_GO, LearnedHopper, MissionHopEnv)
-from hoprover_env.policies import ControllerPolicy
+from hoprover_env.agents.policies import ControllerPolicy
 
 
 def toward(f):
@@ -85,7 +85,7 @@ def _tiny_config(tmp_path, **extra):
 def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
     import csv
     from agents import train_mission
-    from hoprover_env.policies import load_policy
+    from hoprover_env.agents.policies import load_policy
     cfg, out = _tiny_config(tmp_path), tmp_path / "run"
     assert train_mission.main(["--config", cfg, "--out", str(out)]) == 0
     first = list(csv.DictReader(open(out / "evaluations.csv")))
@@ -115,8 +115,8 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     """The issue's bar (90 % on the suite) on the suite's first 40 episodes; the whole
     suite's 97.5 % is in BENCHMARKS.md."""
     import dataclasses
-    from hoprover_env import suites
-    from hoprover_env.policies import load_policy
+    from hoprover_env.evaluation import suites
+    from hoprover_env.agents.policies import load_policy
     policy = load_policy("mission")
     assert policy.env_id == "HopRoverMission-v0"
     suite = suites.load("HopRoverMission-v0")
@@ -127,7 +127,7 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
 
 def test_train_py_points_a_hop_config_to_its_own_trainer():
     from pathlib import Path
-    from hoprover_env.sb3_agents import ConfigError, load_config
+    from hoprover_env.training.sb3_agents import ConfigError, load_config
     path = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="agents.train_mission"):
         load_config(path)

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hoprover_env.cli import evaluate
-from hoprover_env.files import atomic_write, write_json
-from hoprover_env.policies import BUNDLED_DIR
+from hoprover_env.training import evaluate
+from hoprover_env.util.files import atomic_write, write_json
+from hoprover_env.agents.policies import BUNDLED_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -101,7 +101,7 @@ def test_atomic_write_follows_umask(tmp_path, mask):
 # ---------------------------------------------------------------- env pickling, RoverSim
 def test_env_deepcopy_and_pickle_after_render():
     pytest.importorskip("pygame")
-    from hoprover_env.env import HopRoverEnv
+    from hoprover_env.envs.env import HopRoverEnv
     env = HopRoverEnv(render_mode="rgb_array")
     env.reset(seed=3)
     env.step(np.array([0.0], dtype=np.float32))
@@ -118,7 +118,7 @@ def test_env_deepcopy_and_pickle_after_render():
 
 def test_advance_names_the_valid_event_kinds():
     from hoprover_env import core
-    from hoprover_env.simulate import RoverSim
+    from hoprover_env.sim.simulate import RoverSim
     sim = RoverSim()
     with pytest.raises(ValueError, match="stop_on must be None or one of liftoff, slip"):
         sim.advance(3e-4, 1.0, stop_on="liftof")
@@ -152,7 +152,7 @@ TINY_CFG = {
 ])
 def test_config_values_are_type_checked(tmp_path, section, key, value, expected):
     import yaml
-    from hoprover_env.sb3_agents import ConfigError, load_config
+    from hoprover_env.training.sb3_agents import ConfigError, load_config
     cfg = copy.deepcopy(TINY_CFG)
     cfg.setdefault(section, {})[key] = value
     path = tmp_path / "c.yaml"
@@ -165,7 +165,7 @@ def test_config_values_are_type_checked(tmp_path, section, key, value, expected)
 
 
 def test_broken_yaml_and_env_id_are_one_line_errors(tmp_path):
-    from hoprover_env.sb3_agents import ConfigError, load_config
+    from hoprover_env.training.sb3_agents import ConfigError, load_config
     path = tmp_path / "c.yaml"
     path.write_text("algo: ppo\nhyperparams: {n_steps: 8\n")
     with pytest.raises(ConfigError, match=r"not valid YAML \(line \d+, column \d+\)"):
@@ -196,7 +196,7 @@ def _rows(run):
 
 
 def _check_run_files(run):
-    from hoprover_env.sb3_agents import load_config  # noqa: F401 - same import path as train
+    from hoprover_env.training.sb3_agents import load_config  # noqa: F401 - same import path as train
     rows = _rows(run)
     steps = [int(r["timesteps"]) for r in rows]
     assert steps == sorted(set(steps)), steps            # every evaluation exactly once
@@ -208,7 +208,7 @@ def _check_run_files(run):
 
 def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, monkeypatch):
     import yaml
-    from hoprover_env.cli import train
+    from hoprover_env.training import train
     cfg = dict(TINY_CFG)
     path = tmp_path / "c.yaml"
     path.write_text(yaml.safe_dump(cfg))
@@ -245,15 +245,15 @@ def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, 
 
 # ---------------------------------------------------------------- plots and overlay
 def test_torque_overlay_text():
-    from hoprover_env.rendering import _torque_text
+    from hoprover_env.envs.rendering import _torque_text
     assert _torque_text(-1e-9) == "0" and _torque_text(0.0) == "0"
     assert _torque_text(3e-4) == "+3.00e-4" and _torque_text(-2.5e-4) == "-2.50e-4"
 
 
 def test_recording_of_a_success_has_its_ttrtp(tmp_path):
-    from hoprover_env.plots import nine_figures
-    from hoprover_env.policies import load_policy
-    from hoprover_env.replay import record_episode
+    from hoprover_env.evaluation.plots import nine_figures
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.replay import record_episode
     rec = record_episode(load_policy("scripted"), 0.5)
     assert rec.ttrtp is not None and rec.ttrtp > 0
     assert len(nine_figures(rec, tmp_path)) == 9
@@ -262,9 +262,9 @@ def test_recording_of_a_success_has_its_ttrtp(tmp_path):
 def test_recording_of_a_hop_level_policy_flies_its_hops():
     # the hop policy acts once per hop in HopRoverHop-v0; recorded in HopRover-v0 (as it
     # was) its actions became torques and the episode failed
-    from hoprover_env.evaluation import run_episodes
-    from hoprover_env.policies import load_policy
-    from hoprover_env.replay import record_episode
+    from hoprover_env.evaluation.episodes import run_episodes
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.replay import record_episode
     policy = load_policy("hop")
     rec = record_episode(policy, 0.7)
     env_result = run_episodes(policy, [0.7])[0]
@@ -318,7 +318,7 @@ def test_contact_forces_at_a_control_instant_are_those_of_the_state_that_holds()
 
 
 def test_quick_train_shrinks_cloning_and_budget():
-    from hoprover_env.cli import train
+    from hoprover_env.training import train
     cfg = {"timesteps": 5_000_000, "evaluation": {"freq": 50_000, "episodes": 100, "seed": 7},
            "checkpoint": {"freq": 50_000},
            "pretrain": {"episodes": 300, "epochs": 25, "value_epochs": 5, "dagger_rounds": 4,

@@ -1,9 +1,9 @@
-"""agents/nudge.py: the nudge at the band's edge as a law of the observed state."""
+"""agents/plan_clone/nudge.py: the nudge at the band's edge as a law of the observed state."""
 import numpy as np
 import pytest
 
-from agents import nudge
-from agents.plan_table import PlanTableTeacher, load_table
+from agents.plan_clone import nudge
+from agents.plan_clone.plan_table import PlanTableTeacher, load_table
 from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, OBS_VX,
                                             RATE_SCALE, mirror)
 
@@ -72,7 +72,7 @@ def test_a_wider_margin_gives_up_a_narrow_basin_for_a_broad_one():
 
 
 def test_a_teacher_with_a_nudge_family_flies_the_family_s_time(monkeypatch):
-    from hoprover_env.evaluation import run_episodes
+    from hoprover_env.evaluation.episodes import run_episodes
     # a small grid around the nudges that work at 0.102 m
     monkeypatch.setattr(nudge, "PUSH_GRID", np.array([0.06, 0.065, 0.07, 0.075, 0.08]))
     monkeypatch.setattr(nudge, "TILT_GRID", np.array([8.9e-4, 1.17e-3, 1.53e-3]))
@@ -93,7 +93,7 @@ def test_a_teacher_with_a_nudge_family_flies_the_family_s_time(monkeypatch):
 def test_the_branch_fit_with_mirror_also_fits_the_mirror_images(tmp_path, monkeypatch):
     """`fit_branch(mirror=True)` hands the fit each edge state and its mirror image with
     the negated action, and nothing from off the edge."""
-    from hoprover_env import imitation
+    from hoprover_env.training import imitation
     obs = np.array([_obs(0.105, 5), _obs(-0.104, 3, -0.003, -0.001), _obs(0.3, 0)],
                    dtype=np.float32)
     path = tmp_path / "c.npz"

@@ -47,7 +47,7 @@ def test_invalid_field_is_named(field, value, words):
 
 
 def test_terrain_slots_of_the_kernel_vector():
-    from hoprover_env.params import P_GC, P_GS, P_ROUGH, P_SLOPE
+    from hoprover_env.core.params import P_GC, P_GS, P_ROUGH, P_SLOPE
     flat = RoverParams().as_array()
     assert flat[P_GC] == 9.8e-5 and flat[P_GS] == 0.0 and not np.signbit(flat[P_GS])
     assert not np.signbit(RoverParams(slope=-0.0).as_array()[P_GS])

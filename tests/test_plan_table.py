@@ -1,10 +1,10 @@
-"""The plan table (agents/plan_table.py): plans made alike keep their cost, and the
+"""The plan table (agents/plan_clone/plan_table.py): plans made alike keep their cost, and the
 teacher flies them as the search did."""
 import numpy as np
 import pytest
 
-from agents import plan_table as pt
-from hoprover_env.evaluation import run_episodes
+from agents.plan_clone import plan_table as pt
+from hoprover_env.evaluation.episodes import run_episodes
 from hoprover_env.tasks.observation import OBS_DX, OBS_TIME, POS_SCALE
 
 
@@ -45,7 +45,7 @@ def test_mirrored_plans_take_the_same_time_on_level_ground(table):
     _, alike = table
     mirrored = pt.mirror_short_hops({**alike, "targets": alike["targets"]}, 0.0,
                                     log=lambda m: None)
-    from hoprover_env.planning import evaluate
+    from hoprover_env.agents.planning import evaluate
     start, params = pt.start_state()
     u = alike["u"][::-1].copy()
     u[:, pt.SIGNED] = 1.0 - u[:, pt.SIGNED]
@@ -69,7 +69,7 @@ def test_targets_within_cells_get_their_own_row_s_plan():
 
 
 def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
-    import hoprover_env.imitation as imitation
+    import hoprover_env.training.imitation as imitation
     seen = []
     monkeypatch.setattr(imitation, "collect", lambda *a, targets, **k: seen.append(targets))
     monkeypatch.setattr(pt, "PlanTableTeacher", lambda *a, **k: None)
@@ -98,14 +98,14 @@ def test_the_teacher_flies_the_table_plans(table):
 
 def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
     import yaml
-    import agents.clone_study as cs
-    from hoprover_env.policies import load_policy
+    import agents.plan_clone.clone_study as cs
+    from hoprover_env.agents.policies import load_policy
     judged = []
     # the real judge runs 300 episodes per fit: a stand-in that records the call
     monkeypatch.setattr(cs, "judge", lambda policy: judged.append(policy) or {
         "validation_success": 0.0, "validation_median": float("nan"), "suite_success": 0.0,
         "median_regret": float("inf"), "worst_regret": float("inf"), "by_distance": []})
-    import agents.nudge as nudge
+    import agents.plan_clone.nudge as nudge
     # a nudge family searched on a tiny grid at two offsets
     monkeypatch.setattr(nudge, "PUSH_GRID", np.array([0.06, 0.07]))
     monkeypatch.setattr(nudge, "TILT_GRID", np.array([1.17e-3]))
@@ -154,12 +154,13 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     policy = load_policy(str(out))
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
-    gated = load_policy(str(out / "plan_clone.pt"))
+    from agents.plan_clone.gated import load_policy as gated_load
+    gated = gated_load(out / "plan_clone.pt")
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
     assert gated.net.symmetric and gated.net.flight and gated.net.hold and gated.net.rest
     assert gated.net.deadzone == 0.0
     import torch
-    from hoprover_env.gated import Branch
+    from agents.plan_clone.gated import Branch
     refit = Branch.from_sb3(load_policy(str(out / "main_edge_1")))   # what it was made of
     obs = torch.as_tensor(np.random.default_rng(0).normal(size=(8, 19)), dtype=torch.float32)
     assert torch.equal(gated.net.main(obs), refit(obs))
@@ -188,9 +189,9 @@ def _fly_then_rest(plan, target, teacher=None):
     come to rest, then (if given) `teacher`. Returns (rest state row, final info's
     TTRTP or None, the teacher's plan at the rest state)."""
     from hoprover_env import core
-    from hoprover_env.planning import plan_torque
-    from hoprover_env.policies import torque_to_action
-    from hoprover_env.vector_env import HopRoverVectorEnv
+    from hoprover_env.agents.planning import plan_torque
+    from hoprover_env.agents.policies import torque_to_action
+    from hoprover_env.envs.vector_env import HopRoverVectorEnv
     venv = HopRoverVectorEnv(1, control_dt=0.5)
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target])})
     flew, rest, at_rest = False, None, None
@@ -220,7 +221,7 @@ def test_the_teacher_flies_the_table_plan_again_from_a_rest_state_off_target(tab
     # a rover at rest off target is the start state shifted in x (and later in time):
     # the teacher flies the table plan for the remaining offset at once, with no search,
     # and reaches the target in the table's time after the rest
-    from hoprover_env.planning import plans_from_points
+    from hoprover_env.agents.planning import plans_from_points
     _, alike = table
     _, params = pt.start_state()
     first = plans_from_points(alike["u"][[3]], np.array([1.0]), np.array([0.0]), params)[0]

@@ -26,7 +26,7 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def local_ray():
     sys.path.insert(0, str(ROOT))
-    from hoprover_env.ray_utils import init_ray
+    from hoprover_env.training.ray_utils import init_ray
     init_ray(num_cpus=2)
     yield ray
     ray.shutdown()
@@ -36,7 +36,7 @@ def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
     sys.path.insert(0, str(ROOT / "examples"))
     import rllib_ppo
     from hoprover_env import HopRoverVectorEnv
-    from hoprover_env.rllib import make_env
+    from hoprover_env.envs.rllib import make_env
     # what the EnvRunners build in vector_entry_point mode: the native vector env
     assert isinstance(make_env({"num_envs": 3, "control_dt": 2.0}), HopRoverVectorEnv)
     # 10 s episodes at a 2 s control period: 5 steps, so episodes end within the iteration
@@ -60,10 +60,10 @@ def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
 
 def _fresh_worker_evaluates():
     """In a Ray worker: evaluate every kind of policy, then count numba's compiles."""
-    from hoprover_env.evaluation import run_episodes, seeded_targets
-    from hoprover_env.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
+    from hoprover_env.agents.policies import load_policy
     import numba
-    from hoprover_env.compile import compile_counts
+    from hoprover_env.training.warm_cache import compile_counts
     for name in ("scratch", "hop", "scripted", "random"):
         run_episodes(load_policy(name, control_dt=0.5), seeded_targets(3, 5), batch=2)
     counts = compile_counts()
@@ -76,7 +76,7 @@ def _fresh_worker_evaluates():
 
 
 def test_a_worker_started_after_the_warm_up_compiles_nothing(local_ray):
-    warm = subprocess.run([sys.executable, "-m", "hoprover_env.compile"], cwd=ROOT,
+    warm = subprocess.run([sys.executable, "-m", "hoprover_env.training.warm_cache"], cwd=ROOT,
                           env={**os.environ, "PYTHONPATH": str(ROOT)}, capture_output=True,
                           text=True, timeout=900)
     assert warm.returncode == 0, warm.stderr[-3000:]
@@ -118,8 +118,8 @@ def test_evaluate_on_ray_equals_the_local_run_episode_for_episode(tmp_path):
 
 def test_evaluate_chunks_follow_the_local_batches(local_ray):
     # the split itself: chunks of one batch each, merged in target order
-    from hoprover_env.ray_eval import evaluate_on_ray
-    from hoprover_env.evaluation import seeded_targets
+    from hoprover_env.training.ray_eval import evaluate_on_ray
+    from hoprover_env.evaluation.episodes import seeded_targets
     targets = seeded_targets(10, 3)
     seen = []
     res = evaluate_on_ray([("policy", "random", "random")], targets, 0.5, 0, batch=4,
@@ -130,8 +130,8 @@ def test_evaluate_chunks_follow_the_local_batches(local_ray):
 
 
 def test_a_node_with_other_code_is_refused_by_name(local_ray):
-    from hoprover_env.ray_utils import ClusterCodeError, check_nodes
-    from hoprover_env.buildinfo import build_info
+    from hoprover_env.training.ray_utils import ClusterCodeError, check_nodes
+    from hoprover_env.util.buildinfo import build_info
     seen = check_nodes(ray)                      # this checkout everywhere: accepted
     assert [p["source"] for p in seen.values()] == [build_info()["source"]]
     other = {**build_info(), "source": "0123456789ab", "commit": "feedbeef"}
@@ -143,7 +143,7 @@ def test_a_node_with_other_code_is_refused_by_name(local_ray):
 def test_trials_get_the_seeds_in_turn():
     # trial k trains with SEEDS[k mod n]; Tune's directory names count from 1 with a search
     # algorithm and from 0 without one (the names below are Ray 2.60's)
-    from hoprover_env.cli.sweep import trial_index
+    from hoprover_env.training.sweep import trial_index
     searched = ["trainable_715df97f_2_learning_rate=0.0003_2026-11-23_21-47-55",
                 "trainable_afe486ee_1_learning_rate=0.0001_2026-11-23_21-47-52"]
     assert [trial_index(d, d.split("_")[1], 1) for d in searched] == [1, 0]
@@ -154,8 +154,8 @@ def test_trials_get_the_seeds_in_turn():
 
 def test_policy_files_travel_with_the_tasks(tmp_path):
     # a run directory on the driver only: its model files are read here, rebuilt there
-    from hoprover_env.policies import BUNDLED_DIR, BUNDLED
-    from hoprover_env.ray_eval import _materialize, policy_files
+    from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED
+    from hoprover_env.training.ray_eval import _materialize, policy_files
     run = tmp_path / "myrun"
     run.mkdir()
     stem = BUNDLED_DIR / BUNDLED["scratch"]
@@ -169,7 +169,7 @@ def test_policy_files_travel_with_the_tasks(tmp_path):
     assert relspec == "myrun" and "myrun/evaluations.csv" not in files
     where = _materialize((relspec, files))
     assert Path(where).name == "myrun" and Path(where) != run
-    from hoprover_env.policies import load_policy
+    from hoprover_env.agents.policies import load_policy
     a, b = load_policy(str(run)), load_policy(where)
     assert a.name == b.name == "myrun"
     obs = np.zeros((2, a.model.observation_space.shape[0]), dtype=np.float32)
@@ -180,7 +180,7 @@ def test_policy_files_travel_with_the_tasks(tmp_path):
 def test_rllib_creator_builds_every_registered_task():
     import gymnasium as gym
     from hoprover_env import ENVS, env_class, vector_env_class
-    from hoprover_env.rllib import make_env
+    from hoprover_env.envs.rllib import make_env
     for env_id, spec in ENVS.items():
         single = make_env({"env_id": env_id})
         vec = make_env({"env_id": env_id, "num_envs": 2})

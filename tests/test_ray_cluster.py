@@ -64,9 +64,9 @@ def _ensure_workers(c, n):
 
 
 def test_evaluation_that_loses_a_node_gives_the_local_table(cluster):
-    from hoprover_env.evaluation import run_episodes, seeded_targets
-    from hoprover_env.policies import load_policy
-    from hoprover_env.ray_eval import evaluate_on_ray
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.training.ray_eval import evaluate_on_ray
     _ensure_workers(cluster, 2)
     targets = seeded_targets(24, 11)
     jobs = [("policy", "scratch", "scratch"), ("policy", "random", "random")]
@@ -199,7 +199,7 @@ def test_interrupted_and_resumed_sweep_matches_an_uninterrupted_one(cluster, tmp
     every = [0, 128, 256, 384, 512]
     assert record("cut") == record("whole") == {0: (every, 5, every), 1: (every, 5, every)}
     best = out / "cut" / "best_config.yaml"
-    from hoprover_env.sb3_agents import load_config
+    from hoprover_env.training.sb3_agents import load_config
     loaded = load_config(best)
     assert loaded["timesteps"] == 512 and 1e-5 <= loaded["hyperparams"]["learning_rate"] <= 1e-3
     run = subprocess.run([sys.executable, str(ROOT / "train.py"), "--config", str(best),

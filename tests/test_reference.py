@@ -1,9 +1,9 @@
-"""Contact phases against an independent scipy DOP853 solution (hoprover_env.reference.Ref)."""
+"""Contact phases against an independent scipy DOP853 solution (hoprover_env.sim.reference.Ref)."""
 import numpy as np
 import pytest
 
 from hoprover_env import RoverParams, RoverSim
-from hoprover_env.reference import Ref
+from hoprover_env.sim.reference import Ref
 
 TORQUES = [1e-5, 2e-5, 2.4e-5, 2.5e-5, 5e-5, 1e-4, 2e-4, 3e-4, 4e-4, 5e-4]
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from hoprover_env import RoverParams, simulate
-from hoprover_env import params
-from hoprover_env.testing import kinematic_violations
+from hoprover_env.core import params
+from hoprover_env.sim.testing import kinematic_violations
 
 
 def test_near_flat_impact_leaves_no_corner_under_the_ground():
@@ -73,7 +73,7 @@ def test_euler_breaking_step_leaves_no_bottom_corner_under_the_ground():
 HANG_SCRIPT = r"""
 import math, sys, numpy as np
 from hoprover_env import core
-from hoprover_env.params import RoverParams, PAINLEVE_MARGIN
+from hoprover_env.core.params import RoverParams, PAINLEVE_MARGIN
 base = RoverParams(mu_static=1.0, mu_dynamic=1.0)
 j_of = lambda inertia: inertia + base.mass * base.corner_distance ** 2
 def d_rel(inertia):     # the slide denominator relative to I + m l^2, for this inertia
@@ -93,7 +93,7 @@ S[core.S_Y], S[core.S_TH], S[core.S_VX] = -dy, th, 1e-3
 S[core.S_MODE], S[core.S_SIGMA] = core.MODE_C, 1.0
 S[core.S_XT], S[core.S_TTRTP], S[core.S_STOP_ON] = 5.0, math.nan, -1.0
 S[core.S_HSTEP] = float(sys.argv[2])
-from hoprover_env.simulate import make_options
+from hoprover_env.sim.simulate import make_options
 core.advance(S, P, make_options("event", "contest", 1e-11, 1e-3), 0.0, 1.0,
              np.zeros((64, core.EV_COLS)), np.zeros(core.N_WORK))
 print("returned", S[core.S_T], S[core.S_ERROR])
@@ -116,7 +116,7 @@ def test_slide_at_the_old_painleve_margin_returns_instead_of_hanging(h_carried):
 
 
 def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
-    from hoprover_env.params import PAINLEVE_MARGIN
+    from hoprover_env.core.params import PAINLEVE_MARGIN
     base = RoverParams(mu_static=1.0, mu_dynamic=1.0)
     j = lambda i: i + base.mass * base.corner_distance ** 2     # noqa: E731
     shift = base.min_slide_denominator() - base.inertia          # D_min = I + shift
@@ -157,7 +157,7 @@ def test_an_euler_step_that_would_never_finish_is_refused():
 
 # ---- issue 9.7: numpy scalars accepted, strings / booleans / complex refused by name -----
 def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
-    from hoprover_env.env import HopRoverEnv
+    from hoprover_env.envs.env import HopRoverEnv
     roll = simulate(np.zeros(2), t_end=np.float32(1.0), control_dt=np.int64(1))
     assert roll.t[-1] == 1.0
     env = HopRoverEnv(control_dt=np.float32(0.5), episode_time=np.int64(60))

@@ -12,7 +12,7 @@ from tests.helpers import launch_then_hold
 
 pytest.importorskip("pygame")
 
-GROUND_LINE = (90, 80, 60)       # hoprover_env/rendering.py's colours
+GROUND_LINE = (90, 80, 60)       # hoprover_env/envs/rendering.py's colours
 BAND = (120, 200, 120)
 TARGET_MARK = (40, 120, 40)
 CORNER_A, CORNER_B = (20, 20, 20), (255, 255, 255)
@@ -37,7 +37,7 @@ def _ground_fit(frame):
 
 
 def _draw(slope, target=0.6, state=None, letter="F"):
-    from hoprover_env.rendering import Renderer
+    from hoprover_env.envs.rendering import Renderer
     params = RoverParams(slope=slope)
     state = (0.0, params.half_height, 0.0) if state is None else state
     return Renderer().draw(state, params, target, [tuple(state[:2])], 3.0, letter, 0.0)
@@ -102,7 +102,7 @@ def test_env_frames_draw_the_slope_of_their_params():
 
 # ------------------------------------------------------------------ the figures
 def _recording(roll, policy="test"):
-    from hoprover_env.replay import Recording
+    from hoprover_env.evaluation.replay import Recording
     return Recording(policy, roll.target_x, roll.ttrtp, roll.broken, 0.5, roll)
 
 
@@ -116,7 +116,7 @@ def test_position_figure_shows_the_contact_point_in_the_band_beside_the_cm():
     # at rest with the target 0.09 m ahead: the c.m. (x = 0) never enters the band
     # [0.04, 0.14], corner A (x = 0.05) is in it from the start, so TTRTP = 5 s
     import matplotlib.pyplot as plt
-    from hoprover_env.plots import position_figure
+    from hoprover_env.evaluation.plots import position_figure
     roll = simulate([0.0], t_end=8.0, control_dt=0.5, target_x=0.09,
                     params=RoverParams(slope=0.2), sample_dt=0.25)
     assert roll.ttrtp == pytest.approx(5.0)
@@ -141,7 +141,7 @@ def test_position_figure_shows_the_contact_point_in_the_band_beside_the_cm():
 def test_contact_point_follows_the_judge_through_a_hop():
     # launch, fly, land, slide: the plotted contact point is in the band exactly when the
     # kernel's judge says so (its band_in / band_out events), and absent in flight
-    from hoprover_env.plots import contact_point_x
+    from hoprover_env.evaluation.plots import contact_point_x
     roll = simulate(launch_then_hold(2e-4), t_end=250.0, control_dt=0.5, target_x=0.35,
                     params=RoverParams(slope=0.1), sample_dt=0.5)
     letters = set(roll.state)
@@ -166,7 +166,7 @@ def test_contact_point_follows_the_judge_through_a_hop():
 
 
 def test_nine_figures_on_a_slope(tmp_path):
-    from hoprover_env.plots import nine_figures
+    from hoprover_env.evaluation.plots import nine_figures
     roll = simulate(launch_then_hold(2e-4), t_end=200.0, control_dt=0.5, target_x=0.35,
                     params=RoverParams(slope=-0.2), sample_dt=0.5)
     paths = nine_figures(_recording(roll), str(tmp_path))
@@ -176,8 +176,8 @@ def test_nine_figures_on_a_slope(tmp_path):
 def test_replay_meets_the_episodes_bumps():
     # the dense replay of a rough-ground episode keys its draws with the env's seed, so it
     # flies the episode the env judged (not one with fresh bumps)
-    from hoprover_env.policies import load_policy
-    from hoprover_env.replay import record_episode
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.replay import record_episode
     rec = record_episode(load_policy("scripted"), -0.5,
                          env_kwargs={"params": {"slope": 0.1, "roughness": 0.1}})
     assert rec.ttrtp is not None and rec.rollout.seed is not None
@@ -189,9 +189,9 @@ def test_record_episode_flies_the_ground_it_is_given():
     # evaluate.py's per-episode ground (run_episodes' `terrain`) reaches the recording:
     # the replay is on that slope and its contact point holds the band for the judge's
     # last 5 s before the env's TTRTP
-    from hoprover_env.plots import contact_point_x
-    from hoprover_env.policies import load_policy
-    from hoprover_env.replay import record_episode
+    from hoprover_env.evaluation.plots import contact_point_x
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.replay import record_episode
     rec = record_episode(load_policy("scripted"), 0.6,
                          terrain={"slope": -0.15, "roughness": 0.05})
     roll = rec.rollout

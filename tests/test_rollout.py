@@ -1,4 +1,4 @@
-"""The compiled whole-run loop (hoprover_env/rollout.py) against simulate's Python loop.
+"""The compiled whole-run loop (hoprover_env/sim/rollout.py) against simulate's Python loop.
 
 A torque schedule or a compiled controller runs in one kernel call; a plain Python
 callable runs the Python loop. Replaying a schedule through a Python callable therefore
@@ -11,10 +11,10 @@ import numba
 import numpy as np
 import pytest
 
-from agents import stress_families as families
-from agents.stress import CTRL_SCHEDULE, TARGET_X
+from agents.stress import families
+from agents.stress.drivers import CTRL_SCHEDULE, TARGET_X
 from hoprover_env import RoverParams, simulate
-from hoprover_env.controllers import attitude_hold
+from hoprover_env.sim.controllers import attitude_hold
 
 
 def replay(schedule):
@@ -157,7 +157,7 @@ def test_no_compile_at_import():
     # the explicit-signature loops are built on first use, not when simulate is imported
     import subprocess
     import sys
-    code = ("import hoprover_env.rollout as r; import hoprover_env; "
+    code = ("import hoprover_env.sim.rollout as r; import hoprover_env; "
             "print(r.run_one is None and r.run_many is None)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()

@@ -1,9 +1,9 @@
-"""Normalised scores and their bootstrap intervals (hoprover_env/scores.py)."""
+"""Normalised scores and their bootstrap intervals (hoprover_env/evaluation/scores.py)."""
 import numpy as np
 import pytest
 from scipy import stats
 
-from hoprover_env.scores import (METRICS, Summary, episode_regrets, episode_scores,
+from hoprover_env.evaluation.scores import (METRICS, Summary, episode_regrets, episode_scores,
                                  format_table, summarize)
 
 

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import yaml
 
-from hoprover_env.cli import evaluate
-from hoprover_env.cli import train
-from hoprover_env.policies import BUNDLED_DIR, BUNDLED_NAME
+from hoprover_env.training import evaluate
+from hoprover_env.training import train
+from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED_NAME
 
 TINY = {
     "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
@@ -73,7 +73,7 @@ def test_terrain_yaml_sets_its_ground_and_trains(tmp_path):
     saved = yaml.safe_load((out / "config.yaml").read_text())
     assert saved["env_id"] == "HopRoverTerrain-v0"
     assert saved["env"]["slope_range"] == [-0.3, 0.3] and saved["env"]["roughness"] == 0.1
-    from hoprover_env.sb3_agents import env_kwargs
+    from hoprover_env.training.sb3_agents import env_kwargs
     from hoprover_env import vector_env_class
     venv = vector_env_class(saved["env_id"])(4, **env_kwargs(saved))
     assert venv.config.slope_range == (-0.3, 0.3) and venv.config.roughness == 0.1
@@ -216,7 +216,7 @@ def test_interrupt_during_cloning_is_reported(tmp_path, monkeypatch, capsys):
 def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, capsys):
     # collecting from the expert is the slow part of cloning: a run interrupted during its
     # pretraining starts again from the collections it kept, unless its settings changed
-    from hoprover_env import imitation
+    from hoprover_env.training import imitation
     cfg = {**TINY, "timesteps": 512, "pretrain": {"episodes": 4, "epochs": 1,
                                                   "value_epochs": 0, "dagger_rounds": 1,
                                                   "dagger_episodes": 2}}
@@ -340,7 +340,7 @@ def test_init_from_starts_a_fresh_run_from_a_models_weights_and_statistics(tmp_p
     cfg = {**base, "init_from": str(first),
            "hyperparams": {**base["hyperparams"], "learning_rate": 1e-4,
                            "learning_rate_end": 1e-5}}
-    from hoprover_env.sb3_agents import load_config
+    from hoprover_env.training.sb3_agents import load_config
     trainer = train.Trainer(load_config(write_cfg(tmp_path, cfg, "fine.yaml")),
                             tmp_path / "fine", False, "cpu", False)
     want = PPO.load(str(first / "best_model.zip"), device="cpu").policy.state_dict()
@@ -380,8 +380,8 @@ def test_init_from_and_pretrain_exclude_each_other(tmp_path, capsys):
 
 def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_path):
     import torch
-    from hoprover_env.policies import load_policy
-    from hoprover_env.sb3_agents import load_config
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.training.sb3_agents import load_config
     cfg = load_config("ppo_terrain_fine", {"n_envs": 16})
     assert cfg["init_from"] == "terrain_base" and cfg["env_id"] == "HopRoverTerrain-v0"
     trainer = train.Trainer(cfg, tmp_path / "fine", False, "cpu", False)
@@ -393,8 +393,8 @@ def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_
 def test_learning_rate_end_falls_from_the_algorithms_own_default(tmp_path):
     """Without `learning_rate` the schedule starts at the algorithm's default (TD3's is
     1e-3, PPO's 3e-4), not at one number for all."""
-    from hoprover_env.sb3_agents import load_config, make_agent
-    from hoprover_env.sb3 import HopRoverSB3VecEnv
+    from hoprover_env.training.sb3_agents import load_config, make_agent
+    from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     for algo, start in (("ppo", 3e-4), ("td3", 1e-3)):
         cfg = load_config(None, {"algo": algo, "n_envs": 2})
         cfg["hyperparams"] = {"learning_rate_end": 1e-6}

@@ -7,7 +7,7 @@ import pytest
 
 from hoprover_env import HopRoverEnv, HopRoverVectorEnv
 from hoprover_env.core import S_NIMPACT
-from hoprover_env.params import P_ROUGH
+from hoprover_env.core.params import P_ROUGH
 
 
 def _episode(env, seed, actions, kernel=None):
@@ -75,7 +75,7 @@ def test_the_smooth_kernels_are_found_by_the_name_they_pickle_under():
     # holds the smooth build must find each of them again
     import pickle
     from hoprover_env.core import smooth
-    from hoprover_env._compile import _module_attribute
+    from hoprover_env.jit.compiler import _module_attribute
     kernels = [v for k, v in vars(smooth).items() if k.endswith("_smooth")]
     assert len(kernels) == 6
     for k in kernels:

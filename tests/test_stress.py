@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import assume, given, strategies as st
 
 from hoprover_env import RoverParams, simulate
-from hoprover_env.testing import kinematic_violations
+from hoprover_env.sim.testing import kinematic_violations
 from helpers import attitude_hold
 
 

@@ -4,7 +4,7 @@ import shutil
 import numpy as np
 import pytest
 
-from hoprover_env import suites
+from hoprover_env.evaluation import suites
 
 IDS = ("HopRover-v0", "HopRoverHop-v0", "HopRoverTerrain-v0", "HopRoverContest-v0")
 
@@ -78,7 +78,7 @@ def test_a_modified_file_fails_its_checksum(tmp_path):
 
 def test_evaluate_suite_prints_scores_and_writes_the_fields(tmp_path, capsys):
     import json
-    from hoprover_env.cli import evaluate
+    from hoprover_env.training import evaluate
     out = tmp_path / "rows.json"
     assert evaluate.main(["--suite", "--env", "HopRoverContest-v0", "--policy", "scripted",
                           "--no-progress", "--json", str(out)]) == 0
@@ -92,7 +92,7 @@ def test_evaluate_suite_prints_scores_and_writes_the_fields(tmp_path, capsys):
 
 
 def test_evaluate_suite_bad_input(capsys):
-    from hoprover_env.cli import evaluate
+    from hoprover_env.training import evaluate
     assert evaluate.main(["--suite", "7", "--policy", "scripted"]) == 2
     assert "unknown version 7" in capsys.readouterr().err
     assert evaluate.main(["--suite", "--policy", "no-such-agent"]) == 2
@@ -106,8 +106,8 @@ def test_agents_play_the_references_ground(env_id):
     """An agent run on a suite (suites.run's path: run_episodes with the suite's ground)
     meets the bumps its reference was searched on: a policy that plays the reference
     schedule as actions reaches the reference TTRTP."""
-    from hoprover_env.evaluation import run_episodes
-    from hoprover_env.policies import torque_to_action
+    from hoprover_env.evaluation.episodes import run_episodes
+    from hoprover_env.agents.policies import torque_to_action
     from hoprover_env import RoverParams
 
     suite = suites.load(env_id)

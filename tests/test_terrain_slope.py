@@ -7,7 +7,7 @@ import pytest
 
 from hoprover_env import RoverParams, RoverSim, core, simulate
 from helpers import first_landing
-from hoprover_env.reference import Ref
+from hoprover_env.sim.reference import Ref
 
 SLOPES = [-0.3, -0.1, 0.1, 0.3]
 

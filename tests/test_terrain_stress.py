@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 from hypothesis import given, strategies as st
 
-from hoprover_env.testing import kinematic_violations
+from hoprover_env.sim.testing import kinematic_violations
 from test_stress import run, scenario
 
 

@@ -1,11 +1,11 @@
-"""hoprover_env.testing's checks flag what they must: the property tests and the stress
+"""hoprover_env.sim.testing's checks flag what they must: the property tests and the stress
 benchmark trust an empty list from them."""
 import dataclasses
 
 import numpy as np
 
 from hoprover_env import simulate
-from hoprover_env.testing import (V_KINEMATICS, V_NAN, V_PEN_SAMPLE, check_state,
+from hoprover_env.sim.testing import (V_KINEMATICS, V_NAN, V_PEN_SAMPLE, check_state,
                                   gained_energy, kinematic_violations, new_drift,
                                   rollout_states)
 from helpers import launch_then_hold

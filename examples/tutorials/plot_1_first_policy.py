@@ -13,7 +13,7 @@ same config.
 # %%
 # The environment: 64 rovers stepped in one compiled call
 # --------------------------------------------------------
-# :class:`~hoprover_env.sb3.HopRoverSB3VecEnv` is Stable-Baselines3's ``VecEnv`` over the
+# :class:`~hoprover_env.envs.sb3.HopRoverSB3VecEnv` is Stable-Baselines3's ``VecEnv`` over the
 # native batched env. The settings come from the repository's config file, so this
 # tutorial trains exactly what ``python train.py --config configs/ppo_hop.yaml`` trains.
 import time
@@ -25,10 +25,10 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.policies import SB3Policy, load_policy
-from hoprover_env.sb3 import HopRoverSB3VecEnv
-from hoprover_env.sb3_agents import config_path
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.agents.policies import SB3Policy, load_policy
+from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+from hoprover_env.training.sb3_agents import config_path
 
 torch.set_num_threads(1)
 # configs/ppo_hop.yaml, by its name: it travels with the package, so this also runs from
@@ -84,9 +84,9 @@ fig.tight_layout()
 # %%
 # Score it with the contest judge
 # -------------------------------
-# :func:`hoprover_env.evaluation.run_episodes` runs one episode per target, all side by side in
+# :func:`hoprover_env.evaluation.episodes.run_episodes` runs one episode per target, all side by side in
 # one vector env, deterministic actions, and the judge's TTRTP. The trained model and its
-# observation statistics become an :class:`hoprover_env.policies.SB3Policy`; the bundled
+# observation statistics become an :class:`hoprover_env.agents.policies.SB3Policy`; the bundled
 # ``hop`` policy (200 k hops of the same config) is the reference.
 venv.training = False
 mine = SB3Policy(model, venv.obs_rms, cfg["normalize"]["clip_obs"], name="this run",

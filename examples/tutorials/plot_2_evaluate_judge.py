@@ -22,11 +22,11 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.plots import nine_figures
-from hoprover_env.policies import load_policy
-from hoprover_env.replay import record_episode
-from hoprover_env.cli.evaluate import format_table
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.evaluation.plots import nine_figures
+from hoprover_env.agents.policies import load_policy
+from hoprover_env.evaluation.replay import record_episode
+from hoprover_env.training.evaluate import format_table
 
 targets = seeded_targets(60, seed=2015)
 rows, by_name = [], {}

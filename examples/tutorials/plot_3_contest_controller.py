@@ -20,7 +20,7 @@ the launch torque, then a Python entry with memory that uses the calibration.
 # A compiled controller: one hop
 # ------------------------------
 # Hold a launch torque while on the ground until a launch window closes; in flight, the
-# PD attitude hold (:func:`hoprover_env.controllers.attitude_hold`, the law every
+# PD attitude hold (:func:`hoprover_env.sim.controllers.attitude_hold`, the law every
 # controller in the repository flies with) so that the rover lands flat. A numba
 # function keeps no memory between calls, so it decides from the state and the time;
 # ``simulate_batch(..., controller_args=A)`` hands it row i of A in ``posT[2:]``.
@@ -30,10 +30,10 @@ import matplotlib.pyplot as plt
 import numba
 import numpy as np
 
-from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.policies import ControllerPolicy
-from hoprover_env import RoverParams, simulate, simulate_batch
-from hoprover_env.controllers import attitude_hold
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.agents.policies import ControllerPolicy
+from hoprover_env import RoverParams, simulate_batch, simulate
+from hoprover_env.sim.controllers import attitude_hold
 
 P = RoverParams()                      # the contest's rover
 KP, KD = 0.15, 0.9                     # attitude-hold gains [1/s^2, 1/s]

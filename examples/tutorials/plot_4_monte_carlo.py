@@ -13,7 +13,7 @@ parameters, and where they come to rest.
 # One hop plan, 2000 parameter draws
 # ----------------------------------
 # The controller is the repository's compiled hop plan
-# (:func:`hoprover_env.compiled.planned_hops`): a launch torque held on the ground during a
+# (:func:`hoprover_env.agents.compiled.planned_hops`): a launch torque held on the ground during a
 # time window, the PD attitude hold in flight, zero torque otherwise. Its plan arrives
 # per run through ``controller_args``: (inertia, kp, kd) and then (start, duration,
 # torque) per hop. One hop: 2.3e-4 N m from t = 0 for at most 20 s. ``randomize`` scales
@@ -23,8 +23,8 @@ import time
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hoprover_env.compiled import hop_plan, planned_hops
-from hoprover_env import RoverParams, simulate, simulate_batch
+from hoprover_env.agents.compiled import hop_plan, planned_hops
+from hoprover_env import RoverParams, simulate_batch, simulate
 
 N = 2000
 base = RoverParams()

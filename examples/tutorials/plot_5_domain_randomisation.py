@@ -19,8 +19,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the env ids)
-from hoprover_env.evaluation import run_episodes, seeded_targets, summarize
-from hoprover_env.policies import load_policy
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.agents.policies import load_policy
 
 env = gym.make("HopRover-v0", randomize={"gravity": 0.3, "mu_static": 0.2})
 for seed in range(3):
@@ -70,7 +70,7 @@ fig.tight_layout()
 # ``env`` section of a config (``python train.py --config ...``), or pass it to the
 # SB3 adapter as any env argument::
 #
-#     from hoprover_env.sb3 import HopRoverSB3VecEnv
+#     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
 #     venv = HopRoverSB3VecEnv(64, seed=0, env_id="HopRoverHop-v0",
 #                              randomize={"gravity": 0.2, "mu_static": 0.2})
 #

@@ -14,7 +14,7 @@ at several step sizes and tolerances, and plots the error against the wall time.
 # One hop, many integrators
 # -------------------------
 # The hop: 2e-4 N m held from rest until lift-off, the PD attitude hold in flight (the
-# compiled hop plan of :func:`hoprover_env.compiled.hop_plan`, so the whole run is one kernel
+# compiled hop plan of :func:`hoprover_env.agents.compiled.hop_plan`, so the whole run is one kernel
 # call and the wall time is the integrator's), zero torque while it bounces and slides.
 # The reference is ``event`` at rtol 1e-14; the target is the reference's rest point +
 # 0.02 m, so that the rover stops in the band and TTRTP exists.
@@ -23,7 +23,7 @@ import time
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hoprover_env.compiled import hop_plan
+from hoprover_env.agents.compiled import hop_plan
 from hoprover_env import RoverParams, simulate
 
 p = RoverParams()

@@ -2,7 +2,7 @@
 Offline RL: build a Minari dataset, clone it, judge the clone on the suite
 ==========================================================================
 
-hoprover writes D4RL-style datasets with Minari (``hoprover_env.datasets``, the
+hoprover writes D4RL-style datasets with Minari (``hoprover_env.evaluation.datasets``, the
 ``offline`` extra). Here we build a small expert dataset of ``HopRover-v0`` from the
 native vector env, load it back as any Minari user would, check that an episode replays
 bit for bit from its recorded seed, train behaviour cloning with a few lines of PyTorch,
@@ -28,9 +28,10 @@ import numpy as np
 import torch
 
 import hoprover_env  # noqa: F401  (registers the env ids Minari recovers)
-from hoprover_env import datasets, suites
-from hoprover_env.policies import ArrayPolicy, load_policy
-from hoprover_env.scores import summarize
+from hoprover_env.evaluation import datasets
+from hoprover_env.evaluation import suites
+from hoprover_env.agents.policies import ArrayPolicy, load_policy
+from hoprover_env.evaluation.scores import summarize
 
 torch.set_num_threads(1)
 out = tempfile.mkdtemp(prefix="hoprover-datasets-")

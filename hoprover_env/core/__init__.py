@@ -13,8 +13,8 @@ the instantaneous transitions between them (`settle`), the impact laws
 
 State vector ``S`` (float64, layout ``S_*``): the c.m. state, time, contact mode,
 slide direction, applied torque, target, judge and diagnostics: physics only (an RL
-reward keeps its own memory, hoprover_env/reward.py). Parameter vector ``P`` (layout
-``P_*`` of :mod:`hoprover_env.params`). Options ``O`` (layout ``O_*``). The kernel takes
+reward keeps its own memory, hoprover_env/tasks/reward.py). Parameter vector ``P`` (layout
+``P_*`` of :mod:`hoprover_env.core.params`). Options ``O`` (layout ``O_*``). The kernel takes
 no Python objects, so the vector env loops it over rows of 2-D arrays in one jitted call.
 
 Conventions (docs/MODEL.md section 2): x right, y up, theta clockwise-positive, positive T
@@ -47,7 +47,7 @@ One module per section of the kernel (docs/ARCHITECTURE.md has the whole map):
 The names below are the core's public surface: callers write ``core.settle``,
 ``core.S_T``. Each comes from the one module that defines it.
 """
-from .layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TORQUE, S_XT,
+from hoprover_env.core.layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TORQUE, S_XT,
                      S_BROKEN, S_INBAND, S_TIN, S_TTRTP, S_HSTEP, S_NEVENTS, S_NIMPACT,
                      S_NGAIN, S_MAXGAIN, S_ERROR, S_STOP_ON, S_STOPPED, S_MIN_HEIGHT,
                      S_SEED_LO, S_SEED_HI, S_ROVER, S_NDRAW, N_STATE, MODE_A, MODE_B,
@@ -61,21 +61,21 @@ from .layout import (S_X, S_Y, S_TH, S_VX, S_VY, S_W, S_T, S_MODE, S_SIGMA, S_TO
                      RK_MIN_FACTOR, ERR_BUDGET, ERR_TORQUE, ERR_STEP, ERR_WORK,
                      MAX_RK_STEPS, MAX_WORK, MAX_PHASES, RK_MAX_FACTOR, TWO_PI, PH_NONE,
                      PH_LIFTOFF, PH_SLIP, PH_STICK, PH_TOUCH, PH_BROKEN, PH_BAND, PH_STOP)
-from .forces import (corner_body, corner_offset_cs, corner_offset, wrap_angle,
+from hoprover_env.core.forces import (corner_body, corner_offset_cs, corner_offset, wrap_angle,
                      kinetic_energy, total_energy, contact_corner, pivot_dynamics,
                      slide_dynamics, double_contact_forces, contact_forces,
                      set_single_contact, pin_corner, pinned_mode, sliding_mode, pin_or_slide,
                      turn_flat_about, set_double_contact)
-from .flight import flight_at, flight_rise, resting_corner_driven_down, flight_phase
-from .judge import log_event, in_band, judge_check, judge_set, judge_update
-from .transitions import settle
-from .terrain import (philox4x64, truncated_normal, impact_tilt, TRUNCATION, MAX_ATTEMPTS)
-from .impacts import (contest_impulses, frictionless_impulses, resolve_impact,
+from hoprover_env.core.flight import flight_at, flight_rise, resting_corner_driven_down, flight_phase
+from hoprover_env.core.judge import log_event, in_band, judge_check, judge_set, judge_update
+from hoprover_env.core.transitions import settle
+from hoprover_env.core.terrain import (philox4x64, truncated_normal, impact_tilt, TRUNCATION, MAX_ATTEMPTS)
+from hoprover_env.core.impacts import (contest_impulses, frictionless_impulses, resolve_impact,
                       resolve_impact_tilted, impact_event)
-from .contact_phases import g_phase, contact_phase
-from .phase_end import track_min_height, after_phase
-from .euler import event_budget, advance_euler
-from .integrator import (advance_event_loop, advance, advance_event, init_state,
+from hoprover_env.core.contact_phases import g_phase, contact_phase
+from hoprover_env.core.phase_end import track_min_height, after_phase
+from hoprover_env.core.euler import event_budget, advance_euler
+from hoprover_env.core.integrator import (advance_event_loop, advance, advance_event, init_state,
                          INIT_GROUND_TOL, INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN,
                          INIT_MOVING_DOWN, INIT_NOT_FLAT)
-from . import smooth
+from hoprover_env.core import smooth

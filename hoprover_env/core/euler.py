@@ -2,17 +2,17 @@
 section 10), over the same forces, transitions and impact law."""
 
 
-from .._compile import kernel
-from ..params import P_M, P_I, P_GC, P_GS, P_MUD
-from .layout import (ERR_BUDGET, H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
+from hoprover_env.jit.compiler import kernel
+from hoprover_env.core.params import P_M, P_I, P_GC, P_GS, P_MUD
+from hoprover_env.core.layout import (ERR_BUDGET, H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
                      MODE_E, MODE_F, MODE_G, O_EULER_DT, O_INTEGRATOR, PH_BROKEN, PH_NONE,
                      PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_ERROR, S_MODE, S_SIGMA,
                      S_STOPPED, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL)
-from .forces import (turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
+from hoprover_env.core.forces import (turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
                      slide_dynamics)
-from .judge import judge_update
-from .transitions import settle
-from .phase_end import after_phase
+from hoprover_env.core.judge import judge_update
+from hoprover_env.core.transitions import settle
+from hoprover_env.core.phase_end import after_phase
 
 
 # ----------------------------------------------------------------------------------

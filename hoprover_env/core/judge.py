@@ -3,12 +3,12 @@
 import math
 
 
-from .._compile import kernel, F64, I64, BOOL, VEC, MAT
-from ..params import P_R, P_BAND, P_DWELL
-from .layout import (EV_BAND_IN, EV_BAND_OUT, EV_TTRTP, MODE_A, MODE_F, MODE_G, S_INBAND,
+from hoprover_env.jit.compiler import kernel, F64, I64, BOOL, VEC, MAT
+from hoprover_env.core.params import P_R, P_BAND, P_DWELL
+from hoprover_env.core.layout import (EV_BAND_IN, EV_BAND_OUT, EV_TTRTP, MODE_A, MODE_F, MODE_G, S_INBAND,
                      S_MODE, S_NEVENTS, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN, S_TTRTP,
                      S_X, S_XT)
-from .forces import contact_corner, corner_offset
+from hoprover_env.core.forces import contact_corner, corner_offset
 
 
 # ----------------------------------------------------------------------------------

@@ -14,9 +14,9 @@ import math
 import numpy as np
 from numba import types as nt
 
-from .._compile import kernel, F64, VEC
-from ..params import P_ROUGH
-from .layout import (S_NDRAW, S_NIMPACT, S_ROVER, S_SEED_HI, S_SEED_LO)
+from hoprover_env.jit.compiler import kernel, F64, VEC
+from hoprover_env.core.params import P_ROUGH
+from hoprover_env.core.layout import (S_NDRAW, S_NIMPACT, S_ROVER, S_SEED_HI, S_SEED_LO)
 
 
 _U = nt.uint64

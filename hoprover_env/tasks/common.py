@@ -29,11 +29,11 @@ from typing import Any, Callable
 import numpy as np
 from numba import get_thread_id, prange, types as nt
 
-from .._compile import bind_globals, kernel, BOOL, F64, VEC
-from .. import core
-from ..core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TTRTP
-from .. import reward
-from .layout import E_T_TOTAL
+from hoprover_env.jit.compiler import bind_globals, kernel, BOOL, F64, VEC
+from hoprover_env import core
+from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TTRTP
+from hoprover_env.tasks import reward
+from hoprover_env.tasks.layout import E_T_TOTAL
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 # on smooth ground (roughness 0) the event integrator without rough-terrain code

@@ -13,17 +13,17 @@ the hop took. `TASK` is its written interface (tasks/common.py `TaskSpec`).
 """
 import math
 
-from .._compile import kernel
-from ..controllers import attitude_hold
-from ..core.layout import ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_T, S_TH, S_W
-from ..env_config import HopEnvConfig
-from ..params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
-from .. import reward
-from . import torque
-from .common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
-from .layout import (E_CONTROL_DT, E_HOLD_KD, E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN,
+from hoprover_env.jit.compiler import kernel
+from hoprover_env.sim.controllers import attitude_hold
+from hoprover_env.core.layout import ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_T, S_TH, S_W
+from hoprover_env.tasks.config import HopEnvConfig
+from hoprover_env.core.params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
+from hoprover_env.tasks import reward
+from hoprover_env.tasks import torque
+from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
+from hoprover_env.tasks.layout import (E_CONTROL_DT, E_HOLD_KD, E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN,
                      E_T_TOTAL)
-from .observation import OBS_HIGH, OBS_LOW, clip, observe
+from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
 
 # A hop that never ends (it cannot: every state decays to rest or flies ballistically)
 # would still stop here, in the kernel's error state, which ends the episode.

@@ -1,5 +1,5 @@
 """The task configuration vector ``E`` shared by every rover of an env: one home for
-each slot (the reward's own parameters are in hoprover_env/reward.py)."""
+each slot (the reward's own parameters are in hoprover_env/tasks/reward.py)."""
 
 E_CONTROL_DT = 0     # control period [s] (the hop task: its controller's period)
 E_T_TOTAL = 1        # episode length [s]

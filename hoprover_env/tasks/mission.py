@@ -24,16 +24,16 @@ import math
 
 import numpy as np
 
-from .._compile import kernel, NONE, VEC, VEC32
-from ..core.layout import MODE_F, S_MODE, S_T, S_TH, S_W, S_X, S_XT
-from ..core.terrain import truncated_normal
-from ..env_config import MissionEnvConfig
-from ..params import P_SLOPE, P_TMAX, P_TMIN
-from . import torque
-from .layout import (E_ATT_NOISE, E_BIAS_WALK, E_FIX_NOISE, E_FIX_REST, E_HISTORY,
+from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
+from hoprover_env.core.layout import MODE_F, S_MODE, S_T, S_TH, S_W, S_X, S_XT
+from hoprover_env.core.terrain import truncated_normal
+from hoprover_env.tasks.config import MissionEnvConfig
+from hoprover_env.core.params import P_SLOPE, P_TMAX, P_TMIN
+from hoprover_env.tasks import torque
+from hoprover_env.tasks.layout import (E_ATT_NOISE, E_BIAS_WALK, E_FIX_NOISE, E_FIX_REST, E_HISTORY,
                      E_INCL_NOISE, E_RATE_NOISE, E_T_TOTAL)
-from .observation import POS_SCALE, RATE_SCALE, clip
-from .terrain import SLOPE_SCALE
+from hoprover_env.tasks.observation import POS_SCALE, RATE_SCALE, clip
+from hoprover_env.tasks.terrain import SLOPE_SCALE
 
 # the task memory M of one rover
 M_SEED_LO, M_SEED_HI = 0, 1     # the episode's sensor seed, in two 32-bit halves

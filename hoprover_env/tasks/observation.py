@@ -2,20 +2,20 @@
 measurements the observation and the reward share (the reference point and the
 ballistic landing point).
 
-Table of slots and scales: hoprover_env/env.py. Every value is clipped to the
+Table of slots and scales: hoprover_env/envs/env.py. Every value is clipped to the
 observation space's bounds (OBS_LOW, OBS_HIGH).
 """
 import math
 
 import numpy as np
 
-from .._compile import kernel, NONE, VEC, VEC32
-from ..core import corner_offset_cs
-from ..core.layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
+from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
+from hoprover_env.core import corner_offset_cs
+from hoprover_env.core.layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
                            S_INBAND, S_MODE, S_T, S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W,
                            S_X, S_XT, S_Y)
-from ..params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TMAX, P_TMIN
-from .layout import E_T_TOTAL
+from hoprover_env.core.params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TMAX, P_TMIN
+from hoprover_env.tasks.layout import E_T_TOTAL
 
 OBS_DX = 0           # (x - x_T) / POS_SCALE
 OBS_HEIGHT = 1       # (y - h) / HEIGHT_SCALE
@@ -53,7 +53,7 @@ MIRROR_ORDER[OBS_MODE + MODE_B:OBS_MODE + MODE_E + 1] = OBS_MODE + np.array(
 def mirror(obs):
     """Observations (N, OBS_DIM; numpy or torch) of the mirror image of each rover and
     its target on level ground, where the mirror image of a good action is its negative
-    (hoprover_env.gated's symmetric networks act as odd functions of this map)."""
+    (agents.plan_clone.gated's symmetric networks act as odd functions of this map)."""
     if isinstance(obs, np.ndarray):
         return obs[:, MIRROR_ORDER] * MIRROR_SIGN.astype(obs.dtype)
     import torch

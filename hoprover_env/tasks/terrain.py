@@ -9,11 +9,11 @@ import dataclasses
 
 import numpy as np
 
-from .._compile import kernel, NONE, VEC, VEC32
-from ..params import P_SLOPE
-from . import torque
-from ..env_config import TerrainEnvConfig
-from .observation import OBS_DIM, OBS_HIGH as FLAT_HIGH, OBS_LOW as FLAT_LOW, observe as \
+from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
+from hoprover_env.core.params import P_SLOPE
+from hoprover_env.tasks import torque
+from hoprover_env.tasks.config import TerrainEnvConfig
+from hoprover_env.tasks.observation import OBS_DIM, OBS_HIGH as FLAT_HIGH, OBS_LOW as FLAT_LOW, observe as \
     flat_observe
 
 OBS_SLOPE = OBS_DIM            # the slope / SLOPE_SCALE, after the torque task's slots

@@ -9,14 +9,14 @@ carries a per-episode scale error).
 """
 import math
 
-from .._compile import kernel, F64, VEC
-from ..core.layout import S_T
-from ..env_config import EnvConfig
-from ..params import P_TMAX, P_TMIN
-from .. import reward
-from .common import ADVANCE, TaskSpec, close_step, open_step
-from .layout import ACTION_CUBIC, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_T_TOTAL
-from .observation import OBS_HIGH, OBS_LOW, clip, observe
+from hoprover_env.jit.compiler import kernel, F64, VEC
+from hoprover_env.core.layout import S_T
+from hoprover_env.tasks.config import EnvConfig
+from hoprover_env.core.params import P_TMAX, P_TMIN
+from hoprover_env.tasks import reward
+from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, open_step
+from hoprover_env.tasks.layout import ACTION_CUBIC, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_T_TOTAL
+from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
 
 
 @kernel(F64(F64, VEC, VEC))

@@ -1,0 +1,279 @@
+"""HopRoverVectorEnv: N rovers stepped in one jitted call over flat arrays.
+
+    envs = gym.make_vec("HopRover-v0", num_envs=4096)            # this class
+    envs = HopRoverVectorEnv(256, autoreset_mode="SameStep", threads=True)
+
+Every sub-env runs its task's step (hoprover_env/tasks), the code `HopRoverEnv` runs, on a
+row of a 2-D state array; resets draw from a per-sub-env numpy Generator exactly as the
+single env does (seed s gives sub-env i the seed s + i, as Gymnasium's SyncVectorEnv).
+So sub-env i and `HopRoverEnv` seeded with s + i agree bit for bit.
+
+Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, the
+default, or SameStep), `max_episode_steps` (an extra step limit per episode) and
+`threads` (None: threaded from 64 sub-envs on; True/False to force). Infos follow
+Gymnasium's dict-of-arrays convention (each key with its `_key` mask); with SameStep,
+`final_obs` and `final_info` carry the ended episodes' last observation and info. The
+info values and their types are those of HopRoverEnv (the table in env.py), as arrays.
+"""
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numba
+import numpy as np
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from hoprover_env import core
+from hoprover_env.jit import compiler as _compile
+from hoprover_env.tasks import reward
+from hoprover_env.envs.env import check_actions
+from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
+from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
+                        info as make_info, task_spaces)
+from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
+from hoprover_env.tasks import torque
+
+THREAD_THRESHOLD = 64
+
+
+class HopRoverVectorEnv(VectorEnv):
+    """N rovers of the torque task stepped in one jitted call (the module docstring has
+    the arguments); sub-env i equals a HopRoverEnv seeded with seed + i."""
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
+                "autoreset_mode": AutoresetMode.NEXT_STEP}
+    task = torque.TASK          # the written interface (tasks/common.py TaskSpec)
+
+    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
+                 max_episode_steps: int | None = None, threads: bool | None = None,
+                 render_mode: str | None = None, **kwargs: Any):
+        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
+                and num_envs >= 1):
+            raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
+                                                   **kwargs)
+        # cold cache: compile on 2 cores, for the ground the config's episodes are on
+        _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
+        self.num_envs = int(num_envs)
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = AutoresetMode[str(autoreset_mode).upper()] if str(autoreset_mode).upper() \
+                in AutoresetMode.__members__ else None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(f"autoreset_mode must be NextStep or SameStep, got {autoreset_mode!r}")
+        self.autoreset_mode = mode
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode}
+        if max_episode_steps is not None and not (isinstance(max_episode_steps, (int, np.integer))
+                                                  and max_episode_steps >= 1):
+            raise ValueError(f"max_episode_steps must be a positive integer or None, got "
+                             f"{max_episode_steps!r}")
+        self.max_episode_steps = max_episode_steps
+        check_render_mode(render_mode, self.metadata["render_modes"])
+        self.render_mode = render_mode
+        self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
+        self._rough = None
+        self._kernel = None                 # chosen at reset, by the ground (_choose_kernel)
+
+        self.single_action_space, self.single_observation_space = task_spaces(self.task,
+                                                                              self.config)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+
+        n = self.num_envs
+        self._o = self.config.options_vector()
+        self._e = self.config.task_vector()
+        self._rw = self.config.reward_vector()
+        self._rm = reward.new_memory(n)
+        self.M = self.task.new_memory(n)
+        self.S = np.zeros((n, core.N_STATE))
+        self.P = np.zeros((n, N_PARAMS))
+        self._obs = np.zeros((n, self.single_observation_space.shape[0]), dtype=np.float32)
+        self._rew = np.zeros(n)
+        self._term = np.zeros(n, dtype=np.bool_)
+        self._trunc = np.zeros(n, dtype=np.bool_)
+        self._succ = np.zeros(n, dtype=np.bool_)
+        self._nev = np.zeros(n, dtype=np.int64)
+        self._autoreset = np.zeros(n, dtype=np.bool_)
+        self._steps = np.zeros(n, dtype=np.int64)
+        self._all = np.ones(n, dtype=np.bool_)
+        self._log = np.zeros((0, core.EV_COLS))
+        self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
+        self.targets = np.zeros(n)
+        self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
+        self.params = [self.config.params] * n
+        self._rngs: list = [None] * n
+        self._traces: list = [[] for _ in range(n)] if render_mode else []
+        self._renderers: list = []
+        self._ready = False
+
+    # ------------------------------------------------------------------------------
+    def _choose_kernel(self, rough: bool) -> None:
+        """The batch kernel for the ground: without rough-terrain code while every rover
+        is on smooth ground (core/smooth.py), the general one once any has bumps."""
+        rough = bool(rough)
+        if rough != self._rough:
+            kernels = self.task.kernels(self.config.integrator, rough=rough)
+            # a threaded step leaves the caller's OpenMP thread count (torch's) as it was
+            self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
+                            if self.threads else kernels.batch)
+            self._rough = rough
+
+    def _reset_one(self, i: int, options=None):
+        target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
+        self.terrain_seeds[i] = NO_TERRAIN_SEED if seed is None else seed
+        self.S[i] = s
+        self.P[i] = p
+        if p[P_ROUGH] > 0.0 and not self._rough:       # an autoreset onto bumps
+            self._choose_kernel(True)
+        self.targets[i] = target
+        self.params[i] = params
+        self._steps[i] = 0
+        self._rm[i] = reward.new_memory()
+        self.task.start(self.config, self._rngs[i], self.S[i], self.P[i], self.M[i])
+        self.task.observe(self.S[i], self.P[i], self._e, self.M[i], self._obs[i])
+        if self.render_mode:
+            self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
+
+    def reset(self, *, seed: int | list | None = None, options: dict | None = None):
+        """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
+        (sub-env i gets seed + i) or one per sub-env; the options of
+        env_config.RESET_OPTIONS ("target_x", "initial_state", "slope", "roughness",
+        "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
+        super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
+        n = self.num_envs
+        if seed is None:
+            seeds = [None] * n
+        elif isinstance(seed, (int, np.integer)):
+            seeds = [int(seed) + i for i in range(n)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != n:
+                raise ValueError(f"seed list has {len(seeds)} entries for {n} envs")
+        options = dict(options or {})
+        mask = np.asarray(options.pop("reset_mask", self._all), dtype=np.bool_)
+        if mask.shape != (n,):
+            raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
+        per_env = {}
+        for key in RESET_OPTIONS:           # a value, or one per sub-env
+            if key not in options:
+                continue
+            value = np.asarray(options.pop(key))
+            width = (6,) if key == "initial_state" else ()
+            if value.shape not in (width, (n, *width)):
+                raise ValueError(f"options[{key!r}] must have shape {width or '()'} or "
+                                 f"{(n, *width)} (one per sub-env), got {value.shape}")
+            if key == "terrain_seed" and value.dtype.kind not in "iu":
+                raise ValueError(f"options['terrain_seed'] must be integers, got {value.dtype}")
+            per_env[key] = np.broadcast_to(value, (n, *width))
+        if options:
+            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
+                             f"{sorted(('reset_mask',) + RESET_OPTIONS)}")
+        for i in np.flatnonzero(mask):
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i], _ = seeding.np_random(seeds[i])
+            opt = {k: (v[i] if k == "initial_state" else
+                       int(v[i]) if k == "terrain_seed" else float(v[i]))
+                   for k, v in per_env.items()}
+            self._reset_one(i, opt)
+        self._choose_kernel((self.P[:, P_ROUGH] > 0.0).any())
+        self._autoreset[mask] = False
+        self._ready = True
+        return self._obs.copy(), self._infos(np.zeros(n, dtype=np.int64))
+
+    def step(self, actions):
+        """Step every active sub-env: actions of shape (N, action_dim) (or (N,) for one
+        component). Returns (observations, rewards, terminated, truncated, infos); raises
+        ValueError for a non-finite or misshapen action, RuntimeError before reset."""
+        if not self._ready:
+            raise RuntimeError("call reset() before step()")
+        n = self.num_envs
+        shape = (n, self.task.action_dim)
+        if type(actions) is np.ndarray and actions.shape == shape and \
+                actions.dtype == np.float64 and actions.flags.c_contiguous:
+            a = actions                   # the common case; finiteness checked in the kernel
+        else:
+            a = np.ascontiguousarray(check_actions(actions, shape, "actions"))
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
+            done = np.flatnonzero(self._autoreset)
+            active = ~self._autoreset
+            for i in done:
+                self._reset_one(i)
+        else:
+            done = np.zeros(0, dtype=np.int64)
+            active = self._all
+        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
+                           active, self._obs, self._rew, self._term, self._trunc, self._succ,
+                           self._nev, self._log, self._work)
+        if bad >= 0:
+            raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
+                             f"{bad}")
+        if done.size:
+            self._rew[done] = 0.0
+            self._term[done] = False
+            self._trunc[done] = False
+            self._nev[done] = 0
+        self._steps[active] += 1
+        if self.max_episode_steps is not None:
+            self._trunc |= (self._steps >= self.max_episode_steps) & ~self._term
+        if self.render_mode:
+            for i in range(n):
+                self._traces[i].append((float(self.S[i, core.S_X]), float(self.S[i, core.S_Y])))
+        ended = self._term | self._trunc
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+            idx = np.flatnonzero(ended)
+            final_info = self._infos(self._nev, mask=ended)
+            final_obs = np.full(n, None, dtype=object)
+            for i in idx:
+                final_obs[i] = self._obs[i].copy()
+                self._reset_one(i)
+            infos = self._infos(self._nev)
+            infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
+            infos["final_info"], infos["_final_info"] = final_info, ended.copy()
+        else:
+            infos = self._infos(self._nev)
+            self._autoreset = ended.copy()
+        return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(),
+                infos)
+
+    def _infos(self, nev, mask=None) -> dict:
+        n = self.num_envs
+        mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
+        ttrtp = self.S[:, core.S_TTRTP].copy()
+        reached = ~np.isnan(ttrtp)
+        ttrtp[~reached] = TTRTP_NOT_REACHED
+        info = make_info(reached, ttrtp, self.S[:, core.S_MODE].astype(np.int64),
+                         self.targets.copy(), self.S[:, core.S_BROKEN] != 0.0,
+                         nev.astype(np.int64), self.P[:, P_SLOPE].copy(),
+                         self.terrain_seeds.copy())
+        if self.config.info_level == "full":
+            info.update(full_info(self.S, self.P, self._rm))
+            if self.task.hidden_info is not None:
+                info.update(self.task.hidden_info(self.M))
+        for key in list(info):
+            info["_" + key] = mask       # one mask array shared by all keys of this step
+        return info
+
+    # ------------------------------------------------------------------------------
+    def render(self):
+        """One RGB frame per sub-env (render_mode="rgb_array"), or None."""
+        if self.render_mode is None:
+            return None
+        from hoprover_env.envs.rendering import Renderer
+        while len(self._renderers) < self.num_envs:
+            self._renderers.append(Renderer(mode="rgb_array"))
+        frames = []
+        for i in range(self.num_envs):
+            s = self.S[i]
+            frames.append(self._renderers[i].draw(
+                s, self.params[i], self.targets[i], self._traces[i], float(s[core.S_T]),
+                core.MODE_LETTERS[int(s[core.S_MODE])], float(s[core.S_TORQUE])))
+        return tuple(frames)
+
+    def close_extras(self, **kwargs):
+        """Close the sub-envs' renderers."""
+        for r in getattr(self, "_renderers", ()):    # None if __init__ refused its arguments
+            r.close()
+        self._renderers = []

@@ -1,0 +1,141 @@
+"""Evaluate a policy with the contest judge on a fixed set of targets.
+
+All sub-episodes run side by side in one `HopRoverVectorEnv` (one target each, a
+single episode each), so a neural policy is queried once per control step for the
+whole batch. The judge is the simulator's own: TTRTP exact to event precision.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+from gymnasium.vector import AutoresetMode
+
+from hoprover_env.agents.base import RandomPolicy
+from hoprover_env import vector_env_class
+
+
+@dataclasses.dataclass
+class EpisodeResult:
+    """One evaluated episode: the policy's name, the episode's index, its target [m],
+    success, the judge's TTRTP [s] (None without success), whether the rover broke, the
+    env steps, the simulated time [s], the final c.m. x [m] and the wall time [s] (a
+    batch's mean)."""
+
+    policy: str
+    episode: int
+    target_x: float
+    success: bool
+    ttrtp: float | None
+    broken: bool
+    steps: int
+    sim_time: float
+    final_x: float
+    wall_time: float
+
+    def as_dict(self) -> dict:
+        """The fields as a dict (a row of evaluate.py's JSON and CSV)."""
+        return dataclasses.asdict(self)
+
+
+def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.0) -> np.ndarray:
+    """The fixed evaluation targets: n draws from U(low, high) with this seed."""
+    return np.random.default_rng(seed).uniform(low, high, n)
+
+
+def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
+                 progress=None, first_episode: int = 0,
+                 terrain: dict | None = None) -> list[EpisodeResult]:
+    """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
+    env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
+    `terrain` fixes each episode's ground: {"slope": per-episode slopes [rad],
+    "roughness": per-episode roughness [rad], "terrain_seed": per-episode seeds of the
+    bumps (integers)} (reset options of every hoprover env).
+    `progress` is called with the number of finished episodes. `first_episode` numbers
+    the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
+    start at multiples of `batch`, so each batch is the one a local run has).
+
+    Returns one `EpisodeResult` per target [m], in order. Raises ValueError for bad env
+    arguments, as the env does."""
+    kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
+    kwargs.pop("target_x", None)
+    targets = np.asarray(targets, dtype=float)
+    results: list[EpisodeResult] = []
+    # terrain seeds stay integers: up to 2^63, a float64 would round them to other bumps
+    terrain = {k: np.broadcast_to(np.asarray(v, dtype=np.int64 if k == "terrain_seed"
+                                             else float), targets.shape)
+               for k, v in (terrain or {}).items()}
+    for start in range(0, len(targets), batch):
+        chunk = targets[start:start + batch]
+        ground = {k: v[start:start + batch] for k, v in terrain.items()}
+        results.extend(_run_batch(policy, chunk, first_episode + start, kwargs, progress,
+                                  len(results), ground))
+    return results
+
+
+def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
+    n = len(targets)
+    # a policy of the hop-level task acts once per hop, in that task's vector env
+    venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
+        n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+    # episode e's sub-env is seeded with e, whatever the batch it runs in: the draws a
+    # task makes at reset (the mission's sensors and ground) belong to the episode
+    obs, _ = venv.reset(seed=offset, options={"target_x": targets, **ground})
+    if isinstance(policy, RandomPolicy):
+        policy.reset(n, offset)
+    else:
+        policy.reset(n)
+    active = np.ones(n, dtype=bool)
+    steps = np.zeros(n, dtype=np.int64)
+    out: list = [None] * n
+    t_start = time.perf_counter()
+    while active.any():
+        actions = policy.act(obs, venv)
+        actions[~active] = 0.0
+        obs, _, term, trunc, info = venv.step(actions)
+        steps += active
+        ended = active & (term | trunc)
+        if ended.any():
+            fin = info["final_info"]
+            now = time.perf_counter() - t_start
+            for i in np.flatnonzero(ended):
+                success = bool(fin["is_success"][i])
+                out[i] = EpisodeResult(
+                    policy=getattr(policy, "name", "policy"), episode=offset + int(i),
+                    target_x=float(targets[i]), success=success,
+                    ttrtp=float(fin["ttrtp"][i]) if success else None,
+                    broken=bool(fin["broken"][i]),
+                    steps=int(steps[i]), sim_time=float(fin["t"][i]) if "t" in fin else
+                    float(steps[i] * venv.config.control_dt),
+                    final_x=float(venv_final_x(info, i)), wall_time=now)
+            active &= ~ended
+            if progress is not None:
+                progress(done_before + int((~active).sum()))
+    wall = time.perf_counter() - t_start
+    for r in out:
+        r.wall_time = wall / n          # a batch shares its wall time: report the mean
+    return out
+
+
+def venv_final_x(info, i) -> float:
+    """c.m. x of an ended episode, from its final observation (obs[0] = x - x_T)."""
+    fo = info["final_obs"][i]
+    return float(fo[0]) + float(info["final_info"]["target_x"][i])
+
+
+def summarize(results: list[EpisodeResult]) -> dict:
+    """The README's columns over `results`: episodes, success_rate (0..1), median_ttrtp
+    and p90_ttrtp [s] over the successful episodes (NaN if none), broken (count) and
+    wall_per_episode [s]."""
+    n = len(results)
+    tt = np.array([r.ttrtp for r in results if r.success])
+    return {
+        "episodes": n,
+        "success_rate": float(np.mean([r.success for r in results])) if n else math.nan,
+        "median_ttrtp": float(np.median(tt)) if tt.size else math.nan,
+        "p90_ttrtp": float(np.percentile(tt, 90)) if tt.size else math.nan,
+        "broken": int(sum(r.broken for r in results)),
+        "wall_per_episode": float(np.mean([r.wall_time for r in results])) if n else math.nan,
+    }

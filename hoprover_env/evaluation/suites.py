@@ -1,0 +1,296 @@
+"""Frozen test suites: the versioned test episodes of every task, each with a replayable
+best-known reference.
+
+    from hoprover_env.evaluation import suites
+    suite = suites.load("HopRover-v0")            # the newest version
+    ep = suite[0]
+    ep.target_x, ep.slope, ep.roughness, ep.terrain_seed, ep.control_dt
+    ep.reference_ttrtp, ep.reference_schedule     # the best-known plan, as torques
+    ep.replay().ttrtp == ep.reference_ttrtp       # bit for bit
+
+=====================  ===============================================================
+suite                  episodes
+=====================  ===============================================================
+``level``              200 targets from U(-1, 1) m on level, smooth ground
+                       (HopRover-v0; HopRoverHop-v0 shares them: the physics is the
+                       same, only the action differs)
+``terrain``            200 (target, slope, terrain seed) triples: targets from U(-1, 1)
+                       m, slopes from U(-0.2, 0.2) rad, roughness 0.05 rad
+                       (HopRoverTerrain-v0)
+``contest``            the contest's target, 0.5 m (HopRoverContest-v0)
+=====================  ===============================================================
+
+The episodes are drawn from seeds of their own (`SUITE_SEEDS`), which no training run
+or validation uses: train.py validates on the env's own draws from seed 7 (the suites'
+tests check that no suite target coincides with those) and `evaluate.py` without
+``--suite`` on seed 2015.
+
+A reference is the fastest plan a clairvoyant search found for that episode (on rough
+ground it knew the episode's bumps), together with the plans of every bundled agent,
+stored as the torque it commands in each control interval of `control_dt` (0.5 s); zero
+torque after the schedule's end. It is *best-known*, not optimal.
+`simulate(ep.reference_schedule, t_end=600, control_dt=ep.control_dt,
+target_x=ep.target_x, params=RoverParams(slope=ep.slope, roughness=ep.roughness),
+seed=ep.terrain_seed)` reproduces `ep.reference_ttrtp` bit for bit (`ep.replay()`).
+`python -m agents.yardstick.references` regenerates them (BENCHMARKS.md gives its budget).
+
+Each suite file carries its version and a SHA-256 checksum of its episodes, checked on
+load: a file that was changed by hand fails to load.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+from hoprover_env import ENVS
+from hoprover_env.tasks.config import TerrainEnvConfig
+from hoprover_env.core.params import RoverParams
+
+DATA_DIR = Path(__file__).resolve().parent / "suite_data"
+EPISODE_TIME = 600.0
+CONTROL_DT = 0.5
+NO_TERRAIN_SEED = -1
+# env id -> suite name (the registry's), and suite -> the torque task that runs it
+SUITE_OF = {env_id: spec.suite for env_id, spec in ENVS.items()}
+TASK_OF = {}
+for _env_id, _spec in ENVS.items():
+    if not _spec.hops:
+        TASK_OF.setdefault(_spec.suite, _env_id)
+# the seed each suite's episodes are drawn from (never used for training or validation)
+SUITE_SEEDS = {"level": 1_000_001, "terrain": 1_000_002}
+SIZES = {"level": 200, "terrain": 200}
+TERRAIN_SLOPES = TerrainEnvConfig.slope_range      # the terrain task's default ground
+TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
+CONTEST_TARGET = 0.5
+FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt",
+          "reference_ttrtp")
+
+
+@dataclasses.dataclass(frozen=True)
+class Episode:
+    """One test episode and its best-known reference (see the module docstring)."""
+
+    index: int
+    target_x: float
+    slope: float
+    roughness: float
+    terrain_seed: int                 # -1 on smooth ground
+    control_dt: float
+    reference_ttrtp: float
+    reference_schedule: np.ndarray
+    reference_source: str             # which search or agent found the reference
+
+    @property
+    def params(self) -> RoverParams:
+        """The rover on this episode's ground (contest values otherwise)."""
+        return RoverParams(slope=self.slope, roughness=self.roughness)
+
+    @property
+    def seed(self) -> int | None:
+        """The terrain seed to pass to `simulate` (None on smooth ground)."""
+        return None if self.terrain_seed == NO_TERRAIN_SEED else int(self.terrain_seed)
+
+    def reset_options(self) -> dict:
+        """The env reset options that start this episode."""
+        opts = {"target_x": self.target_x, "slope": self.slope,
+                "roughness": self.roughness}
+        if self.seed is not None:
+            opts["terrain_seed"] = self.seed
+        return opts
+
+    def replay(self):
+        """The reference plan through `simulate` (a Rollout whose ttrtp is the
+        reference's)."""
+        from hoprover_env.sim.simulate import simulate
+        return simulate(self.reference_schedule, t_end=EPISODE_TIME,
+                        control_dt=self.control_dt, target_x=self.target_x,
+                        params=self.params, seed=self.seed)
+
+
+@dataclasses.dataclass(frozen=True)
+class Suite:
+    """The episodes of one suite version: index them, iterate them, or take columns
+    (`targets`, `slopes`, `roughness`, `terrain_seeds`, `reference_ttrtp`)."""
+
+    name: str
+    version: int
+    checksum: str
+    episodes: tuple
+    meta: dict
+
+    def __len__(self) -> int:
+        return len(self.episodes)
+
+    def __getitem__(self, i) -> Episode:
+        return self.episodes[i]
+
+    def __iter__(self):
+        return iter(self.episodes)
+
+    def column(self, field: str) -> np.ndarray:
+        return np.array([getattr(e, field) for e in self.episodes])
+
+    @property
+    def targets(self) -> np.ndarray:
+        return self.column("target_x")
+
+    @property
+    def reference_ttrtp(self) -> np.ndarray:
+        return self.column("reference_ttrtp")
+
+    def terrain(self) -> dict:
+        """Per-episode reset options beyond the target ({"slope", "roughness",
+        "terrain_seed"}), as arrays for a vector env."""
+        out = {"slope": self.column("slope"), "roughness": self.column("roughness")}
+        seeds = self.column("terrain_seed")
+        if (seeds != NO_TERRAIN_SEED).any():
+            out["terrain_seed"] = seeds
+        return out
+
+
+def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
+    """The episodes of a suite, drawn from its seed (no references): columns of
+    FIELDS[:5]. `seed` and `n` draw `n` other episodes the same way (fresh ones, for a
+    check on episodes nothing was chosen on: agents/yardstick/fresh_targets.py)."""
+    if name == "contest":
+        return {"target_x": np.array([CONTEST_TARGET]), "slope": np.zeros(1),
+                "roughness": np.zeros(1), "terrain_seed": np.full(1, NO_TERRAIN_SEED),
+                "control_dt": np.full(1, CONTROL_DT)}
+    rng = np.random.default_rng(SUITE_SEEDS[name] if seed is None else seed)
+    n = SIZES[name] if n is None else n
+    targets = rng.uniform(-1.0, 1.0, n)
+    if name == "terrain":
+        slopes = rng.uniform(*TERRAIN_SLOPES, n)
+        seeds = rng.integers(0, 2**63, n, dtype=np.int64)
+        rough = np.full(n, TERRAIN_ROUGHNESS)
+    else:
+        slopes, rough = np.zeros(n), np.zeros(n)
+        seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
+    return {"target_x": targets, "slope": slopes, "roughness": rough,
+            "terrain_seed": seeds, "control_dt": np.full(n, CONTROL_DT)}
+
+
+def checksum(columns: dict, schedules: list) -> str:
+    """SHA-256 over the episodes' fields and reference schedules (their exact bytes)."""
+    h = hashlib.sha256()
+    for f in FIELDS:
+        a = np.ascontiguousarray(columns[f])
+        h.update(f.encode())
+        h.update(a.dtype.str.encode())
+        h.update(a.tobytes())
+    for s in schedules:
+        h.update(np.ascontiguousarray(s, dtype=np.float64).tobytes())
+        h.update(b"|")
+    return h.hexdigest()
+
+
+def path_of(name: str, version: int) -> Path:
+    return DATA_DIR / f"{name}-v{version}.npz"
+
+
+def versions(name: str) -> list[int]:
+    """The versions of a suite on disk, oldest first."""
+    found = []
+    for p in DATA_DIR.glob(f"{name}-v*.npz"):
+        tail = p.stem.rsplit("-v", 1)[1]
+        if tail.isdigit():
+            found.append(int(tail))
+    return sorted(found)
+
+
+def save(name: str, version: int, columns: dict, schedules: list, sources: list,
+         meta: dict, directory: Path | None = None) -> Path:
+    """Write a suite version (atomically: a temporary file, then a rename)."""
+    directory = Path(directory or DATA_DIR)
+    directory.mkdir(parents=True, exist_ok=True)
+    lengths = np.array([len(s) for s in schedules], dtype=np.int64)
+    flat = np.concatenate([np.asarray(s, dtype=np.float64) for s in schedules]) \
+        if schedules else np.zeros(0)
+    digest = checksum(columns, schedules)
+    meta = {**meta, "name": name, "version": version, "sha256": digest}
+    path = directory / f"{name}-v{version}.npz"
+    tmp = path.with_suffix(".tmp.npz")
+    np.savez_compressed(tmp, **{f: columns[f] for f in FIELDS}, schedule_flat=flat,
+                        schedule_len=lengths, source=np.array(sources),
+                        meta=np.array(json.dumps(meta, sort_keys=True)))
+    tmp.replace(path)
+    return path
+
+
+def load(env_id: str, version: int | None = None) -> Suite:
+    """The test suite of a registered task (`SUITE_OF`), at `version` (default: the
+    newest). Raises ValueError naming an unknown id or version, or a file whose checksum
+    does not match its episodes."""
+    if env_id not in SUITE_OF:
+        raise ValueError(f"no test suite for env id {env_id!r}; suites exist for "
+                         f"{sorted(SUITE_OF)}")
+    name = SUITE_OF[env_id]
+    have = versions(name)
+    if not have:
+        raise ValueError(f"the {name!r} suite of {env_id!r} has no data file in {DATA_DIR}")
+    if version is None:
+        version = have[-1]
+    if version not in have:
+        raise ValueError(f"unknown version {version!r} of the {name!r} suite of {env_id!r}; "
+                         f"versions: {have}")
+    return _read(path_of(name, version), name, version)
+
+
+def _read(path: Path, name: str, version: int) -> Suite:
+    with np.load(path, allow_pickle=False) as z:
+        columns = {f: z[f] for f in FIELDS}
+        cut = np.cumsum(z["schedule_len"])[:-1]
+        schedules = np.split(z["schedule_flat"], cut)
+        sources = [str(s) for s in z["source"]]
+        meta = json.loads(str(z["meta"]))
+    digest = checksum(columns, schedules)
+    if digest != meta.get("sha256"):
+        raise ValueError(f"{path}: checksum mismatch (the file says {meta.get('sha256')}, "
+                         f"its episodes hash to {digest}); the suite was modified")
+    episodes = tuple(
+        Episode(index=i, target_x=float(columns["target_x"][i]),
+                slope=float(columns["slope"][i]), roughness=float(columns["roughness"][i]),
+                terrain_seed=int(columns["terrain_seed"][i]),
+                control_dt=float(columns["control_dt"][i]),
+                reference_ttrtp=float(columns["reference_ttrtp"][i]),
+                reference_schedule=schedules[i], reference_source=sources[i])
+        for i in range(len(columns["target_x"])))
+    return Suite(name=name, version=version, checksum=digest, episodes=episodes, meta=meta)
+
+
+def run(policy, suite: Suite, batch: int = 256, progress=None,
+        env_kwargs: dict | None = None) -> list[dict]:
+    """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
+    contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
+    arguments (say a mission task's noise_scale); the suite's episode time stays."""
+    from hoprover_env.evaluation.episodes import run_episodes
+    results = run_episodes(policy, suite.targets,
+                           env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
+                           batch=batch, progress=progress, terrain=suite.terrain())
+    return judged(results, suite)
+
+
+def judged(results, suite: Suite) -> list[dict]:
+    """Judged episodes (objects with `as_dict()`, `success` and `ttrtp`, one per episode
+    of `suite`, in order) as dicts with the episode's ground, `reference_ttrtp`,
+    `regret` (ttrtp / reference, inf on failure) and `score` (reference / ttrtp, 0 on
+    failure) added."""
+    from hoprover_env.evaluation.scores import episode_regrets, episode_scores
+    if len(results) != len(suite):
+        raise ValueError(f"{len(results)} results for the {len(suite)} episodes of "
+                         f"{suite.name}-v{suite.version}")
+    ttrtp = [r.ttrtp if r.success else None for r in results]
+    scores = episode_scores(ttrtp, suite.reference_ttrtp)
+    regrets = episode_regrets(ttrtp, suite.reference_ttrtp)
+    out = []
+    for r, ep, sc, g in zip(results, suite.episodes, scores, regrets):
+        row = r.as_dict()
+        row.update(suite=f"{suite.name}-v{suite.version}", slope=ep.slope,
+                   roughness=ep.roughness, terrain_seed=ep.terrain_seed,
+                   reference_ttrtp=ep.reference_ttrtp, regret=float(g), score=float(sc))
+        out.append(row)
+    return out

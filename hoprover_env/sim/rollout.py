@@ -1,0 +1,500 @@
+"""Whole runs: the control loop of `simulate` and `simulate_batch`, compiled with the
+physics, and the `Rollout` it produces.
+
+Every control instant, every sample (t, x, y, theta, vx, vy, omega, state, sigma, torque)
+and every event is written into preallocated arrays by one jitted loop, `_run`, the only
+control loop there is. A torque schedule or a numba-compiled controller runs a whole
+run in one call, so a run costs what the kernel costs. A plain Python controller runs
+through the same loop: at each control instant the loop returns to Python
+(ST_NEED_COMMAND), `run_rollout` calls the controller and the loop goes on where it
+stopped, so the bookkeeping (sampling, the event log, t_end, errors) exists once and
+every controller gets the same `Rollout` for the same torques, bit for bit.
+
+Compiled controllers
+--------------------
+A controller compiled with ``numba.njit`` and the contest signature
+
+    @numba.njit
+    def control(pos, vel, the, omg, posT, t, smt, state_code):
+        return torque
+
+runs inside the same compiled loop. The arguments are those of the contest, as
+`simulate` passes them to a Python controller, except the state: ``state_code`` is an
+integer 0..6 for the contact states A..G (``"ABCDEFG"[state_code]``; 0 = flight, 5 = at
+rest). ``pos``, ``vel`` and ``posT`` are float64 arrays of length 2 (copies: writing to
+them does not touch the rover); ``the``, ``omg``, ``t`` and ``smt`` are floats. The
+function must return a float. It is called through a function pointer, so the loop is
+compiled (and cached) once for all controllers. A numba function cannot keep memory
+between calls: the state, the time and ``posT`` are what it decides on.
+`simulate_batch(..., controller_args=A)` appends row i of A to ``posT`` of run i
+(``posT = (x_T, 0, A[i, 0], ...)``) so that one compiled controller can run N different
+parameter sets (gains, launch torques) side by side.
+
+Kernel layout
+-------------
+One run writes rows of the kernel state S[:9] = (x, y, theta, vx, vy, omega, t, mode,
+sigma) taken before each advance, and the final state; the commanded and applied
+torque per row; and the event log (t, kind, mode before, mode after, value). The event
+log grows on demand: when the events of one advance do not fit, the run restores the
+state it had before that advance and returns; the caller enlarges the log and calls
+again, and the run continues where it stopped (same arithmetic, so the same result).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+from numba import get_thread_id, prange, types as nt
+from numba.experimental.function_type import WrapperAddressProtocol
+from numba.extending import is_jitted
+
+from hoprover_env import core
+from hoprover_env.jit.compiler import compile_now, kernel
+from hoprover_env.core.params import P_TMIN, P_TMAX, RoverParams
+from hoprover_env.util.validate import check_torque
+
+ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma
+EV_CAP = core.MAX_EVENTS + 64        # events one advance may log (as RoverSim keeps)
+
+# prog: where a run stands (float64 so one vector carries the held command too)
+G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD, G_CMD_K = range(7)   # G_CMD_K: G_CMD's instant
+N_PROG = 7
+ST_RUNNING, ST_DONE, ST_ROOM, ST_BUDGET, ST_BAD_TORQUE, ST_NEED_COMMAND = range(6)
+# who decides the torque at a control instant
+CTRL_SCHEDULE, CTRL_COMPILED, CTRL_PYTHON = 0, 1, 2
+POS_T = 4                             # scratch: pos 0:2, vel 2:4, posT 4:6, args 6:
+
+_V = nt.float64[::1]
+_M = nt.float64[:, ::1]
+_T3 = nt.float64[:, :, ::1]
+_F = nt.float64
+_I = nt.int64
+_B = nt.boolean
+CONTROL_SIG = _F(_V, _V, _F, _F, _V, _F, _F, _I)
+CONTROL_TYPE = nt.FunctionType(CONTROL_SIG)
+
+
+@kernel(nt.void(_V, _I, _I, _I, _I, _I), inner=True)
+def _save_progress(prog, k, j, nr, nl, status):
+    """Record where a run stands (control instant k, sub-step j, rows and log rows
+    written) and why it returned, so that the next call goes on from there."""
+    prog[G_K] = k
+    prog[G_J] = j
+    prog[G_ROWS] = nr
+    prog[G_LOG] = nl
+    prog[G_STATUS] = status
+
+
+@kernel(inner=True)
+def _contest_arguments(S, cargs, cbuf):
+    """The contest controller's array arguments in cbuf: pos, vel, then posT = (x_T, 0)
+    followed by this run's controller_args (layout at POS_T)."""
+    cbuf[0] = S[core.S_X]
+    cbuf[1] = S[core.S_Y]
+    cbuf[2] = S[core.S_VX]
+    cbuf[3] = S[core.S_VY]
+    cbuf[POS_T] = S[core.S_XT]
+    cbuf[POS_T + 1] = 0.0
+    for a in range(cargs.shape[0]):
+        cbuf[POS_T + 2 + a] = cargs[a]
+
+
+@kernel(inner=True)
+def _record_advance(rows, cmds, applied, log, nr, nl, before, cmd, app, evbuf, m):
+    """Append one advance to a run's record: the state it started from (row nr), its
+    commanded and applied torque, and its m events (log rows from nl on). Returns the
+    new (nr, nl)."""
+    for c in range(ROW_COLS):
+        rows[nr, c] = before[c]
+    cmds[nr] = cmd
+    applied[nr] = app
+    for e in range(m):
+        for c in range(core.EV_COLS):
+            log[nl, c] = evbuf[e, c]
+        nl += 1
+    return nr + 1, nl
+
+
+def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
+    """Stands in for the controller argument of a scheduled run (never called)."""
+    return 0.0
+
+
+def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, record,
+         rows, cmds, applied, log, prog, evbuf, W, backup, cbuf):
+    """One run from prog[G_K], prog[G_J] on, with the torque from `source` (CTRL_*); see
+    the module docstring."""
+    k = int(prog[G_K])
+    j = int(prog[G_J])
+    nr = int(prog[G_ROWS])
+    nl = int(prog[G_LOG])
+    tmin = P[P_TMIN]
+    tmax = P[P_TMAX]
+    n_args = cargs.shape[0]
+    while k < n_ctrl:
+        t_k = k * control_dt
+        t_next = (k + 1) * control_dt
+        if t_end < t_next:
+            t_next = t_end
+        if j == 0 and prog[G_CMD_K] != k:
+            if source == CTRL_PYTHON:
+                _save_progress(prog, k, 0, nr, nl, ST_NEED_COMMAND)
+                return
+            if source == CTRL_COMPILED:
+                _contest_arguments(S, cargs, cbuf)
+                cmd = ctrl(cbuf[0:2], cbuf[2:4], S[core.S_TH], S[core.S_W],
+                           cbuf[POS_T:POS_T + 2 + n_args], S[core.S_T], t_end,
+                           int(S[core.S_MODE]))
+                if not math.isfinite(cmd):
+                    prog[G_CMD] = cmd
+                    prog[G_STATUS] = ST_BAD_TORQUE
+                    return
+            else:
+                cmd = sched[k] if k < sched.shape[0] else 0.0
+            prog[G_CMD] = cmd
+            prog[G_CMD_K] = k
+        cmd = prog[G_CMD]
+        # Python's min(max(cmd, tmin), tmax), ties included
+        app = tmin if tmin > cmd else cmd
+        app = tmax if tmax < app else app
+        while j < sub:
+            if j == sub - 1:
+                t_stop = t_next
+            else:
+                t_stop = t_k + (j + 1) * control_dt / sub
+                if t_next < t_stop:
+                    t_stop = t_next
+            for c in range(core.N_STATE):
+                backup[c] = S[c]
+            S[core.S_STOP_ON] = -1.0
+            n = core.advance(S, P, O, cmd, t_stop, evbuf, W)
+            if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP \
+                    or S[core.S_ERROR] == core.ERR_WORK:
+                prog[G_STATUS] = ST_BUDGET
+                return
+            m = n if n < evbuf.shape[0] else evbuf.shape[0]
+            if record:
+                if nl + m > log.shape[0]:
+                    for c in range(core.N_STATE):
+                        S[c] = backup[c]
+                    _save_progress(prog, k, j, nr, nl, ST_ROOM)
+                    return
+                nr, nl = _record_advance(rows, cmds, applied, log, nr, nl, backup, cmd, app,
+                                         evbuf, m)
+            j += 1
+            if S[core.S_BROKEN] != 0.0:
+                break
+        if S[core.S_BROKEN] != 0.0:
+            break
+        j = 0
+        k += 1
+    if record:
+        for c in range(ROW_COLS):
+            rows[nr, c] = S[c]
+        cmds[nr] = cmds[nr - 1]
+        applied[nr] = applied[nr - 1]
+        nr += 1
+    _save_progress(prog, k, j, nr, nl, ST_DONE)
+
+
+def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
+              subb, recordb, rowsb, cmdsb, appliedb, logb, progb, activeb, evbufb, Wb,
+              backupb, cbufb):
+    """`_run` over the rows where `active` is set, spread over numba's threads; each
+    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]. (Argument
+    names differ from `_run`'s: numba's parfor outlining clashes on shared names.)"""
+    for i in prange(Sb.shape[0]):
+        if activeb[i]:
+            tid = get_thread_id()
+            run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
+                    t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
+                    progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
+
+
+_RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
+                   _V, _M, _V, _V, _V)
+_RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B, _T3, _M,
+                        _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M)
+# Explicit signatures make the controller a function pointer (one compiled loop for every
+# controller); they would also compile at import, so the two entry points are built on
+# first use: most sessions (the environments) never need them.
+run_one = run_many = no_control = None
+
+
+class _FixedAddress(WrapperAddressProtocol):
+    """A compiled function passed by its address, looked up once: numba otherwise asks
+    the dispatcher for it on every call (about 20 us, a few % of a whole run)."""
+
+    def __init__(self, dispatcher):
+        self.dispatcher = dispatcher           # keeps the code alive
+        cres = dispatcher.get_compile_result(CONTROL_SIG)
+        self.address = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
+
+    def __wrapper_address__(self):
+        return self.address
+
+    def signature(self):
+        return CONTROL_SIG
+
+
+def _fixed_address(dispatcher):
+    """The controller as `_FixedAddress`, or the dispatcher itself (numba then looks its
+    address up per call) should a numba release move the internals that needs."""
+    try:
+        return _FixedAddress(dispatcher)
+    except AttributeError as exc:     # an internal moved: the slower, public path
+        warnings.warn(f"hoprover_env: numba's compile result has no {exc}; whole runs "
+                      "pass their controller the slower way", RuntimeWarning, stacklevel=2)
+        return dispatcher
+
+
+def _compiled(func, signature, parallel=False):
+    """func compiled by `kernel` for `signature` (or loaded from numba's cache) now;
+    nothing else compiles later."""
+    dispatcher = kernel(signature, parallel=parallel)(func)
+    compile_now(dispatcher)
+    if not dispatcher.overloads:     # kernel's plain-numba fallback keeps no signature
+        dispatcher.compile(signature)
+    dispatcher.disable_compile()
+    return dispatcher
+
+
+def kernel_one():
+    """The one-run loop, compiled (or loaded from numba's cache) on first use."""
+    global run_one, no_control
+    if run_one is None:
+        no_control = _fixed_address(_compiled(_no_control, CONTROL_SIG))
+        run_one = _compiled(_run, _RUN_SIG)
+    return run_one
+
+
+def kernel_many():
+    """The threaded N-run loop (it calls the one-run loop), built on first use."""
+    global run_many
+    if run_many is None:
+        kernel_one()
+        run_many = _compiled(_run_many, _RUN_MANY_SIG, parallel=True)
+    return run_many
+
+
+def is_compiled(controller) -> bool:
+    """Is `controller` a numba-compiled function (run inside the kernel loop)?"""
+    return is_jitted(controller)
+
+
+def control_function(controller):
+    """The compiled controller checked against the contest signature (TypeError if it
+    cannot take it)."""
+    try:
+        controller.compile(CONTROL_SIG)
+    except Exception as exc:          # noqa: BLE001 - numba raises several error types
+        raise TypeError(
+            "a compiled controller must accept the contest signature (pos, vel, the, omg, "
+            "posT, t, smt, state_code) with float64 arrays pos, vel, posT, floats the, "
+            "omg, t, smt and an integer state_code 0..6, and return a float; compiling "
+            f"{getattr(controller, '__name__', controller)!r} for it failed: "
+            f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+    return controller
+
+
+def budget_error(t: float, code: float = core.ERR_BUDGET) -> Exception:
+    """The exception for a kernel that stopped on one of its bounds (S[S_ERROR])."""
+    if code == core.ERR_WORK:
+        # a ValueError: the call asked for more than one call may do (like a grid of too
+        # many samples), not a failure of the integrator
+        return ValueError(
+            f"the control interval ending after t = {t:.9g} s needs more than "
+            f"{core.MAX_WORK:.0e} integration steps (control_dt / t_stop too long for "
+            "the torque: held for that long it spins the rover at up to millions of "
+            "rad/s); shorten control_dt / t_stop or lower the torque (torque_max)")
+    if code == core.ERR_STEP:
+        return RuntimeError(
+            f"the integrator could not continue at t = {t:.9g} s (step-size underflow, a "
+            "non-finite state or an iteration bound): the motion is too stiff to integrate, "
+            "e.g. parameters close to the Painleve limit of a slide; please report this state")
+    return RuntimeError(f"event budget of one control interval exhausted at t = {t:.9g} s "
+                        f"(more than {core.MAX_EVENTS} events); please report this state")
+
+
+STATE_LETTERS = np.array(list(core.MODE_LETTERS))
+
+
+class Buffers:
+    """The output arrays of N runs (leading axis N), the event log grown on demand."""
+
+    def __init__(self, n: int, n_rows: int, log_rows: int, record: bool = True):
+        rows = n_rows if record else 1
+        self.rows = np.zeros((n, rows, ROW_COLS))
+        self.cmds = np.zeros((n, rows))
+        self.applied = np.zeros((n, rows))
+        self.log = np.zeros((n, log_rows if record else 0, core.EV_COLS))
+        self.prog = np.zeros((n, N_PROG))
+        self.prog[:, G_CMD_K] = -1.0         # no command decided yet
+
+    def grow_log(self) -> None:
+        """Double the event log (at least EV_CAP more rows)."""
+        n, cap, cols = self.log.shape
+        new = np.zeros((n, max(2 * cap, cap + EV_CAP), cols))
+        new[:, :cap] = self.log
+        self.log = new
+
+
+def scratch(threads: int, n_args: int):
+    """Per-thread scratch: event buffer, kernel workspace, state backup, controller I/O."""
+    return (np.zeros((threads, EV_CAP, core.EV_COLS)), np.zeros((threads, core.N_WORK)),
+            np.zeros((threads, core.N_STATE)), np.zeros((threads, POS_T + 2 + n_args)))
+
+
+def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
+    """Turn a run's error status into the exception `simulate` raises."""
+    status = prog[G_STATUS]
+    if status == ST_BUDGET:
+        err = budget_error(float(S[core.S_T]), float(S[core.S_ERROR]))
+        raise type(err)(where + str(err))
+    if status == ST_BAD_TORQUE:
+        try:
+            check_torque(prog[G_CMD], "the controller's torque")
+        except ValueError as err:
+            raise ValueError(where + str(err)) from None
+
+
+@dataclasses.dataclass
+class SampledStates:
+    """Sampled states of one run (1-D arrays) or of N runs (2-D, a row per run): time t
+    [s], c.m. position x, y [m], attitude theta [rad], velocities vx, vy [m/s] and omega
+    [rad/s], contact state letters 'A'..'G', slide direction sigma of the contact point
+    (+1/-1 in C, E, G, else 0)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    omega: np.ndarray
+    state: np.ndarray
+    sigma: np.ndarray
+
+
+@dataclasses.dataclass
+class Rollout(SampledStates):
+    """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
+    the controller saw, before its new torque acts) and at the end of the run."""
+
+    torque: np.ndarray           # applied torque from each sample on (clipped)
+    torque_cmd: np.ndarray       # what the controller asked for
+    events: list                 # (time, kind, state before, state after)
+    ttrtp: float | None
+    broken: bool
+    target_x: float
+    params: RoverParams
+    impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
+    n_events: int
+    min_corner_height: float     # lowest bottom-corner height after any event or interval
+    seed: int | None = None      # key of the rough-terrain draws (None: smooth ground)
+    rover: int = 0               # the run's rover index, the other half of that key
+    # what replays this run: simulate(**rollout.replay_args) gives it again, bit for bit
+    replay_args: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def success(self) -> bool:
+        """Whether the judge's TTRTP was reached."""
+        return self.ttrtp is not None
+
+    def corner(self, which: str):
+        """World position (x, y) and velocity (vx, vy) arrays of corner 'A' or 'B'."""
+        k = {"A": 0, "B": 1}[which]
+        bx = self.params.half_width * (1.0 if k == 0 else -1.0)
+        by = -self.params.half_height
+        c, s = np.cos(self.theta), np.sin(self.theta)
+        dx, dy = bx * c + by * s, -bx * s + by * c
+        return (self.x + dx, self.y + dy,
+                self.vx + self.omega * dy, self.vy - self.omega * dx)
+
+    def contact_forces(self):
+        """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied.
+
+        A sample at a control instant holds the state before the new torque acts; when
+        that torque ends the state at once (a corner of state F unloaded by a tipping
+        torque), the forces are those of the state the kernel switches to, not the
+        negative normal force the old state would need."""
+        p = self.params.as_array()
+        out = np.zeros((len(self.t), 4))
+        s = np.zeros(core.N_STATE)
+        no_log = np.zeros((0, core.EV_COLS))
+        for i in range(len(self.t)):
+            s[:] = 0.0
+            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
+                     self.omega[i])
+            s[core.S_T] = self.t[i]
+            s[core.S_MODE] = core.MODE_LETTERS.index(self.state[i])
+            s[core.S_TORQUE] = self.torque[i]
+            s[core.S_SIGMA] = self.sigma[i]
+            core.settle(s, p, no_log, 0)
+            out[i] = core.contact_forces(s, p)
+        return out
+
+
+def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
+    """The `Rollout` of one finished run from its kernel arrays."""
+    nr = int(prog[G_ROWS])
+    nl = int(prog[G_LOG])
+    a = rows[:nr]
+    ev = log[:nl]
+    kinds = ev[:, 1].astype(np.int64).tolist()
+    names = core.EVENT_NAMES
+    letters = core.MODE_LETTERS
+    events = [(t, names[kd], letters[b], letters[af]) for t, kd, b, af in
+              zip(ev[:, 0].tolist(), kinds, ev[:, 2].astype(np.int64).tolist(),
+                  ev[:, 3].astype(np.int64).tolist())]
+    ttrtp = S[core.S_TTRTP]
+    return Rollout(
+        t=a[:, core.S_T], x=a[:, core.S_X], y=a[:, core.S_Y], theta=a[:, core.S_TH],
+        vx=a[:, core.S_VX], vy=a[:, core.S_VY], omega=a[:, core.S_W],
+        state=STATE_LETTERS[a[:, core.S_MODE].astype(np.int64)],
+        torque=applied[:nr].copy(), torque_cmd=cmds[:nr].copy(), events=events,
+        ttrtp=None if math.isnan(ttrtp) else float(ttrtp),
+        broken=bool(S[core.S_BROKEN]), target_x=float(target_x), params=params,
+        impact_energy_ratios=ev[ev[:, 1] == core.EV_IMPACT, 4],
+        n_events=int(S[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
+        min_corner_height=float(S[core.S_MIN_HEIGHT]))
+
+
+def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, target_x,
+                params, controller_args=None):
+    """`simulate`'s run: a torque schedule (1-D float64, checked finite), a compiled
+    controller, or a Python controller (called here at every control instant with the
+    contest's arguments), through the one compiled loop. Returns the `Rollout`."""
+    run = kernel_one()
+    if schedule is not None:
+        source, ctrl = CTRL_SCHEDULE, no_control
+    elif is_compiled(controller):
+        source, ctrl = CTRL_COMPILED, control_function(controller)
+    else:
+        source, ctrl = CTRL_PYTHON, no_control
+    sched = np.zeros(0) if schedule is None else np.ascontiguousarray(schedule, np.float64)
+    buf = Buffers(1, n_ctrl * sub + 1, 256)
+    prog = buf.prog[0]
+    no_args = np.zeros(0) if controller_args is None else controller_args
+    evbuf, w, backup, cbuf = scratch(1, len(no_args))
+    pos_t = np.array([float(target_x), 0.0])
+    while True:
+        run(S, P, O, sched, ctrl, source, no_args, float(control_dt), float(t_end), n_ctrl,
+            sub, True, buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, evbuf[0],
+            w[0], backup[0], cbuf[0])
+        status = prog[G_STATUS]
+        if status == ST_ROOM:
+            buf.grow_log()
+        elif status == ST_NEED_COMMAND:
+            prog[G_CMD] = check_torque(controller(
+                S[0:2].copy(), S[3:5].copy(), float(S[core.S_TH]), float(S[core.S_W]),
+                pos_t.copy(), float(S[core.S_T]), float(t_end),
+                core.MODE_LETTERS[int(S[core.S_MODE])]), "the controller's torque")
+            prog[G_CMD_K] = prog[G_K]
+        else:
+            break
+    check_status(prog, S)
+    return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, S,
+                         params, target_x)

@@ -1,0 +1,332 @@
+"""Stable-Baselines3 agents for hoprover, built from a YAML config (configs/*.yaml).
+
+A config has these sections (every key is checked; a typo is an error that names it):
+
+    algo: ppo | sac | td3
+    env_id: HopRover-v0             # or HopRoverContest-v0 (fixes the target)
+    n_envs: 32                      # sub-envs of the native batched env
+    timesteps: 2000000
+    seed: 0
+    env: {...}                      # HopRoverEnv arguments (control_dt, shaping, ...)
+    normalize: {obs: true, reward: true, clip_obs: 10.0}
+    policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init
+    hyperparams: {...}              # keyword arguments of PPO / SAC / TD3
+    pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
+    init_from: terrain              # optional: start from this model's weights and its
+                                    # VecNormalize statistics (a bundled name, a run
+                                    # directory or a .zip); everything else from here
+    evaluation: {freq, episodes, seed}
+    checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time
+"""
+from __future__ import annotations
+
+import copy
+import dataclasses
+import inspect
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+
+ALGOS = ("ppo", "sac", "td3")
+TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
+            "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from"}
+# hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
+# learning rate fall linearly from `learning_rate` to it over the run
+OWN_HYPER_KEYS = {"learning_rate_end"}
+NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
+POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
+               "squash_output", "n_critics", "share_features_extractor", "features_extractor"}
+# a config's `pretrain` section: every key it may set, with the value it takes when unset
+PRETRAIN_DEFAULTS = {"expert": "scripted", "episodes": 400, "epochs": 30, "batch_size": 1024,
+                     "learning_rate": 1e-3, "seed": 1, "value_epochs": 10, "log_std": -2.5,
+                     "noise": 0.0, "dagger_rounds": 0, "dagger_episodes": 200,
+                     "ground_weight": 1.0, "learning_rate_end": None}
+PRETRAIN_KEYS = set(PRETRAIN_DEFAULTS)
+EVAL_KEYS = {"freq", "episodes", "seed"}
+CHECKPOINT_KEYS = {"freq", "seconds"}
+ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
+               "gelu": "GELU", "silu": "SiLU"}
+DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed": 0,
+            "env": {}, "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
+            "policy": {}, "hyperparams": {}, "pretrain": None, "init_from": None,
+            "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
+            "checkpoint": {"freq": 200_000, "seconds": 300.0}}
+
+
+def pretrain_settings(cfg: dict) -> dict:
+    """The config's pretraining with every unset key at its default."""
+    return {**PRETRAIN_DEFAULTS, **cfg["pretrain"]}
+
+
+class ConfigError(ValueError):
+    """A bad config key or value; the message names it."""
+
+
+def algo_class(algo: str):
+    from stable_baselines3 import PPO, SAC, TD3
+    if algo not in ALGOS:
+        raise ConfigError(f"algo must be one of {list(ALGOS)}, got {algo!r}")
+    return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+
+
+def _check_keys(section: str, given: dict, valid: set):
+    if not isinstance(given, dict):
+        raise ConfigError(f"config section '{section}' must be a mapping, got {type(given).__name__}")
+    bad = sorted(set(given) - valid)
+    if bad:
+        raise ConfigError(f"unknown config key '{section}.{bad[0]}' (valid: {sorted(valid)})")
+
+
+PACKAGED_CONFIGS = Path(__file__).resolve().parent.parent / "configs"
+
+
+def packaged_configs() -> list[str]:
+    """The names of the configs that travel with the package (configs/*.yaml)."""
+    return sorted(p.stem for p in PACKAGED_CONFIGS.glob("*.y*ml"))
+
+
+def config_path(spec: str | Path) -> Path:
+    """A config file: a path, or the name of a packaged config ("ppo_hop" or
+    "ppo_hop.yaml"). FileNotFoundError names the missing file and the packaged names."""
+    path = Path(spec)
+    if path.is_file():
+        return path
+    if path.name == str(spec):                      # a bare name: the packaged configs
+        for cand in (PACKAGED_CONFIGS / path.name, PACKAGED_CONFIGS / f"{path.name}.yaml"):
+            if cand.is_file():
+                return cand
+    raise FileNotFoundError(f"config file not found: {spec} (packaged configs, usable by "
+                            f"name: {', '.join(packaged_configs())})")
+
+
+def load_config(path: str | Path | None, overrides: dict | None = None,
+                section_overrides: dict | None = None) -> dict:
+    """Read, fill in defaults, apply command-line overrides (top-level keys, and keys of
+    sections: {"checkpoint": {"seconds": 60}}; None leaves a value as it is), and
+    validate a config."""
+    raw: dict = {}
+    if path is not None:
+        path = config_path(path)
+        try:
+            raw = yaml.safe_load(path.read_text()) or {}
+        except yaml.YAMLError as exc:
+            mark = getattr(exc, "problem_mark", None)
+            where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+            problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+            raise ConfigError(f"{path}: not valid YAML{where}: {problem}") from None
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{path}: the config must be a mapping")
+    if "trainer" in raw:          # a config for another trainer (configs/ppo_mission_hop.yaml)
+        raise ConfigError(f"this config names its own trainer: run it with "
+                          f"`python -m {raw['trainer']} --config {path}`, not train.py")
+    bad = sorted(set(raw) - TOP_KEYS)
+    if bad:
+        raise ConfigError(f"unknown config key '{bad[0]}' (valid: {sorted(TOP_KEYS)})")
+    cfg = copy.deepcopy(DEFAULTS)
+    for key, value in raw.items():
+        if isinstance(cfg.get(key), dict) and isinstance(value, dict) and key != "env":
+            cfg[key] = {**cfg[key], **value}
+        else:
+            cfg[key] = value
+    for key, value in (overrides or {}).items():
+        if value is not None:
+            cfg[key] = value
+    for section, values in (section_overrides or {}).items():
+        for key, value in values.items():
+            if value is not None:
+                cfg[section] = {**cfg[section], key: value}
+    validate(cfg)
+    return cfg
+
+
+def validate(cfg: dict) -> None:
+    if "algo" not in cfg:
+        raise ConfigError("config key 'algo' is missing (ppo, sac or td3)")
+    cls = algo_class(cfg["algo"])
+    from hoprover_env import ENVS, config_class
+    if cfg.get("env_id") not in ENVS:
+        raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
+                          f"got {cfg.get('env_id')!r}")
+    env_cls = config_class(cfg["env_id"])
+    env_fields = {f.name for f in dataclasses.fields(env_cls)}
+    _check_keys("env", cfg["env"], env_fields)
+    try:
+        env_cls(**cfg["env"])
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"config section 'env': {exc}") from None
+    _check_keys("normalize", cfg["normalize"], NORMALIZE_KEYS)
+    _check_keys("policy", cfg["policy"], POLICY_KEYS)
+    if "activation_fn" in cfg["policy"] and cfg["policy"]["activation_fn"] not in ACTIVATIONS:
+        raise ConfigError(f"config key 'policy.activation_fn' must be one of "
+                          f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}")
+    if "features_extractor" in cfg["policy"]:
+        extractor = features_extractor(cfg["policy"]["features_extractor"])
+        if getattr(extractor, "frozen_statistics", False) and (
+                cfg["normalize"].get("update", True) or not cfg["normalize"].get("obs", True)):
+            raise ConfigError("config key 'policy.features_extractor' "
+                              f"({extractor.__name__}) needs normalize.obs: true and "
+                              "normalize.update: false (it reads the frozen observation "
+                              "statistics)")
+    params = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env",
+                                                                 "policy_kwargs", "seed",
+                                                                 "tensorboard_log", "_init_setup_model"}
+    _check_keys("hyperparams", cfg["hyperparams"], params | OWN_HYPER_KEYS)
+    init = cfg.get("init_from")
+    if init is not None:
+        if not (isinstance(init, str) and init):
+            raise ConfigError(f"config key 'init_from' must be a model (a bundled name, a run "
+                              f"directory or a .zip), got {init!r}")
+        if cfg.get("pretrain") is not None:
+            raise ConfigError("config keys 'init_from' and 'pretrain' exclude each other: "
+                              "a run starts from a model or from cloning, not both")
+    if cfg.get("pretrain") is not None:
+        _check_keys("pretrain", cfg["pretrain"], PRETRAIN_KEYS)
+        if cfg["algo"] != "ppo":
+            raise ConfigError("config section 'pretrain' (behaviour cloning) is only "
+                              "supported with algo: ppo")
+    _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
+    _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
+    for key in ("n_envs", "timesteps"):
+        _check_value(key, cfg[key], POS_INT)
+    _check_value("seed", cfg["seed"], INT)
+    for section, types in (("normalize", NORMALIZE_TYPES), ("policy", POLICY_TYPES),
+                           ("hyperparams", HYPER_TYPES), ("pretrain", PRETRAIN_TYPES),
+                           ("evaluation", EVAL_TYPES), ("checkpoint", CHECKPOINT_TYPES)):
+        for key, value in (cfg.get(section) or {}).items():
+            if key in types:
+                _check_value(f"{section}.{key}", value, types[key])
+
+
+# Value kinds: (test, what is expected). The test sees the raw YAML value, so 64.5, "fifty"
+# or True where an integer belongs are refused here, not deep inside torch or SB3.
+def _is_int(v):
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_real(v):
+    return (isinstance(v, (int, float)) and not isinstance(v, bool)
+            and bool(np.isfinite(v)))
+
+
+def _is_layers(v):
+    return isinstance(v, list) and len(v) > 0 and all(_is_int(n) and n > 0 for n in v)
+
+
+INT = (_is_int, "an integer")
+POS_INT = (lambda v: _is_int(v) and v >= 1, "a positive integer")
+NONNEG_INT = (lambda v: _is_int(v) and v >= 0, "an integer >= 0")
+BOOL = (lambda v: isinstance(v, bool), "true or false")
+REAL = (_is_real, "a finite number")
+POS_REAL = (lambda v: _is_real(v) and v > 0, "a finite number > 0")
+NONNEG_REAL = (lambda v: _is_real(v) and v >= 0, "a finite number >= 0")
+UNIT = (lambda v: _is_real(v) and 0 < v <= 1, "a number in (0, 1]")
+UNIT_CLOSED = (lambda v: _is_real(v) and 0 <= v <= 1, "a number in [0, 1]")
+OPT_POS_REAL = (lambda v: v is None or POS_REAL[0](v), "null or a finite number > 0")
+NET_ARCH = (lambda v: _is_layers(v) or (isinstance(v, dict) and len(v) > 0 and all(
+    k in ("pi", "vf", "qf") and _is_layers(x) for k, x in v.items())),
+    "a list of positive layer sizes, e.g. [64, 64], or {pi: [...], vf: [...]} / {pi, qf}")
+ENT_COEF = (lambda v: NONNEG_REAL[0](v) or (isinstance(v, str) and v.startswith("auto")),
+            "a finite number >= 0 (or 'auto' for SAC)")
+TRAIN_FREQ = (lambda v: POS_INT[0](v) or (isinstance(v, list) and len(v) == 2 and POS_INT[0](
+    v[0]) and v[1] in ("step", "episode")), "a positive integer or [n, step|episode]")
+GRADIENT_STEPS = (lambda v: _is_int(v) and (v >= 1 or v == -1), "a positive integer or -1")
+
+NORMALIZE_TYPES = {"obs": BOOL, "reward": BOOL, "update": BOOL, "clip_obs": POS_REAL,
+                   "clip_reward": POS_REAL}
+POLICY_TYPES = {"net_arch": NET_ARCH, "log_std_init": REAL, "ortho_init": BOOL,
+                "use_expln": BOOL, "squash_output": BOOL, "n_critics": POS_INT,
+                "share_features_extractor": BOOL}
+PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
+                  "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
+                  "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,
+                  "log_std": REAL, "noise": NONNEG_REAL, "dagger_rounds": NONNEG_INT,
+                  "dagger_episodes": POS_INT, "ground_weight": POS_REAL,
+                  "learning_rate_end": POS_REAL}
+EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
+CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
+# the common keyword arguments of PPO / SAC / TD3 (which ones an algorithm takes is checked
+# against its constructor's signature in validate)
+HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_INT,
+               "n_epochs": POS_INT, "gamma": UNIT, "gae_lambda": UNIT_CLOSED,
+               "clip_range": POS_REAL, "clip_range_vf": OPT_POS_REAL, "normalize_advantage": BOOL,
+               "ent_coef": ENT_COEF, "vf_coef": NONNEG_REAL, "max_grad_norm": POS_REAL,
+               "target_kl": OPT_POS_REAL, "use_sde": BOOL, "sde_sample_freq": INT,
+               "buffer_size": POS_INT, "learning_starts": NONNEG_INT, "tau": UNIT,
+               "train_freq": TRAIN_FREQ, "gradient_steps": GRADIENT_STEPS,
+               "policy_delay": POS_INT, "target_policy_noise": NONNEG_REAL,
+               "target_noise_clip": NONNEG_REAL, "action_noise": NONNEG_REAL,
+               "target_update_interval": POS_INT, "stats_window_size": POS_INT,
+               "learning_rate_end": POS_REAL}
+
+
+def _check_value(key: str, value, kind) -> None:
+    test, expected = kind
+    if not test(value):
+        hint = ""
+        if isinstance(value, str):
+            try:
+                float(value)
+                hint = " (YAML reads a number like 3e-4 as text: write 3.0e-4)"
+            except ValueError:
+                pass
+        raise ConfigError(f"config key '{key}' must be {expected}, got {value!r}{hint}")
+
+
+def env_kwargs(cfg: dict) -> dict:
+    """Env arguments of a config: what its id fixes (the contest's target), then its
+    `env:` section."""
+    from hoprover_env import task
+    return {**task(cfg["env_id"]).kwargs, **cfg["env"]}
+
+
+def features_extractor(spec):
+    """The SB3 features extractor class a config names as "module:Class" (importable from
+    where train.py runs). ConfigError names the key when it cannot be imported or is not
+    a BaseFeaturesExtractor. An extractor with `frozen_statistics = True` reads the
+    observation statistics through `use_statistics(mean, std)` (training.imitation)."""
+    import importlib
+    from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+    key = "config key 'policy.features_extractor'"
+    if not isinstance(spec, str) or spec.count(":") != 1:
+        raise ConfigError(f"{key} must be 'module:Class', got {spec!r}")
+    module, name = spec.split(":")
+    try:
+        cls = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise ConfigError(f"{key}: cannot import {spec!r} ({exc})") from None
+    if not (isinstance(cls, type) and issubclass(cls, BaseFeaturesExtractor)):
+        raise ConfigError(f"{key}: {spec!r} is not an SB3 BaseFeaturesExtractor")
+    return cls
+
+
+def policy_kwargs(cfg: dict) -> dict:
+    import torch.nn as nn
+    kw = dict(cfg["policy"])
+    if "features_extractor" in kw:
+        kw["features_extractor_class"] = features_extractor(kw.pop("features_extractor"))
+    if "activation_fn" in kw:
+        kw["activation_fn"] = getattr(nn, ACTIVATIONS[kw["activation_fn"]])
+    return kw
+
+
+def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str = "cpu"):
+    """A fresh PPO / SAC / TD3 from a validated config."""
+    cls = algo_class(cfg["algo"])
+    hyper: dict[str, Any] = dict(cfg["hyperparams"])
+    if "learning_rate_end" in hyper:
+        try:
+            from stable_baselines3.common.utils import LinearSchedule
+        except ImportError:            # stable-baselines3 < 2.7
+            from stable_baselines3.common.utils import get_linear_fn as LinearSchedule
+        start = hyper.get("learning_rate",
+                          inspect.signature(cls.__init__).parameters["learning_rate"].default)
+        hyper["learning_rate"] = LinearSchedule(start, hyper.pop("learning_rate_end"), 1.0)
+    if cfg["algo"] == "td3" and isinstance(hyper.get("action_noise"), (int, float)):
+        from stable_baselines3.common.noise import NormalActionNoise
+        sigma = float(hyper.pop("action_noise"))
+        hyper["action_noise"] = NormalActionNoise(np.zeros(1), sigma * np.ones(1))
+    return cls("MlpPolicy", venv, policy_kwargs=policy_kwargs(cfg), seed=cfg["seed"],
+               tensorboard_log=tensorboard_log, device=device, verbose=0, **hyper)
