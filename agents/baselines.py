@@ -1,5 +1,5 @@
 """Baselines from scratch over several seeds, scored on the frozen suites as researchers
-report them (issue "baselines reported as researchers report them").
+report them: several seeds, intervals over them, learning curves and wall times.
 
     python -m agents.baselines --config configs/ppo_scratch.yaml --seeds 0-4 \\
         --timesteps 4000000 --out runs/baselines/ppo_torque          # train, then score

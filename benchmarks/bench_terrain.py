@@ -1,4 +1,4 @@
-"""Terrain (issue 23): what a slope costs the simulator, and how each policy degrades on
+"""Terrain: what a slope costs the simulator, and how each policy degrades on
 sloped and rough ground.
 
 * `ground_costs`: CPU time per simulated second at rest (F), in flight (A), in a launch

@@ -65,7 +65,7 @@ def ppo_run(kind: str, n_envs: int, steps: int) -> tuple[float, float]:
     return time.perf_counter() - t0, env_time() - e0
 
 
-# PPO settings tried for training speed (issue: as fast as SB3 allows on 2 cores).
+# PPO settings tried for training speed (the aim: as fast as SB3 allows on 2 cores).
 # (label, torch threads, numba threads, n_envs, n_steps, batch, epochs, net)
 SPEED_GRID = [
     ("SB3 defaults (64x64, 2048/64, 10 epochs)", 1, 2, 8, 256, 64, 10, [64, 64]),

@@ -1,9 +1,11 @@
-"""Shared pieces of the benchmark suite: a Section of the report, tables, machine info."""
+"""Shared pieces of the benchmark suite: a Section of the report, tables, machine info,
+and the markers that delimit each generated section of BENCHMARKS.md."""
 from __future__ import annotations
 
 import dataclasses
 import os
 import platform
+import re
 import subprocess
 import time
 
@@ -11,7 +13,7 @@ import time
 @dataclasses.dataclass
 class Section:
     """One part of BENCHMARKS.md: markdown text (tables, notes), figure files written
-    under the figure directory, and headline numbers for the README."""
+    under the figure directory, and headline numbers (for whoever quotes the section)."""
     title: str
     markdown: str
     figures: list = dataclasses.field(default_factory=list)
@@ -51,9 +53,10 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    try:
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                             text=True, cwd=os.path.dirname(__file__)).stdout.strip()
+    try:      # "-dirty": the run had uncommitted changes in the working tree
+        rev = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=7"],
+                             capture_output=True, text=True,
+                             cwd=os.path.dirname(__file__)).stdout.strip()
     except OSError:
         rev = "?"
     return (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, git {rev or '?'}, "
@@ -70,3 +73,23 @@ def best_of(fn, repeat: int = 3):
         out = fn()
         best = min(best, time.perf_counter() - t0)
     return best, out
+
+
+# ---- the generated sections of the report ------------------------------------------------
+# Each section of BENCHMARKS.md sits between two markers naming it, so that a run of some
+# sections (`python -m benchmarks --only env`) rewrites those and keeps the others.
+SECTION_START = "<!-- section: {name} -->"
+SECTION_END = "<!-- end of section: {name} -->"
+_SECTION = re.compile(r"^<!-- section: ([A-Za-z0-9_-]+) -->\n(.*?)^<!-- end of section: \1 -->$",
+                      re.S | re.M)
+
+
+def read_sections(text: str) -> dict[str, str]:
+    """The generated sections of a report, {name: text between its markers}, in file order."""
+    return {m.group(1): m.group(2).strip("\n") for m in _SECTION.finditer(text)}
+
+
+def section_block(name: str, body: str) -> str:
+    """A section's text between its markers, as read back by `read_sections`."""
+    body = body.strip("\n")
+    return f"{SECTION_START.format(name=name)}\n{body}\n{SECTION_END.format(name=name)}\n"

@@ -1,4 +1,4 @@
-"""Property-based fuzzing of the public API (issue 9.8).
+"""Property-based fuzzing of the public API.
 
 Every call -- `simulate`, `RoverSim` and its `advance`, `RoverParams`, `gym.make` with
 arbitrary keyword arguments, `env.step` and the vector env's `step` -- given values of the

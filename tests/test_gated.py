@@ -135,7 +135,7 @@ def test_the_hold_zeroes_exactly_the_rests_on_a_face_in_the_band(tmp_path):
 def test_the_bundled_plan_clone_stays_still_when_it_starts_just_inside_the_band():
     from hoprover_env.evaluation.episodes import run_episodes
     # starts 0.26 mm and 0.04 mm inside the band's edge that the network without the
-    # hold nudged out of the band (9.7 s and 8.2 s: BENCHMARKS.md, session 14)
+    # hold nudged out of the band (9.7 s and 8.2 s: docs/studies/plan-clone.md, section 10)
     res = run_episodes(load_policy("plan_clone"), np.array([-0.09974, 0.09996]))
     for r in res:
         assert r.success and r.ttrtp == 5.0, (r.target_x, r.ttrtp)

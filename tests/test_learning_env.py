@@ -13,7 +13,7 @@ from hoprover_env.agents.scripted import ScriptedHopper
 from hoprover_env.tasks import reward
 from hoprover_env.tasks import hop, torque
 from hoprover_env.envs.env import HopRoverEnv
-from hoprover_env.envs.hop_env import HopRoverHopEnv, HopRoverHopVectorEnv
+from hoprover_env.envs.registry import HopRoverHopEnv, HopRoverHopVectorEnv
 from hoprover_env.core.params import RoverParams
 
 GAMED = dict(shaping="landing", attitude_weight=1.0, gamma=0.995)   # the probe's setting

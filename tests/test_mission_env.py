@@ -11,7 +11,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import core
-from hoprover_env.envs.mission_env import HopRoverMissionEnv, HopRoverMissionVectorEnv
+from hoprover_env.envs.registry import HopRoverMissionEnv, HopRoverMissionVectorEnv
 from hoprover_env.tasks import mission
 
 TRUNC_STD = 0.9866     # standard deviation of a unit normal truncated at |z| <= 3

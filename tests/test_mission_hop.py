@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from hoprover_env.envs.mission_env import HopRoverMissionVectorEnv
+from hoprover_env.envs.registry import HopRoverMissionVectorEnv
 from hoprover_env.agents.mission_hop import (F_HOPS, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO,
                                       F_TO_GO, LearnedHopper, MissionHopEnv)
 from hoprover_env.agents.policies import ControllerPolicy
@@ -112,8 +112,8 @@ def test_the_trainer_names_an_unknown_config_key(tmp_path, capsys):
 
 
 def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
-    """The issue's bar (90 % on the suite) on the suite's first 40 episodes; the whole
-    suite's 97.5 % is in BENCHMARKS.md."""
+    """The bar of 90 % on the suite, on the suite's first 40 episodes; the whole
+    suite's 97.5 % is in docs/studies/mission.md."""
     import dataclasses
     from hoprover_env.evaluation import suites
     from hoprover_env.agents.policies import load_policy

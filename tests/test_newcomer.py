@@ -1,4 +1,4 @@
-"""Issue 12: what a new user hits -- CLI arguments, config errors, file modes, resume, pickling."""
+"""What a new user hits -- CLI arguments, config errors, file modes, resume, pickling."""
 import copy
 import json
 import os

@@ -69,7 +69,7 @@ def test_euler_breaking_step_leaves_no_bottom_corner_under_the_ground():
     assert roll.broken and roll.min_corner_height >= -1e-9
 
 
-# ---- issue 9: a hang near the Painleve limit --------------------------------------------
+# ---- a hang near the Painleve limit -----------------------------------------------------
 HANG_SCRIPT = r"""
 import math, sys, numpy as np
 from hoprover_env import core
@@ -102,7 +102,7 @@ print("returned", S[core.S_T], S[core.S_ERROR])
 
 @pytest.mark.parametrize("h_carried", [0.0, 10.0])
 def test_slide_at_the_old_painleve_margin_returns_instead_of_hanging(h_carried):
-    """Issue 9.1: mu = 1, inertia at the old 1e-12 margin, a slide at the attitude of the
+    """mu = 1, inertia at the old 1e-12 margin, a slide at the attitude of the
     smallest denominator. The first DOP853 step overflowed, its NaN error was accepted
     (`err > 1.0` is False for NaN) and the loop crept towards t_stop for ever. Now the
     kernel rejects the step, ends on its bounds and returns (here: an error state)."""
@@ -133,7 +133,7 @@ def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
     assert roll.t[-1] == 1.0 and roll.events and roll.events[0][1] == "stick"
 
 
-# ---- issue 9.5 and 9.6: runs reach t_end exactly; grids that would never finish ---------
+# ---- runs reach t_end exactly; grids that would never finish ----------------------------
 def test_run_reaches_t_end_exactly_past_a_multiple_of_control_dt():
     t_end = 100 + 4e-8
     for ctrl in (np.zeros(3), lambda *a: 0.0):
@@ -155,7 +155,7 @@ def test_an_euler_step_that_would_never_finish_is_refused():
         simulate(np.zeros(1), t_end=10.0, control_dt=1.0, integrator="euler", euler_dt=1e-300)
 
 
-# ---- issue 9.7: numpy scalars accepted, strings / booleans / complex refused by name -----
+# ---- numpy scalars accepted, strings / booleans / complex refused by name ----------------
 def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
     from hoprover_env.envs.env import HopRoverEnv
     roll = simulate(np.zeros(2), t_end=np.float32(1.0), control_dt=np.int64(1))
@@ -169,7 +169,7 @@ def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
             HopRoverEnv(control_dt=bad)
 
 
-# ---- issue 9.4: TTRTP is logged when it happens ------------------------------------------
+# ---- TTRTP is logged when it happens -----------------------------------------------------
 def test_ttrtp_is_logged_in_time_order_and_stop_on_ttrtp_stops_there():
     from hoprover_env import RoverSim
     roll = simulate(np.full(1, 2e-5), t_end=20.0, control_dt=20.0, target_x=0.0)
@@ -188,7 +188,7 @@ def _lowest_corner_height(sim_or_state, params):
 
 
 def test_no_impact_is_logged_in_mid_air_over_a_long_control_interval():
-    # issue 9.2: the flight bound used the spin rate at the END of a 200 s interval, so
+    # the flight bound used the spin rate at the END of a 200 s interval, so
     # steps shrank to 1e-7 s after lift-off, the iteration budget ran out 3.6e-5 m up
     # and an impact that changed nothing was logged at t = 2.88 s
     roll = simulate(np.array([5e-4]), t_end=200, control_dt=200)
@@ -199,7 +199,7 @@ def test_no_impact_is_logged_in_mid_air_over_a_long_control_interval():
 
 
 def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
-    # issue 9.2: RoverSim stopped at t = 140.87 s with every corner 0.32 m up. Checked
+    # RoverSim stopped at t = 140.87 s with every corner 0.32 m up. Checked
     # against the closed-form flight sampled every 1e-5 s.
     from hoprover_env import RoverSim, core
     sim = RoverSim(target_x=1e3)
@@ -246,7 +246,7 @@ def _return_time_exact(s0, p, torque, k=0):
 @pytest.mark.parametrize("delay,t1,t2", [(2e-4, 1e-4, 5e-4), (1e-4, 1e-4, 5e-4),
                                          (2e-4, 3e-4, 4e-4)])
 def test_slow_return_after_lift_off_is_located_whatever_the_horizon(delay, t1, t2):
-    # issue 9.3: a corner lifts off, a torque change `delay` later drives it back within
+    # a corner lifts off, a torque change `delay` later drives it back within
     # microseconds at ~1e-9 m/s. A Newton polish dividing by that speed reported the
     # return up to 4e-5 s late, and later for longer `advance` horizons.
     from hoprover_env import RoverSim

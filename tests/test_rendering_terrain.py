@@ -1,4 +1,4 @@
-"""Issue 23, item 5: frames and figures draw the inclined ground, the target on it, and the
+"""Frames and figures draw the inclined ground, the target on it, and the
 judge's contact point beside the c.m."""
 import math
 

@@ -13,7 +13,7 @@ import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import RoverParams, simulate
 from hoprover_env.tasks.observation import OBS_LANDING
 from hoprover_env.tasks.terrain import OBS_SLOPE
-from hoprover_env.envs.terrain_env import HopRoverTerrainVectorEnv
+from hoprover_env.envs.registry import HopRoverTerrainVectorEnv
 
 
 def test_checkers_pass_and_the_observation_carries_the_slope():
@@ -140,7 +140,7 @@ def test_reset_option_terrain_seed_replays_an_episode_in_simulate_and_the_vector
     seed=k) under the same torques, and sub-env 0 of a vector env given the same option;
     the env's own draws stay aligned (the next episode is the one it always was)."""
     from hoprover_env import RoverParams, simulate
-    from hoprover_env.envs.terrain_env import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
+    from hoprover_env.envs.registry import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
     opts = {"target_x": 0.4, "slope": 0.1, "roughness": 0.1, "terrain_seed": 12345}
     env = HopRoverTerrainEnv()
     _, info = env.reset(seed=3, options=opts)
@@ -166,7 +166,7 @@ def test_reset_option_terrain_seed_replays_an_episode_in_simulate_and_the_vector
 
 
 def test_bad_terrain_seed_and_initial_state_options_are_named():
-    from hoprover_env.envs.terrain_env import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
+    from hoprover_env.envs.registry import HopRoverTerrainEnv, HopRoverTerrainVectorEnv
     with pytest.raises(ValueError, match="terrain_seed"):
         HopRoverTerrainEnv().reset(options={"terrain_seed": -1})
     venv = HopRoverTerrainVectorEnv(2)

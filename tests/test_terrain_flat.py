@@ -1,4 +1,4 @@
-"""Slope 0 and roughness 0 give the contest model's results bit for bit (issue 23): the
+"""Slope 0 and roughness 0 give the contest model's results bit for bit: the
 runs of tests/flat_cases.py against the arrays the code before terrain gave
 (tests/data/flat_baseline.npz, made by tests/data/make_flat_baseline.py at 6fc532c)."""
 import os

@@ -1,5 +1,5 @@
-"""Cloning studies for issue 28's "learned policy within 5 % of the best-known plan":
-collect expert data once, then fit and judge clones of it in seconds to minutes.
+"""Cloning studies toward a learned policy within 5 % of the best-known plans: collect
+expert data once, then fit and judge clones of it in seconds to minutes.
 
     python -m agents.plan_clone.clone_study collect --out runs/clone/demo_a.npz --seed 11 --episodes 200
     python -m agents.plan_clone.clone_study collect --out runs/clone/short.npz --seed 23 --episodes 200 \\

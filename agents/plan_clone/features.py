@@ -1,4 +1,4 @@
-"""A policy input layer that resolves the rover's small motions (issue 28).
+"""A policy input layer that resolves the rover's small motions.
 
 HopRover-v0's observation is scaled so that every component is of order one over a
 whole episode (a hop spans metres, turns, cm/s). The decisions that settle a nudge at
@@ -6,8 +6,8 @@ the band's edge or a slide after landing act on motions a thousand times smaller
 rock of a milliradian, a corner a fraction of a millimetre out of the band, a slide of
 a millimetre per second. After VecNormalize those differ by 1e-3 in the network's input,
 which a network of order-one weights fitted by least squares does not separate, so a
-clone averages the labels of states it cannot tell apart (BENCHMARKS.md, "A learned
-policy within 5 %").
+clone averages the labels of states it cannot tell apart (docs/studies/plan-clone.md,
+section 3).
 
 `MicroStateFeatures` passes the normalised observation on unchanged and appends
 ``tanh(q / scale)`` for a few physical quantities q at fine scales (`FEATURES`: the

@@ -1,10 +1,10 @@
-"""A torque network of two branches, one for the nudge at the band's edge (issue 28).
+"""A torque network of two branches, one for the nudge at the band's edge.
 
 A clone of the plan-table teacher (agents/plan_clone/plan_table.py) flies the long and short hops
 within 1 % of the best-known plans, but one network fitted to everything at once does
 not also fit the teacher's nudge law at the band's edge (agents/plan_clone/nudge.py): its brakes
 are a few thousand samples among millions, and a network fitted to those states alone
-does fit them (BENCHMARKS.md, "A learned policy within 5 %"). So the network has two
+does fit them (docs/studies/plan-clone.md, section 3). So the network has two
 branches and a fixed gate:
 
 * the *main* branch (an MLP on the normalised observation) acts everywhere else; its
@@ -17,25 +17,26 @@ branches and a fixed gate:
 * with `flight`, the nudge branch also acts in slow flights within `nudge_max` (a
   nudge ends in a micro-flight of ~10 s in which the teacher coasts; the main branch's
   few thousandths of T_max there damp the rotation whose corner touch slides the rover
-  into the band, and cost a second nudge: BENCHMARKS.md, session 13);
+  into the band, and cost a second nudge: docs/studies/plan-clone.md, section 9);
 * with `rest`, the gate measures the offset on the ground as the *rest offset*: where
   the c.m. would be if the rover were set down flat on the corner it stands on
   (`rest_offset`). A launch's pivot carries the c.m. toward the target while the corner
   stays put, so with the c.m.'s offset a plan launched from just beyond `nudge_max`
   was handed to the nudge branch half a second later: in a window of 0.07 mm beyond
-  0.115 m every start took 41 s where a hop takes 30 (BENCHMARKS.md, session 16);
+  0.115 m every start took 41 s where a hop takes 30 (docs/studies/plan-clone.md,
+  section 13);
 * with `hold`, a rover at rest on a face (state F) with a corner in the band gets zero
   torque (`at_rest_in_band`): staying still then ends the episode in the least time
   there is. The teacher's label there is zero too, but the nudge law's push begins at
   the band's edge, a step that a fit smooths into a small push just inside it: without
   the hold every start within 0.36 mm of the edge was tipped out of the band (8-14 s
-  where staying takes 5: BENCHMARKS.md, session 14);
+  where staying takes 5: docs/studies/plan-clone.md, section 10);
 * with `symmetric`, each branch's output is the odd part of its fit under the mirror
   x -> -x (`tasks.observation.mirror`): (f(o) - f(mirror(o))) / 2, before the dead zone
   and the gate (both mirror-invariant). Level ground is mirror-symmetric, so the
   teacher is odd; an unsymmetrised fit is not, and its one-sided errors in
-  micro-flights at the band's edge cost tens of times the plan's time (BENCHMARKS.md,
-  session 11).
+  micro-flights at the band's edge cost tens of times the plan's time
+  (docs/studies/plan-clone.md, section 5).
 
 Both branches are learned; the gate, the hold, the dead zone and the normalisations are
 fixed parts of the network. `GatedNet.forward` maps raw observations (N, 19) to actions
@@ -253,10 +254,37 @@ def load_policy(path) -> GatedPolicy:
     return GatedPolicy(net, name=Path(path).stem, env_kwargs=meta["env_kwargs"])
 
 
-HAND_WRITTEN = ("a fixed gate between the branches on thresholds (reach `nudge_max`, tilt "
-                "STILL_TILT, speed STILL_SPEED)", "zero torque at rest on a face in the band "
-                "(`hold`)", "each branch acts as the odd part of its fit under the mirror "
-                "x -> -x (`symmetric`)", "a dead zone on the main branch's output")
+GROUP = "Imitation of a planner"        # the leaderboard's group of a network made here
+HOW_MADE = ("two networks cloned by least squares and DAgger rounds from the plan-table "
+            "teacher, joined by fixed, hand-written parts; no slope input, level ground only")
+TEACHER = ("the plan-table teacher (agents/plan_clone/plan_table.py): a table of best-known "
+           "plans searched with the simulator from the start state on level ground for a grid "
+           "of targets, made alike between neighbours, and a nudge law for targets just beyond "
+           "the band's edge (agents/plan_clone/nudge.py)")
+
+
+def hand_written(arch: dict) -> list[str]:
+    """The fixed (not learned) parts of a gated network with the settings `arch`
+    (`nudge_max`, `deadzone`, `symmetric`, `flight`, `hold`, `rest`), in words, with
+    their numbers: what the bundled policy's .json lists under "hand_written"."""
+    where = (f"within {arch['nudge_max']:g} m of the target (`nudge_max`"
+             + ("; on the ground measured from the corner it stands on, `rest`)"
+                if arch.get("rest") else ")"))
+    gate = (f"a fixed gate between the two learned branches on thresholds: the nudge branch "
+            f"acts where the rover is {where} and nearly still (tilt below {STILL_TILT:g} rad, "
+            f"speed below {STILL_SPEED * 1e3:g} mm/s)"
+            + (f", or in a slow flight there (tilt below {FLIGHT_TILT:g} rad, `flight`)"
+               if arch.get("flight") else "") + "; the main branch everywhere else")
+    parts = [gate]
+    if arch.get("hold"):
+        parts.append("zero torque forced at rest on a face with a corner in the band (`hold`)")
+    if arch.get("symmetric"):
+        parts.append("mirror symmetry: each branch acts as the odd part of its fit under "
+                     "x -> -x (`symmetric`)")
+    dz = float(arch.get("deadzone", 0.0))
+    parts.append("a dead zone on the main branch's output (`deadzone`: "
+                  + (f"{dz:g} of T_max)" if dz > 0 else "0 in this network, so it never acts)"))
+    return parts
 
 
 def export(net: GatedNet, path, meta: dict) -> None:
@@ -266,10 +294,11 @@ def export(net: GatedNet, path, meta: dict) -> None:
     `hoprover_env.agents.policies.load_policy` runs it with no code of this module."""
     from hoprover_env.agents.base import TorchPolicy
     from hoprover_env.tasks.observation import OBS_DIM
+    arch = {k: meta[k] for k in ("main", "nudge", "deadzone", "nudge_max", "symmetric",
+                                 "flight", "hold", "rest") if k in meta}
     meta = {**meta, "kind": "torch.export", "made_by": "imitation of a planner",
-            "hand_written": list(HAND_WRITTEN), "architecture": {
-                k: meta[k] for k in ("main", "nudge", "deadzone", "nudge_max", "symmetric",
-                                     "flight", "hold", "rest") if k in meta}}
+            "hand_written": hand_written(arch), "architecture": arch, "group": GROUP,
+            "how_made": HOW_MADE, "teacher": TEACHER}
     for k in ("main", "nudge", "deadzone", "nudge_max", "symmetric", "flight", "hold", "rest"):
         meta.pop(k, None)
     example = torch.zeros((4, OBS_DIM), dtype=torch.float32)

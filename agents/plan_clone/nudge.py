@@ -1,10 +1,10 @@
-"""A nudge at the band's edge as state feedback, for the plan-table teacher (issue 28).
+"""A nudge at the band's edge as state feedback, for the plan-table teacher.
 
 Just beyond the band's edge (a target 0.1-0.115 m from the rover at rest) the best-known
 plans are nudges: a small push, then a brake held for a few seconds, timed by the plan's
 clock. A clone cannot copy that timing: the states it must tell apart differ by a
 fraction of a milliradian and of a millimetre, and the same state gets "brake" from one
-plan and "nothing" from another (BENCHMARKS.md, "A learned policy within 5 %"). So the
+plan and "nothing" from another (docs/studies/plan-clone.md, section 3). So the
 teacher flies the nudge as a law of the observed state alone, with three numbers per
 offset, chosen by a grid search and made to change smoothly with the offset:
 
@@ -212,8 +212,8 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     also in slow flights), `hold` (zero torque at rest in the band) and `rest` (the gate
     on the ground by the rest offset, agents.plan_clone.gated) are the last network's; the
     nudge branch is fitted to the rows of the teacher's own gate either way. Driven with
-    the flight gate as well, the rounds gave a worse network (BENCHMARKS.md, sessions 13
-    and 14).
+    the flight gate as well, the rounds gave a worse network
+    (docs/studies/plan-clone.md, sections 9 and 10).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
     from agents.plan_clone.clone_study import fit, judge, report

@@ -1,12 +1,13 @@
 """A table of best-known plans from HopRover-v0's start state, made alike between
-neighbouring targets, and a network cloned from it (issue 28, "a learned policy within
-5 % of the best-known plan").
+neighbouring targets, and a network cloned from it: a learned policy within 5 % of the
+best-known plans.
 
 Why a table: mpc's demonstrations are not one function of the state. From nearby targets
 its search returns plans of nearly equal cost but of another kind (launch window, flight
-gains, correction windows), and a clone fits their average (BENCHMARKS.md, "A learned
-policy within 5 %"). Here each target of a dense grid gets its plan once, offline, and
-the plans are then made alike wherever that costs (almost) nothing:
+gains, correction windows), and a clone fits their average (docs/studies/plan-clone.md,
+section 1; docs/studies/imitation-of-mpc.md). Here each target of a dense grid gets its
+plan once, offline, and the plans are then made alike wherever that costs (almost)
+nothing:
 
 1. a search per target (`planning.search`, mpc's budget) on a grid of step `step` m
    from the band's edge to 1 m on each side, then `passes` continuation passes that

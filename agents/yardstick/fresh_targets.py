@@ -1,5 +1,5 @@
-"""A policy against a reference agent on targets nobody chose anything on (issue 28's
-hidden check, reproducible).
+"""A policy against a reference agent on targets nobody chose anything on: a hidden
+check, reproducible.
 
 The frozen suites (hoprover_env.evaluation.suites) are what every table in BENCHMARKS.md is
 measured on, and so what networks get chosen on; a policy that is within 5 % of the
@@ -15,7 +15,7 @@ tips the rover out of the band is slower than that:
     python -m agents.yardstick.fresh_targets --policy plan_clone --seed 9001 \\
         --reference-table runs/plan_table/table_nudge.npz --out fresh.json
 
-The reference is `mpc` (the planning agent, the issue's reference) or, with
+The reference is `mpc` (the planning agent) or, with
 `--reference-table`, the plan-table teacher of that table (agents/plan_clone/plan_table.py, within
 0.1 % of the suites' references at the median). Use a seed you have not chosen
 anything on, once.

@@ -28,7 +28,7 @@ from hoprover_env.evaluation.scores import summarize
 
 ENV_ID = "HopRoverMission-v0"
 SCALES = (0.0, 0.5, 1.0, 2.0, 4.0)
-OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "mission_degradation.json"
+OUT = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "mission_degradation.json"
 
 
 def evaluate(spec: str, suite, n: int, scale: float) -> dict:

@@ -12,8 +12,9 @@ to make the env, its classes, spaces and fixed arguments, read from the register
 itself), an animation of the bundled `policy` on `target` [m] (made at build time by
 docs/_ext/animations.py; HopRoverContest-v0 always uses its fixed target), and the env
 module's docstring (its Markdown sections: description, action and observation spaces,
-rewards, start, end, arguments). Adding an environment = registering it in
-hoprover_env.ENVS and adding one such file (the toctree of docs/envs/index.md globs).
+rewards, start, end, arguments), i.e. its task module's (hoprover_env/tasks/*.py).
+Adding an environment = adding its task (docs/ARCHITECTURE.md) and one such file (the
+toctree of docs/envs/index.md globs).
 """
 from __future__ import annotations
 
@@ -85,7 +86,7 @@ def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
     entry, vector_entry, fixed = spec.env, spec.vector_env, spec.kwargs
     module_name, cls_name = entry.split(":")
     vmodule, vcls = vector_entry.split(":")
-    module = importlib.import_module(module_name)
+    module = importlib.import_module(spec.module)       # the task module: the env's docs
     env = gym.make(env_id)
     obs_space, act_space = env.observation_space, env.action_space
     env.close()
@@ -102,7 +103,7 @@ def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
         f"| Fixed arguments | {fixed_text} |",
         f"| Action space | {_space(act_space)} |",
         f"| Observation space | {_space(obs_space)} (bounds per component below) |",
-        f"| Source | `{module_name.replace('.', '/')}.py` (this page is its docstring) |",
+        f"| Source | `{spec.module.replace('.', '/')}.py` (this page is its docstring) |",
         "",
     ]
     gif = srcdir / ANIM_DIR / f"{env_id}.gif"

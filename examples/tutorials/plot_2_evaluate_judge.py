@@ -14,8 +14,8 @@ does, and then reads the nine figures the contest's sample program drew for one 
 # Score three policies on the same targets
 # ----------------------------------------
 # ``seeded_targets`` gives the fixed evaluation set (uniform in [-1, 1] m, seed 2015 is
-# the README's); ``run_episodes`` runs one episode per target side by side in one vector
-# env; ``summarize`` gives the README's columns.
+# ``python evaluate.py``'s); ``run_episodes`` runs one episode per target side by side in
+# one vector env; ``summarize`` gives ``evaluate.py``'s columns.
 import tempfile
 from pathlib import Path
 

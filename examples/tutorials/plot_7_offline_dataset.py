@@ -8,7 +8,10 @@ native vector env, load it back as any Minari user would, check that an episode 
 bit for bit from its recorded seed, train behaviour cloning with a few lines of PyTorch,
 and score the clone on the task's frozen suite against the best-known references.
 The same steps at full size (1 M steps, d3rlpy's BC, IQL and CQL, three seeds) are
-``python -m agents.offline_baselines``; their results are in BENCHMARKS.md.
+``python -m agents.offline_baselines``; their results are in docs/studies/offline.md.
+
+Needs: ``pip install 'hoprover[offline,scores]'`` (Minari and h5py for the dataset,
+rliable for the score intervals).
 """
 
 # %%
@@ -22,8 +25,14 @@ import os
 import tempfile
 import time
 
+try:                          # the offline and scores extras
+    import h5py  # noqa: F401  (Minari's dataset files)
+    import minari
+    import rliable  # noqa: F401  (the score intervals)
+except ImportError as err:
+    raise SystemExit(f"This tutorial needs the offline and scores extras ({err.name} is "
+                     "missing): pip install 'hoprover[offline,scores]'") from err
 import matplotlib.pyplot as plt
-import minari
 import numpy as np
 import torch
 

@@ -223,6 +223,9 @@ class TorchPolicy:
                 raise ValueError(f"TorchPolicy.save: meta needs {key!r}")
         program = torch.export.export(module, (example_obs,),
                                       dynamic_shapes=({0: torch.export.Dim("batch")},))
+        for node in program.graph.nodes:
+            # the source lines that traced each node: paths of the machine it was made on
+            node.meta.pop("stack_trace", None)
         buf = io.BytesIO()
         torch.export.save(program, buf, extra_files={TorchPolicy.META: json.dumps(meta)})
         atomic_write(Path(path), buf.getvalue())

@@ -2,7 +2,7 @@
 
 HopRoverMission-v0 hides the state: a torque policy sees noisy attitude and rate, and its
 position only from fixes at rest (tasks/mission.py). PPO on that observation, even with
-an 8-reading history, learned nothing useful (BENCHMARKS.md, "Mission conditions"): the
+an 8-reading history, learned nothing useful (docs/studies/mission.md): the
 launch is open loop, with no landing point or velocity to close it on. This module splits
 the problem as a flight team would:
 
@@ -29,9 +29,9 @@ import math
 import gymnasium as gym
 import numpy as np
 
-from hoprover_env.tasks.config import HopEnvConfig
+from hoprover_env.tasks.hop import HopEnvConfig
 from hoprover_env.agents.estimation import MissionEstimator
-from hoprover_env.envs.mission_env import HopRoverMissionEnv
+from hoprover_env.envs.registry import HopRoverMissionEnv
 from hoprover_env.agents.scripted import ScriptedHopper
 from hoprover_env.tasks.hop import hop_torque
 

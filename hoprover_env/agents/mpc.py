@@ -30,7 +30,7 @@ from hoprover_env.agents.estimation import EstimatorBank, hides_state
 from hoprover_env.agents.planning import CONTROL_DT, Problem, plan_end, plan_torque, search
 from hoprover_env.agents.base import torque_to_action
 
-DEFAULT_BUDGET = 3000        # candidates per decision on smooth ground (see BENCHMARKS.md)
+DEFAULT_BUDGET = 3000        # candidates per decision on smooth ground (docs/studies/references.md)
 DEFAULT_ROUGH_BUDGET = 1500  # on rough ground, each candidate flown over the samples
 DEFAULT_TERRAIN_SAMPLES = 4
 GROUND_WAIT = 10.0           # s on the ground without coming to rest before replanning

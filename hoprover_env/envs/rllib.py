@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from ray.rllib.callbacks.callbacks import RLlibCallback
 
-from hoprover_env import env_class, task, vector_env_class
+from hoprover_env.envs.registry import env_class, task, vector_env_class
 
 
 def make_env(env_config):

@@ -24,7 +24,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv
 
-from hoprover_env import ENVS, vector_env_class
+from hoprover_env.envs.registry import ENVS, vector_env_class
 
 
 class HopRoverSB3VecEnv(VecEnv):

@@ -79,8 +79,8 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     (seed, options) to run, each once). Returns the buffers in episode order."""
     from gymnasium.vector import AutoresetMode
     from minari.data_collector.episode_buffer import EpisodeBuffer
-    import hoprover_env
-    venv = hoprover_env.vector_env_class(task)(num_envs, autoreset_mode=AutoresetMode.NEXT_STEP,
+    from hoprover_env.envs import registry as _registry
+    venv = _registry.vector_env_class(task)(num_envs, autoreset_mode=AutoresetMode.NEXT_STEP,
                                                **kwargs)
     queue = list(episodes) if episodes is not None else None
     next_k = 0

@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from hoprover_env.agents.base import RandomPolicy
-from hoprover_env import vector_env_class
+from hoprover_env.envs.registry import vector_env_class
 
 
 @dataclasses.dataclass

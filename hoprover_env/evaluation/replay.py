@@ -15,8 +15,9 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from hoprover_env.agents.scripted import ScriptedHopper
-import hoprover_env
-from hoprover_env import Rollout, core, vector_env_class, simulate
+from hoprover_env.envs import registry as _registry
+from hoprover_env import Rollout, core, simulate
+from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.tasks.hop import hop_torque
 
 
@@ -56,7 +57,7 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
     kwargs.pop("target_x", None)
     env_id = getattr(policy, "env_id", "HopRover-v0")
     venv = vector_env_class(env_id)(1, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-    hops = hoprover_env.task(env_id).hops      # one action = one hop's launch torque
+    hops = _registry.task(env_id).hops      # one action = one hop's launch torque
     ground = {k: float(v) for k, v in (terrain or {}).items()}
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target_x]), **ground})
     policy.reset(1)

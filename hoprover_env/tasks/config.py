@@ -10,25 +10,24 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Mapping
+from typing import Any, ClassVar, Mapping
 
 import numpy as np
 
-from hoprover_env.core.params import MAX_SLOPE, RoverParams
+from hoprover_env.core.params import RoverParams
 from hoprover_env.tasks.reward import RewardConfig
-from hoprover_env.sim.randomize import RANDOMIZABLE, check_randomize, draw_params
+from hoprover_env.sim.randomize import RANDOMIZABLE, check_randomize, draw_params  # noqa: F401
 from hoprover_env.sim.simulate import DEFAULT_RTOL, make_options, make_state
-from hoprover_env.tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_ATT_NOISE,
-                           E_BIAS_WALK, E_CONTROL_DT, E_FIX_NOISE, E_FIX_REST, E_HOLD_KD,
-                           E_HISTORY, E_HOLD_KP, E_INCL_NOISE, E_LAUNCH_MAX, E_LAUNCH_MIN,
-                           E_RATE_NOISE,
-                           E_T_TOTAL, N_E)
-from hoprover_env.util.validate import finite_real, is_real, non_negative_real, positive_real
+from hoprover_env.tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT,
+                                      E_T_TOTAL, N_E)
+from hoprover_env.util.validate import finite_real, is_real, positive_real
 
 @dataclasses.dataclass(frozen=True)
 class EnvConfig(RewardConfig):
-    """Arguments of HopRoverEnv / HopRoverVectorEnv (see the table in env.py); the
-    reward's own arguments and their checks are RewardConfig's (hoprover_env/tasks/reward.py)."""
+    """The arguments every task shares (the table in hoprover_env/tasks/torque.py); the
+    reward's own arguments and their checks are RewardConfig's (hoprover_env/tasks/reward.py).
+    A task's config subclasses it with its own arguments, and lists in `unused` those of
+    these it does not use, which are then refused."""
 
     control_dt: float = 0.5
     episode_time: float = 600.0
@@ -43,9 +42,16 @@ class EnvConfig(RewardConfig):
     action_map: str = "linear"
     action_scale: float = 1.0
     info_level: str = "basic"
+    # the arguments a task does not use, each with the reason: refused, not ignored
+    unused: ClassVar[dict] = {}
 
     def __post_init__(self):
         super().__post_init__()
+        for name, why in self.unused.items():
+            default = type(self).__dataclass_fields__[name].default
+            if getattr(self, name) != default:
+                raise ValueError(f"{type(self).__name__} does not use {name} ({why}); "
+                                 f"leave it at {default!r}")
 
         def positive(name):
             object.__setattr__(self, name, positive_real(name, getattr(self, name)))
@@ -82,6 +88,10 @@ class EnvConfig(RewardConfig):
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":
         """The config of these keyword arguments; `owner` names the caller in errors."""
         names = {f.name for f in dataclasses.fields(cls)}
+        unused = [k for k in kwargs if k in cls.unused]
+        if unused:
+            raise TypeError(f"{owner or cls.__name__}() got the argument {unused[0]!r}, which "
+                            f"this task does not use ({cls.unused[unused[0]]})")
         bad = [k for k in kwargs if k not in names]
         if bad:
             # Python's own wording: TorchRL's GymEnv probes with frameskip=1 and drops it
@@ -118,36 +128,6 @@ class EnvConfig(RewardConfig):
     def max_steps(self) -> int:
         """Control steps in a full episode."""
         return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
-
-
-@dataclasses.dataclass(frozen=True)
-class HopEnvConfig(EnvConfig):
-    """Arguments of HopRoverHopEnv: those of HopRoverEnv plus the built-in hop controller
-    (see the table in hop_env.py). `control_dt` is the controller's period here."""
-
-    gamma: float = 0.98
-    hold_kp: float = 0.15
-    hold_kd: float = 0.9
-    launch_max: float = 60.0
-    launch_min: float = 1.05
-
-    def __post_init__(self):
-        super().__post_init__()
-        for name in ("hold_kp", "hold_kd", "launch_max"):
-            v = getattr(self, name)
-            if not (is_real(v) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive number, got {v!r}")
-        if not (is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
-            raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
-                             f"in (1, 1000), got {self.launch_min!r}")
-
-    def task_vector(self) -> np.ndarray:
-        e = super().task_vector()
-        e[E_HOLD_KP] = self.hold_kp
-        e[E_HOLD_KD] = self.hold_kd
-        e[E_LAUNCH_MAX] = self.launch_max
-        e[E_LAUNCH_MIN] = self.launch_min
-        return e
 
 
 def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
@@ -201,84 +181,17 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
 RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness", "terrain_seed")
 
 
-@dataclasses.dataclass(frozen=True)
-class TerrainEnvConfig(EnvConfig):
-    """Arguments of HopRoverTerrainEnv: those of HopRoverEnv plus the terrain each episode
-    draws (see the table in terrain_env.py)."""
-
-    slope_range: tuple = (-0.2, 0.2)
-    roughness: float = 0.05
-
-    def __post_init__(self):
-        super().__post_init__()
-        rng = self.slope_range
-        if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
-                and all(is_real(v) and abs(v) <= MAX_SLOPE for v in rng) and rng[0] <= rng[1]):
-            raise ValueError(f"slope_range must be (low, high) [rad] with low <= high, both "
-                             f"in [-{MAX_SLOPE}, {MAX_SLOPE}]; got {self.slope_range!r}")
-        object.__setattr__(self, "slope_range", (float(rng[0]), float(rng[1])))
-        if not (is_real(self.roughness) and math.isfinite(self.roughness)
-                and self.roughness >= 0):
-            raise ValueError(f"roughness must be a finite number >= 0 [rad], got "
-                             f"{self.roughness!r}")
-
-    def draw_terrain(self, rng: np.random.Generator) -> dict:
-        return {"slope": float(rng.uniform(*self.slope_range)),
-                "roughness": float(self.roughness)}
-
-    def draws_bumps(self) -> bool:
-        return self.roughness > 0.0
 
 
-# The ground a mission does not know: restitutions and friction drawn per episode
-# (relative half-ranges, EnvConfig.randomize), about the spread of the regolith
-# measurements Hayabusa2's MINERVA-II and MASCOT landings left open.
-MISSION_GROUND = {"restitution_x": 0.2, "restitution_y": 0.5, "mu_static": 0.25,
-                  "mu_dynamic": 0.25}
-_NOISES = ("attitude_noise", "rate_noise", "bias_walk", "fix_noise", "inclinometer_noise",
-           "actuator_error")
+# Each task's config lives in its task module; these names are kept here for code
+# written when they lived in this module (hoprover_env.env_config).
+_IN_TASK_MODULES = {"HopEnvConfig": "hop", "TerrainEnvConfig": "terrain",
+                    "MissionEnvConfig": "mission", "MISSION_GROUND": "mission"}
 
 
-@dataclasses.dataclass(frozen=True)
-class MissionEnvConfig(TerrainEnvConfig):
-    """Arguments of HopRoverMissionEnv: those of HopRoverTerrainEnv (the ground drawn
-    each episode, `randomize` defaulting to MISSION_GROUND) plus its sensors and
-    actuator (see the table in mission_env.py). `noise_scale` multiplies every noise."""
-
-    randomize: Mapping[str, float] | None = dataclasses.field(
-        default_factory=lambda: dict(MISSION_GROUND))
-    noise_scale: float = 1.0
-    attitude_noise: float = math.radians(0.5)
-    rate_noise: float = 1e-4
-    bias_walk: float = 1e-3
-    fix_noise: float = 0.01
-    fix_rest: float = 1.0
-    inclinometer_noise: float = 0.02
-    actuator_error: float = 0.05
-    history: int = 1
-
-    def __post_init__(self):
-        super().__post_init__()
-        if not (isinstance(self.history, (int, np.integer)) and not isinstance(
-                self.history, bool) and 1 <= self.history <= 64):
-            raise ValueError(f"history (readings per observation) must be an integer in "
-                             f"[1, 64], got {self.history!r}")
-        for name in _NOISES + ("noise_scale",):
-            object.__setattr__(self, name, non_negative_real(name, getattr(self, name)))
-        object.__setattr__(self, "fix_rest", positive_real("fix_rest", self.fix_rest))
-        if self.actuator_error * self.noise_scale >= 1.0:
-            raise ValueError(f"actuator_error x noise_scale must be below 1 (a scale error "
-                             f"of 100 % or more reverses the torque), got "
-                             f"{self.actuator_error} x {self.noise_scale}")
-
-    def task_vector(self) -> np.ndarray:
-        e = super().task_vector()
-        k = self.noise_scale
-        e[E_ATT_NOISE] = k * self.attitude_noise
-        e[E_RATE_NOISE] = k * self.rate_noise
-        e[E_BIAS_WALK] = k * self.bias_walk
-        e[E_FIX_NOISE] = k * self.fix_noise
-        e[E_FIX_REST] = self.fix_rest
-        e[E_INCL_NOISE] = k * self.inclinometer_noise
-        e[E_HISTORY] = self.history
-        return e
+def __getattr__(name):
+    if name in _IN_TASK_MODULES:
+        import importlib
+        return getattr(importlib.import_module(
+            f"hoprover_env.tasks.{_IN_TASK_MODULES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

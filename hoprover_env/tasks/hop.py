@@ -1,4 +1,75 @@
-"""The hop-level task (HopRoverHop-v0): one action is one hop, flown by a built-in
+"""HopRoverHop: the same rover and judge, one action per hop.
+
+## Description
+
+The hop-level formulation of the hopping-rover literature (sequential hop planning as an
+MDP, e.g. Hockman & Pavone, "Stochastic motion planning for hopping rovers on small
+Solar System bodies", 2017): the agent chooses where to hop, a built-in controller flies
+the hop. Each step runs, inside the jitted kernel on the control grid of `control_dt`:
+
+1. **Launch**: hold the commanded torque until the rover leaves the ground (at most
+   `launch_max` s; if it has not lifted off by then, the torque drops to zero).
+2. **Flight**: a PD attitude hold, T = -I (kp theta + kd omega), clipped to the torque
+   limits, so the rover lands on its bottom face.
+3. **Landing**: zero torque while it bounces (attitude hold again in each bounce), slides
+   and stops.
+
+The step returns when the rover is at rest again outside the band, when the judge's TTRTP
+is reached, when it breaks, or when the episode's time is up. A rover that comes to rest
+with a contact point in the band is left at rest until the judge's 5 s are up (so a
+step that starts in the band, e.g. a target within 0.1 m of the start, only waits). It is the physics of
+HopRover-v0, the same kernel and the same judge; only the decision points differ.
+
+## Action space
+
+`Box(-1, 1, (1,), float32)`. The sign is the direction of the hop (positive torque sends
+the rover towards +x). |a| maps log-uniformly onto launch torques from `launch_min` x
+m g r (1.05 x the tipping torque) at a = 0 to the torque limit at |a| = 1: the hop length
+grows about geometrically with the torque, so this gives equal resolution to short and
+long hops.
+
+## Observation space
+
+That of HopRover-v0 (`Box(float32, (19,))`, the table in hoprover_env/tasks/torque.py), observed at the end of
+each hop: at rest, so the useful parts are the offset from the target (0, 16, 17), the
+time (14) and the judge's dwell (15).
+
+## Rewards
+
+HopRover-v0's potential-based reward over the whole hop: `gamma * Phi(s') - Phi(s) -
+time_cost * (simulated seconds of the hop)`, plus `success_bonus` at TTRTP and minus
+`break_penalty` if a top corner touches the ground. The time cost makes a faster TTRTP
+pay; gamma defaults to 0.98 per decision (a hop, not a control period).
+
+## Starting state, episode end, info
+
+As HopRover-v0: upright at rest at x = 0, the target from `target_range`. Termination on
+success, on breaking, and when `episode_time` (600 s) runs out: the contest's time limit
+is part of this task and the time is observed, so it is a terminal state (with its
+potential: a rover far from the target is not let off), not a truncation. A learner that
+bootstraps at a truncation would value a rover the clock caught mid-flight, a state no
+hop decision is ever taken in; PPO exploited exactly that with long hops. `info["ttrtp"]` is the
+judge's TTRTP, `info["is_success"]`, `info["broken"]`, `info["state"]`.
+
+## Arguments
+
+Those of HopRover-v0 (`control_dt` is the controller's period, default 0.5 s) and:
+
+| Argument | Default | Description |
+|---|---|---|
+| `hold_kp`, `hold_kd` | 0.15, 0.9 | attitude-hold gains [1/s^2, 1/s] (times the inertia) |
+| `launch_max` | 60.0 | longest a launch torque is held without lift-off [s] |
+| `launch_min` | 1.05 | weakest launch torque, as a multiple of m g r |
+| `gamma` | 0.98 | discount per hop (shaping) |
+
+## Vectorized environment
+
+`gym.make_vec("HopRoverHop-v0", num_envs=N)` returns `HopRoverHopVectorEnv`: all N hops
+of a step in one jitted call, threaded over the cores from 64 sub-envs on.
+
+## The step, in the kernel
+
+The hop-level task (HopRoverHop-v0): one action is one hop, flown by a built-in
 controller.
 
 The step maps the action to a signed launch torque (`hop_torque`), then runs the rover
@@ -10,20 +81,72 @@ is reached (a rover at rest in the band is left there until the judge's 5 s are 
 when it breaks, or at the end of the episode. Reward, observation and outcome are every
 task's (tasks/common.py `close_step`), with the time cost charged for the simulated seconds
 the hop took. `TASK` is its written interface (tasks/common.py `TaskSpec`).
+
+Its step calls these jitted functions: `common.open_step`, `hop_torque`,
+`sim.controllers.attitude_hold`, `ADVANCE` (bound by `common.build` to
+`core.advance_event`, or `core.advance` for `integrator="euler"`), `reward.charge`,
+`common.episode_ended` and `common.close_step`; then `observation.observe`.
 """
+import dataclasses
 import math
+from typing import ClassVar
+
+import numpy as np
 
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.core.layout import ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_T, S_TH, S_W
-from hoprover_env.tasks.config import HopEnvConfig
+from hoprover_env.tasks.config import EnvConfig
 from hoprover_env.core.params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
 from hoprover_env.tasks import reward
 from hoprover_env.tasks import torque
 from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
-from hoprover_env.tasks.layout import (E_CONTROL_DT, E_HOLD_KD, E_HOLD_KP, E_LAUNCH_MAX, E_LAUNCH_MIN,
-                     E_T_TOTAL)
+from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, E_TASK
+from hoprover_env.tasks import Registration
+from hoprover_env.util.validate import is_real
 from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
+
+# this task's slots of E (tasks/layout.py): the built-in controller
+E_HOLD_KP = E_TASK        # attitude hold in flight [1/s^2]
+E_HOLD_KD = E_TASK + 1    # [1/s]
+E_LAUNCH_MAX = E_TASK + 2  # longest a launch torque is held before giving up [s]
+E_LAUNCH_MIN = E_TASK + 3  # weakest launch, a multiple of the tipping torque m g r
+
+
+@dataclasses.dataclass(frozen=True)
+class HopEnvConfig(EnvConfig):
+    """Arguments of HopRoverHop-v0: those of HopRover-v0 plus the built-in hop controller
+    (the table above). `control_dt` is the controller's period here. The torque task's
+    action map is not used: one action is a hop's launch torque (`hop_torque`)."""
+
+    unused: ClassVar[dict] = {
+        "action_map": "one action is a hop's launch torque, mapped by hop_torque",
+        "action_scale": "one action is a hop's launch torque, mapped by hop_torque"}
+
+    gamma: float = 0.98
+    hold_kp: float = 0.15
+    hold_kd: float = 0.9
+    launch_max: float = 60.0
+    launch_min: float = 1.05
+
+    def __post_init__(self):
+        super().__post_init__()
+        for name in ("hold_kp", "hold_kd", "launch_max"):
+            v = getattr(self, name)
+            if not (is_real(v) and math.isfinite(v) and v > 0):
+                raise ValueError(f"{name} must be a positive number, got {v!r}")
+        if not (is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
+            raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
+                             f"in (1, 1000), got {self.launch_min!r}")
+
+    def task_vector(self) -> np.ndarray:
+        e = super().task_vector()
+        e[E_HOLD_KP] = self.hold_kp
+        e[E_HOLD_KD] = self.hold_kd
+        e[E_LAUNCH_MAX] = self.launch_max
+        e[E_LAUNCH_MIN] = self.launch_min
+        return e
+
 
 # A hop that never ends (it cannot: every state decays to rest or flies ballistically)
 # would still stop here, in the kernel's error state, which ends the episode.
@@ -97,3 +220,4 @@ def step(S, P, O, E, RW, RM, M, action, ev, W):
 TASK = TaskSpec(name="hop", config=HopEnvConfig, step=step, observe=observe,
                 obs_low=OBS_LOW, obs_high=OBS_HIGH,
                 compile_extra=torque.TASK.compile_extra)
+REGISTER = (Registration("HopRoverHop-v0", hops=True),)

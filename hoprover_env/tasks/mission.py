@@ -1,4 +1,97 @@
-"""The mission task (HopRoverMission-v0): the torque task on unknown ground, sensed
+"""HopRoverMission: the contest's task under mission conditions.
+
+## Description
+
+HopRover-v0 on the terrain task's sloped, rough ground (hoprover_env/tasks/terrain.py), as a flight
+rover would meet it: it senses its state through noisy sensors, knows its position only
+from occasional fixes, does not know the ground it hops on, and its torquer is not
+calibrated. The physics, the reward and the judge are HopRover-v0's, on the true state;
+only what the policy sees and what its action does differ (hoprover_env/tasks/mission.py).
+
+* **Sensing.** Attitude with white noise (`attitude_noise`, 0.5 deg, the order of a
+  MEMS attitude solution's) plus a bias that walks (`bias_walk`, 1e-3 rad/sqrt(s): about
+  1.4 deg after 600 s), rate with white noise (`rate_noise`, 1e-4 rad/s), the slope
+  through an inclinometer (`inclinometer_noise`, 0.02 rad).
+* **Position.** A fix of accuracy `fix_noise` (1 cm: imaging the ground beside a known
+  landmark) whenever the rover has been at rest for `fix_rest` (1 s) at the control
+  instants; otherwise the last fix and its age. Velocity and the contact state are not
+  observed.
+* **Unknown ground.** Restitutions and friction are drawn each episode (`randomize`,
+  default +-20 % on the horizontal restitution, +-50 % on the vertical, +-25 % on the
+  friction coefficients), the slope from `slope_range`, the bumps from `roughness`;
+  none is observed.
+* **Actuator.** The applied torque is the commanded one times a scale drawn each
+  episode from 1 +- `actuator_error` (5 %), within the torque limits.
+
+`noise_scale` multiplies every noise and the actuator error (0: exact sensors, still
+fixes only at rest). Every draw comes from the episode's seed (sensor noise from a
+counter-based generator keyed by a seed drawn at reset), so an episode replays bit for
+bit and sub-env i of a vector env seeded with s equals a single env seeded with s + i.
+The judge judges the true position.
+
+## Action space
+
+As HopRover-v0: `Box(-1, 1, (1,), float32)`, the commanded torque held for one control
+period (applied with the episode's scale error).
+
+## Observation space
+
+`Box(float32, (8,))`:
+
+| Num | Observation | Scaling | Min | Max |
+|-----|-------------|---------|-----|-----|
+| 0 | last position fix minus the target | / 1 m, clipped | -5 | 5 |
+| 1 | age of that fix | / 60 s, clipped | 0 | 10 |
+| 2 | sin of the measured attitude | | -1 | 1 |
+| 3 | cos of the measured attitude | | -1 | 1 |
+| 4 | measured angular rate | / 0.3 rad/s, clipped | -10 | 10 |
+| 5 | time / episode time | | 0 | 1 |
+| 6 | torque commanded in the last period | / T_max | -1 | 1 |
+| 7 | inclinometer reading of the slope | / 0.5 rad, clipped | -1 | 1 |
+
+With `history=k` the observation holds the last k readings, newest first
+(`Box(float32, (8 k,))`; at reset every slot holds the first reading): a frame stack
+built into the env, so that a feed-forward policy has memory and any library can train
+it. A policy needs memory (this stack or a recurrent network) to tell flight from rest.
+
+## Rewards, starting state, episode end
+
+As HopRover-v0, on the true state. The rover starts at rest with a fix.
+
+## Info
+
+HopRover-v0's keys. `info_level="full"` adds the true state (`rover_state`, `t`,
+`contact_forces`, the reward's terms) and what the sensors hide: `attitude_bias` [rad],
+`actuator_scale`, `last_fix_x` [m]. None of it enters the observation.
+
+## Arguments
+
+Those of HopRoverTerrain-v0 and:
+
+| Argument | Default | Description |
+|---|---|---|
+| `noise_scale` | 1.0 | multiplies every noise below and the actuator error |
+| `attitude_noise` | 0.0087 (0.5 deg) | attitude sensor white noise, 1 sigma [rad] |
+| `bias_walk` | 1e-3 | attitude bias random walk [rad/sqrt(s)] |
+| `rate_noise` | 1e-4 | rate sensor white noise [rad/s] |
+| `fix_noise` | 0.01 | position fix noise [m] |
+| `fix_rest` | 1.0 | time at rest before a fix [s] |
+| `inclinometer_noise` | 0.02 | slope reading noise [rad] |
+| `actuator_error` | 0.05 | half-range of the actuator's scale error |
+| `history` | 1 | readings per observation, newest first |
+| `randomize` | MISSION_GROUND | the ground's unknown parameters and their relative half-ranges |
+
+## Version history
+
+* v0: first version.
+
+## Vectorized environment
+
+`gym.make_vec("HopRoverMission-v0", num_envs=N)` returns `HopRoverMissionVectorEnv`.
+
+## The step, in the kernel
+
+The mission task (HopRoverMission-v0): the torque task on unknown ground, sensed
 through noise.
 
 The physics, the step and the judge are the torque task's on the terrain task's ground
@@ -18,22 +111,90 @@ rough terrain (core/terrain.py `truncated_normal`), keyed by the episode's senso
 (drawn at reset from the env's generator) and the sensor's channel, at counter = the
 number of readings so far: an episode replays bit for bit, whatever thread or batch it
 runs in. Velocity and the contact state are never observed.
+
+Its step is the torque task's template (`torque.step`: `common.open_step`, `ACTUATE`
+bound to `actuate` below, `ADVANCE`, `reward.charge`, `common.close_step`); its observe
+is `observe` below (the sensors, drawn by `core.terrain.truncated_normal`).
 """
 import dataclasses
 import math
+from typing import Mapping
 
 import numpy as np
 
 from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
 from hoprover_env.core.layout import MODE_F, S_MODE, S_T, S_TH, S_W, S_X, S_XT
 from hoprover_env.core.terrain import truncated_normal
-from hoprover_env.tasks.config import MissionEnvConfig
+from hoprover_env.tasks import Registration
+from hoprover_env.util.validate import non_negative_real, positive_real
 from hoprover_env.core.params import P_SLOPE, P_TMAX, P_TMIN
 from hoprover_env.tasks import torque
-from hoprover_env.tasks.layout import (E_ATT_NOISE, E_BIAS_WALK, E_FIX_NOISE, E_FIX_REST, E_HISTORY,
-                     E_INCL_NOISE, E_RATE_NOISE, E_T_TOTAL)
+from hoprover_env.tasks.layout import E_T_TOTAL, E_TASK
 from hoprover_env.tasks.observation import POS_SCALE, RATE_SCALE, clip
-from hoprover_env.tasks.terrain import SLOPE_SCALE
+from hoprover_env.tasks.terrain import SLOPE_SCALE, TerrainEnvConfig
+
+# this task's slots of E (tasks/layout.py): its sensors
+E_ATT_NOISE = E_TASK        # attitude sensor noise, 1 sigma [rad]
+E_RATE_NOISE = E_TASK + 1   # rate sensor noise [rad/s]
+E_BIAS_WALK = E_TASK + 2    # attitude bias random walk [rad / sqrt(s)]
+E_FIX_NOISE = E_TASK + 3    # position fix noise [m]
+E_FIX_REST = E_TASK + 4     # time at rest before a fix [s]
+E_INCL_NOISE = E_TASK + 5   # inclinometer noise [rad]
+E_HISTORY = E_TASK + 6      # readings in the observation, newest first
+
+# The ground a mission does not know: restitutions and friction drawn per episode
+# (relative half-ranges, EnvConfig.randomize), about the spread of the regolith
+# measurements Hayabusa2's MINERVA-II and MASCOT landings left open.
+MISSION_GROUND = {"restitution_x": 0.2, "restitution_y": 0.5, "mu_static": 0.25,
+                  "mu_dynamic": 0.25}
+_NOISES = ("attitude_noise", "rate_noise", "bias_walk", "fix_noise", "inclinometer_noise",
+           "actuator_error")
+
+
+@dataclasses.dataclass(frozen=True)
+class MissionEnvConfig(TerrainEnvConfig):
+    """Arguments of HopRoverMission-v0: those of HopRoverTerrain-v0 (the ground drawn
+    each episode, `randomize` defaulting to MISSION_GROUND) plus its sensors and
+    actuator (the table above). `noise_scale` multiplies every noise."""
+
+    randomize: Mapping[str, float] | None = dataclasses.field(
+        default_factory=lambda: dict(MISSION_GROUND))
+    noise_scale: float = 1.0
+    attitude_noise: float = math.radians(0.5)
+    rate_noise: float = 1e-4
+    bias_walk: float = 1e-3
+    fix_noise: float = 0.01
+    fix_rest: float = 1.0
+    inclinometer_noise: float = 0.02
+    actuator_error: float = 0.05
+    history: int = 1
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (isinstance(self.history, (int, np.integer)) and not isinstance(
+                self.history, bool) and 1 <= self.history <= 64):
+            raise ValueError(f"history (readings per observation) must be an integer in "
+                             f"[1, 64], got {self.history!r}")
+        for name in _NOISES + ("noise_scale",):
+            object.__setattr__(self, name, non_negative_real(name, getattr(self, name)))
+        object.__setattr__(self, "fix_rest", positive_real("fix_rest", self.fix_rest))
+        if self.actuator_error * self.noise_scale >= 1.0:
+            raise ValueError(f"actuator_error x noise_scale must be below 1 (a scale error "
+                             f"of 100 % or more reverses the torque), got "
+                             f"{self.actuator_error} x {self.noise_scale}")
+
+    def task_vector(self) -> np.ndarray:
+        e = super().task_vector()
+        k = self.noise_scale
+        e[E_ATT_NOISE] = k * self.attitude_noise
+        e[E_RATE_NOISE] = k * self.rate_noise
+        e[E_BIAS_WALK] = k * self.bias_walk
+        e[E_FIX_NOISE] = k * self.fix_noise
+        e[E_FIX_REST] = self.fix_rest
+        e[E_INCL_NOISE] = k * self.inclinometer_noise
+        e[E_HISTORY] = self.history
+        return e
+
 
 # the task memory M of one rover
 M_SEED_LO, M_SEED_HI = 0, 1     # the episode's sensor seed, in two 32-bit halves
@@ -146,3 +307,4 @@ TASK = dataclasses.replace(
     torque.TASK, name="mission", config=MissionEnvConfig, observe=observe,
     obs_low=OBS_LOW, obs_high=OBS_HIGH, memory=N_M, reset_memory=start,
     holes={"ACTUATE": actuate}, hidden_info=hidden_info, obs_bounds=bounds)
+REGISTER = (Registration("HopRoverMission-v0", suite="terrain"),)

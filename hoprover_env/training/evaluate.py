@@ -33,8 +33,8 @@ import numpy as np
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.util.files import atomic_write, write_json
 from hoprover_env.agents.policies import load_controller, load_policy
-from hoprover_env import ENVS, config_class
-from hoprover_env.tasks.config import TerrainEnvConfig
+from hoprover_env.envs.registry import ENVS, config_class
+from hoprover_env.tasks.terrain import TerrainEnvConfig
 
 # the ground a terrain task draws by default: its config's slope range and roughness [rad]
 TERRAIN_SLOPES = TerrainEnvConfig.slope_range

@@ -115,7 +115,7 @@ def clone(model, vecnorm, obs, actions, returns, epochs: int = 30, batch_size: i
     plain least squares). A planner's flight is an attitude hold, a smooth feedback law
     with large torques that dominates the squared error, while the decisions that set
     where a hop lands are small torques held on the ground (a launch torque 1 % off
-    costs up to 3 % of TTRTP; BENCHMARKS.md "A learned policy within 5 %"), so they
+    costs up to 3 % of TTRTP; docs/studies/imitation-of-mpc.md), so they
     are weighted up. `launch_weight` (None: `ground_weight`) weighs the ground samples of
     the first `LAUNCH_S` s, where a launch is held, and `start_weight` (None: as the
     launch) the first decision from rest at t = 0, which sets the whole hop: a few

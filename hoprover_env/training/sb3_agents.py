@@ -146,7 +146,7 @@ def validate(cfg: dict) -> None:
     if "algo" not in cfg:
         raise ConfigError("config key 'algo' is missing (ppo, sac or td3)")
     cls = algo_class(cfg["algo"])
-    from hoprover_env import ENVS, config_class
+    from hoprover_env.envs.registry import ENVS, config_class
     if cfg.get("env_id") not in ENVS:
         raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
                           f"got {cfg.get('env_id')!r}")
@@ -278,7 +278,7 @@ def _check_value(key: str, value, kind) -> None:
 def env_kwargs(cfg: dict) -> dict:
     """Env arguments of a config: what its id fixes (the contest's target), then its
     `env:` section."""
-    from hoprover_env import task
+    from hoprover_env.envs.registry import task
     return {**task(cfg["env_id"]).kwargs, **cfg["env"]}
 
 

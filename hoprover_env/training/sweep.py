@@ -110,7 +110,7 @@ def section_keys(cfg: dict, section: str) -> set:
             "self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
             "_init_setup_model"}
     if section == "env":
-        from hoprover_env import config_class
+        from hoprover_env.envs.registry import config_class
         return {f.name for f in dataclasses.fields(config_class(cfg["env_id"]))}
     return set(POLICY_KEYS)
 

@@ -47,7 +47,7 @@ def parse_args(argv=None):
     ap.add_argument("--algo", choices=["ppo", "sac", "td3"], default=None)
     ap.add_argument("--config", type=str, default=None,
                     help="YAML config: a path, or a packaged config by name (ppo_hop)")
-    from hoprover_env import ENVS
+    from hoprover_env.envs.registry import ENVS
     ap.add_argument("--env", type=str, default=None,
                     help=f"environment id: {', '.join(ENVS)} (default: the config's env_id)")
     ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")

@@ -44,17 +44,17 @@ def warm(log=None) -> None:
     import gymnasium as gym
     import numpy as np
 
-    import hoprover_env
+    from hoprover_env.envs import registry as _registry
     from hoprover_env import simulate_batch, simulate
     say = log or (lambda msg: None)
-    for env_id in hoprover_env.ENVS:
+    for env_id in _registry.ENVS:
         t0 = time.perf_counter()
         env = gym.make(env_id)
         env.reset(seed=0)
         env.step(env.action_space.sample())
         env.close()
         for threads in (False, True):
-            vec = hoprover_env.vector_env_class(env_id)(num_envs=2, threads=threads)
+            vec = _registry.vector_env_class(env_id)(num_envs=2, threads=threads)
             vec.reset(seed=0)
             vec.step(vec.action_space.sample())
             vec.close()
