@@ -84,13 +84,3 @@ sphinx_gallery_conf = {
     "reset_modules": ("matplotlib",),
     "capture_repr": ("_repr_html_", "__repr__"),
 }
-
-
-def _architecture_page(app, docname, source):
-    """docs/ARCHITECTURE.md joins the Physics section's toctree when the file exists."""
-    if docname == "physics" and (DOCS / "ARCHITECTURE.md").exists():
-        source[0] = source[0].replace("\nPHYSICS\n```", "\nPHYSICS\nARCHITECTURE\n```", 1)
-
-
-def setup(app):
-    app.connect("source-read", _architecture_page)

@@ -2,8 +2,8 @@
 
 A task module (hoprover_env/tasks/*.py, listed in hoprover_env.tasks.TASK_MODULES) says
 what the env does; this module makes its two classes from it: a subclass of HopRoverEnv
-and one of HopRoverVectorEnv with ``task = TASK`` and the module's docstring, named after
-its first id ("HopRoverHop-v0" -> HopRoverHopEnv, HopRoverHopVectorEnv). The torque task's
+and one of HopRoverVectorEnv with ``task = TASK`` (their docstrings point to the
+module's, which has the env's tables), named after its first id ("HopRoverHop-v0" -> HopRoverHopEnv, HopRoverHopVectorEnv). The torque task's
 classes are HopRoverEnv and HopRoverVectorEnv themselves. `ENVS` maps every id to its
 `Task` entry; hoprover_env/__init__.py registers them with gymnasium.
 
@@ -58,7 +58,9 @@ def make_classes(module) -> tuple[type, type]:
         return HopRoverEnv, HopRoverVectorEnv
     env_name, vec_name = class_names(module.REGISTER[0].id)
     here = sys.modules[__name__]
-    doc = module.__doc__
+    title = (module.__doc__ or env_name).strip().splitlines()[0]
+    doc = (f"{title}\n\n{env_name}: HopRoverEnv with the task of {module.__name__}, whose "
+           f"module docstring has the env's tables (spaces, rewards, episode, arguments).")
     env_cls = type(env_name, (HopRoverEnv,), {"task": task, "__doc__": doc,
                                               "__module__": __name__})
     # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium env
