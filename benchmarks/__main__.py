@@ -27,7 +27,8 @@ from benchmarks.report import machine, read_sections, section_block
 SECTIONS = [("accuracy", "benchmarks.bench_accuracy"), ("env", "benchmarks.bench_env"),
             ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training"),
             ("oracle", "benchmarks.bench_oracle"), ("learning", "benchmarks.bench_learning"),
-            ("runs", "benchmarks.bench_runs"), ("terrain", "benchmarks.bench_terrain")]
+            ("runs", "benchmarks.bench_runs"), ("terrain", "benchmarks.bench_terrain"),
+            ("scaling", "benchmarks.bench_scaling")]
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STUDIES = os.path.join(ROOT, "docs", "studies")

@@ -13,10 +13,31 @@ def test_benchmark_suite_quick(tmp_path):
     text = out.read_text()
     for title in ("Throughput and scaling", "Training cost",
                   "Optimal-control reference (best-known hop plans)",
-                  "Whole runs in the kernel: simulate, batches, cold start"):
+                  "Whole runs in the kernel: simulate, batches, cold start",
+                  "Threads: simulate_batch and the vector env on 1 to all cores"):
         assert f"## {title}" in text
     assert text.count("## ") >= 4
     assert list((tmp_path / "figures").glob("*.png"))
+
+
+def test_regenerating_one_section_keeps_every_other_line(tmp_path):
+    """BENCHMARKS.md is the generator's alone: a run of one section rewrites that section
+    and leaves every other heading and line of the file as it was."""
+    from pathlib import Path
+    original = (Path(__file__).resolve().parents[1] / "BENCHMARKS.md").read_text()
+    out = tmp_path / "BENCHMARKS.md"
+    out.write_text(original)
+    assert main(["--quick", "--only", "scaling", "--out", str(out)]) == 0
+    text = out.read_text()
+    headings = [line for line in original.splitlines() if line.startswith("#")]
+    assert headings and all(h in text.splitlines() for h in headings)
+    kept = original.split("<!-- section: runs -->")[0]
+    assert text.startswith(kept.split("\n", 3)[0])        # the title line
+    for name in ("accuracy", "env", "stress", "training", "oracle", "learning", "runs"):
+        block = original.split(f"<!-- section: {name} -->")[1].split(
+            f"<!-- end of section: {name} -->")[0]
+        assert block in text, name                          # not rerun: byte for byte
+    assert "## Threads: simulate_batch and the vector env on 1 to all cores" in text
 
 
 def test_bench_core_runs(capsys):

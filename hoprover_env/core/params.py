@@ -186,3 +186,105 @@ class RoverParams:
                          self.gravity * math.sin(self.slope) + 0.0,   # -0.0 -> 0.0
                          self.gravity * math.cos(self.slope)],
                         dtype=np.float64)
+
+
+# ---- many parameter sets at once ----------------------------------------------------------
+# The fields in the order of the kernel vector (P_M .. P_ROUGH): a (n, N_FIELDS) array of
+# field values is the first N_FIELDS columns of the kernel's (n, N_PARAMS) rows.
+FIELDS = ("mass", "inertia", "half_width", "half_height", "gravity", "mu_static",
+          "mu_dynamic", "restitution_x", "restitution_y", "v_xmin", "v_ymin", "torque_min",
+          "torque_max", "band_half_width", "dwell_time", "slope", "roughness")
+N_FIELDS = len(FIELDS)
+FIELD_INDEX = {name: k for k, name in enumerate(FIELDS)}
+# how close to the Painleve limit (relative to I + m l^2) the vectorised check hands a row
+# to the constructor: its arithmetic differs from min_slide_denominator's by a few ulps
+_PAINLEVE_SLACK = 1e-10
+
+
+def kernel_rows(fields: np.ndarray) -> np.ndarray:
+    """(n, N_PARAMS) kernel vectors of n parameter sets given as (n, N_FIELDS) field values:
+    row i equals RoverParams(**fields of row i).as_array() bit for bit (the derived
+    gravity components take math.sin/cos of each distinct slope, as as_array does)."""
+    fields = np.asarray(fields, dtype=np.float64)
+    out = np.empty((fields.shape[0], N_PARAMS))
+    out[:, :N_FIELDS] = fields
+    g = fields[:, FIELD_INDEX["gravity"]]
+    slope = fields[:, FIELD_INDEX["slope"]]
+    if slope.size and np.all(slope == slope[0]):  # one slope (-0.0 == 0.0 gives the same)
+        sin, cos = math.sin(float(slope[0])), math.cos(float(slope[0]))
+    else:
+        uniq, inv = np.unique(slope.view(np.int64), return_inverse=True)
+        vals = uniq.view(np.float64)
+        sin = np.array([math.sin(v) for v in vals])[inv]
+        cos = np.array([math.cos(v) for v in vals])[inv]
+    out[:, P_GS] = g * sin + 0.0                  # -0.0 -> 0.0, as as_array
+    out[:, P_GC] = g * cos
+    return out
+
+
+def as_arrays(params) -> np.ndarray:
+    """(n, N_PARAMS): the as_array() of each of a sequence of n RoverParams, called once
+    per distinct object (a batch of n runs often shares a few)."""
+    params = list(params)
+    ids = np.fromiter(map(id, params), dtype=np.uint64, count=len(params))
+    _, first, inv = np.unique(ids, return_index=True, return_inverse=True)
+    rows = np.array([params[j].as_array() for j in first]).reshape(-1, N_PARAMS)
+    return rows[inv.reshape(-1)]
+
+
+def from_fields(row) -> "RoverParams":
+    """The RoverParams of one row of field values (validated by the constructor)."""
+    return RoverParams(**dict(zip(FIELDS, map(float, row[:N_FIELDS]))))
+
+
+def invalid_rows(fields: np.ndarray) -> np.ndarray:
+    """(n,) bool: which rows of (n, N_FIELDS) field values RoverParams refuses.
+
+    The constructor's checks, on whole columns: each is the same comparison of the same
+    doubles, except the Painleve limit, whose vectorised arithmetic may differ from
+    min_slide_denominator's by a few ulps; the rare rows within a hair of that limit are
+    built as RoverParams, which decides. So the answer is the constructor's, at the cost
+    of a few array operations per row."""
+    F = np.asarray(fields, dtype=np.float64).reshape(-1, N_FIELDS)
+    C = np.ascontiguousarray(F.T)                 # one contiguous array per field
+    col = dict(zip(FIELDS, C))
+    with np.errstate(invalid="ignore", over="ignore"):
+        ok = (np.abs(C) <= MAX_MAGNITUDE).all(axis=0)       # finite, and within 1e9
+        ok &= (C[[FIELD_INDEX[name] for name in _POSITIVE]] > 0.0).all(axis=0)
+        unit = C[[FIELD_INDEX[name] for name in _UNIT]]
+        ok &= ((unit >= 0.0) & (unit <= 1.0)).all(axis=0)
+        ok &= col["mu_dynamic"] <= col["mu_static"]
+        ok &= (col["v_xmin"] >= 0.0) & (col["v_ymin"] > 0.0)
+        ok &= (np.abs(col["slope"]) <= MAX_SLOPE) & (col["roughness"] >= 0.0)
+        ok &= col["torque_min"] <= col["torque_max"]
+        d_min, scale = _min_slide_denominators(col)
+        limit = PAINLEVE_MARGIN * scale
+        bad = ~ok | (d_min <= limit - _PAINLEVE_SLACK * scale)
+        unsure = ~bad & ~(d_min > limit + _PAINLEVE_SLACK * scale)
+    for i in np.flatnonzero(unsure):
+        try:
+            from_fields(F[i])
+        except ValueError:
+            bad[i] = True
+    return bad
+
+
+_POSITIVE = ("mass", "inertia", "half_width", "half_height", "gravity", "band_half_width",
+             "dwell_time")
+_UNIT = ("mu_static", "mu_dynamic", "restitution_x", "restitution_y")
+
+
+def _min_slide_denominators(col):
+    """min_slide_denominator() of every row, and I + m l^2, on columns (see there)."""
+    r, h, mu = col["half_width"], col["half_height"], col["mu_dynamic"]
+    m, inertia = col["mass"], col["inertia"]
+    base = inertia + m * (r * r + h * h) / 2.0
+    best = np.full(r.shape, np.inf)
+    for sigma in (-1.0, 1.0):
+        a = (r * r - h * h) / 2.0 - sigma * mu * r * h
+        b = -r * h - sigma * mu * (r * r - h * h) / 2.0
+        # the stationary point lies in [0, pi] where atan2(-b, -a) % 2 pi <= pi: >= 0
+        cand = np.minimum(a, -a)
+        cand = np.where(np.arctan2(-b, -a) >= 0.0, np.minimum(cand, -np.hypot(a, b)), cand)
+        best = np.minimum(best, base + m * cand)
+    return best, inertia + m * np.hypot(r, h) ** 2

@@ -49,11 +49,13 @@ import numpy as np
 from hoprover_env import core
 from hoprover_env.sim import rollout
 from hoprover_env.jit.compiler import run_threaded
-from hoprover_env.sim.randomize import check_randomize, draw_params
-from hoprover_env.core.params import RoverParams
+from hoprover_env.sim.randomize import check_randomize, draw_fields, rng_for_seeds
+from hoprover_env.core.params import (N_PARAMS, P_ROUGH, RoverParams, as_arrays, from_fields,
+                                      kernel_rows)
 from hoprover_env.sim.rollout import SampledStates
-from hoprover_env.sim.simulate import DEFAULT_RTOL, control_grid, make_options, make_state, simulate
-from hoprover_env.util.validate import check_seed, positive_real, real_array
+from hoprover_env.sim.simulate import (DEFAULT_RTOL, control_grid, make_options, make_states,
+                                       simulate)
+from hoprover_env.util.validate import check_seed, positive_real, real_array, run_rows, seed_array
 
 
 MAX_STEPS = 10**9                 # control intervals x samples per run
@@ -66,7 +68,7 @@ class BatchRollout(SampledStates):
     that broke early is padded with NaN (and '' in `state`) after its n_samples[i]."""
 
     targets: np.ndarray          # (N,)
-    params: list                 # N RoverParams
+    params: Sequence             # N RoverParams (a list, or RunParams when drawn)
     ttrtp: np.ndarray            # (N,) NaN where the target was not reached
     broken: np.ndarray           # (N,) bool
     n_events: np.ndarray         # (N,) events (transitions, impacts, band crossings)
@@ -99,13 +101,15 @@ class BatchRollout(SampledStates):
         r = self._run
         # on smooth ground nothing is drawn: no seed, and the rover index keys nothing
         rough = self.params[i].roughness > 0.0
-        seed = r["seeds"][i] if rough else None
+        seeds = r["seeds"]
+        seed = (int(seeds[i]) if np.ndim(seeds) else seeds) if rough else None
         rover = int(r["rovers"][i]) if rough else 0
+        initial = r["initial"]
         replay = dict(controller=r["schedules"][i].copy() if r["controller"] is None
                       else r["controller"], **r["kwargs"], target_x=float(self.targets[i]),
                       params=self.params[i],
-                      initial_state=None if r["initial"][i] is None
-                      else tuple(map(float, r["initial"][i])),
+                      initial_state=None if initial is None
+                      else tuple(map(float, initial[i if len(initial) > 1 else 0])),
                       seed=seed, rover=rover,
                       controller_args=r["cargs"][i].copy() if r["cargs"].shape[1] else None)
         if not r["record"]:
@@ -138,9 +142,8 @@ def _controller(controller, n):
                              f"shape {sched.shape}")
         if sched.shape[0] != n:
             raise ValueError(f"torque schedules have {sched.shape[0]} rows for {n} targets")
-        bad = np.argwhere(~np.isfinite(sched))
-        if bad.size:
-            i, k = bad[0]
+        if not np.isfinite(sched).all():
+            i, k = np.argwhere(~np.isfinite(sched))[0]
             raise ValueError(f"run {i}: torque schedule element {k} is {sched[i, k]!r}; "
                              "torques must be finite")
         ctrl = None
@@ -159,14 +162,51 @@ def _controller_args(controller_args, use_ctrl, n):
         if cargs.ndim != 2 or cargs.shape[0] != n:
             raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
                              f"{cargs.shape}")
-        bad = np.argwhere(~np.isfinite(cargs))
-        if bad.size:
-            raise ValueError(f"run {bad[0][0]}: controller_args element {bad[0][1]} is not "
-                             "finite")
+        if not np.isfinite(cargs).all():
+            i, k = np.argwhere(~np.isfinite(cargs))[0]
+            raise ValueError(f"run {i}: controller_args element {k} is not finite")
     return cargs
 
 
-def _run_params(params, randomize, seed, n) -> list:
+class RunParams(Sequence):
+    """The RoverParams of N runs, kept as their (N, N_PARAMS) kernel rows and built when
+    asked for (each once): a batch draws N parameter sets as arrays, and most callers
+    read a few of them or none."""
+
+    def __init__(self, rows: np.ndarray):
+        self.rows = rows
+        self._built: dict[int, RoverParams] = {}
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        n = len(self)
+        if not (isinstance(i, (int, np.integer)) and -n <= i < n):
+            raise IndexError(f"run index {i!r} out of range for {n} runs")
+        i = int(i) % n
+        p = self._built.get(i)
+        if p is None:
+            p = self._built[i] = from_fields(self.rows[i])
+        return p
+
+    def __eq__(self, other):
+        if isinstance(other, RunParams) and len(other) == len(self):
+            return bool(np.array_equal(self.rows, other.rows))
+        return isinstance(other, Sequence) and len(other) == len(self) \
+            and all(a == b for a, b in zip(self, other))
+
+    def __repr__(self) -> str:
+        return f"RunParams({len(self)} runs)"
+
+
+def _run_params(params, randomize, seed, n):
+    """(the runs' RoverParams as a sequence, their (n, N_PARAMS) kernel rows). One set
+    for all runs is one object and one row, repeated; `randomize` draws all n as arrays
+    (randomize.draw_fields: the numbers of n draw_params calls); a sequence is checked
+    per run, each distinct object's as_array taken once."""
     if randomize is not None:
         if params is not None and not isinstance(params, (RoverParams, Mapping)):
             raise ValueError("randomize draws each run's parameters from one base: give "
@@ -175,43 +215,35 @@ def _run_params(params, randomize, seed, n) -> list:
             params = RoverParams(**params)
         base = params if params is not None else RoverParams()
         randomize = check_randomize(randomize)
-        rng = np.random.default_rng(seed)
-        return [draw_params(base, randomize, rng) for _ in range(n)]
+        if randomize:
+            rng = rng_for_seeds(seed) if isinstance(seed, np.ndarray) \
+                else np.random.default_rng(seed)
+            rows = kernel_rows(draw_fields(base, randomize, rng, n))
+            return RunParams(rows), rows
+        params = base
     if params is None:
-        return [RoverParams()] * n
+        params = RoverParams()
     if isinstance(params, RoverParams):
-        return [params] * n
+        rows = np.empty((n, N_PARAMS))
+        rows[:] = params.as_array()
+        return [params] * n, rows
     if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
         raise TypeError(f"params must be None, a RoverParams or a sequence of {n} of them, "
                         f"got {type(params).__name__}")
     if len(params) != n:
         raise ValueError(f"params has {len(params)} entries for {n} runs")
-    out = []
-    for i, p in enumerate(params):
-        if isinstance(p, Mapping):
-            try:
-                p = RoverParams(**p)
-            except (TypeError, ValueError) as err:
-                raise ValueError(f"run {i}: {err}") from None
-        if not isinstance(p, RoverParams):
-            raise TypeError(f"run {i}: params must be a RoverParams or a dict of its "
-                            f"fields, got {type(p).__name__}")
-        out.append(p)
-    return out
-
-
-def _per_run_rows(name, value, n, width):
-    """None, one row of `width`, or (n, width) -> list of n rows (or Nones)."""
-    if value is None:
-        return [None] * n
-    a = real_array(name, value)
-    if a.shape == (width,):
-        return [a] * n
-    if a.ndim != 2 or a.shape[1] != width:
-        raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {a.shape}")
-    if a.shape[0] != n:
-        raise ValueError(f"{name} has {a.shape[0]} rows for {n} runs")
-    return list(a)
+    out = list(params)
+    if not all(issubclass(t, RoverParams) for t in set(map(type, out))):
+        for i, p in enumerate(out):     # dicts to build, or something else to refuse
+            if isinstance(p, Mapping):
+                try:
+                    out[i] = p = RoverParams(**p)
+                except (TypeError, ValueError) as err:
+                    raise ValueError(f"run {i}: {err}") from None
+            if not isinstance(p, RoverParams):
+                raise TypeError(f"run {i}: params must be a RoverParams or a dict of its "
+                                f"fields, got {type(p).__name__}")
+    return out, as_arrays(out)
 
 
 def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float = 0.1,
@@ -240,28 +272,19 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     cargs = _controller_args(controller_args, use_ctrl, n)
 
     per_run = isinstance(seed, (np.ndarray, list, tuple))
-    if per_run:
-        seeds = _per_run_seeds(seed, n)
-        plist = _run_params(params, randomize, seeds, n)
+    if per_run:                  # run i keyed (seeds[i], rover 0)
+        key = seed_array(seed, n)
+        plist, P = _run_params(params, randomize, key, n)
         rovers = np.zeros(n, dtype=np.int64)
-    else:
+    else:                        # run i keyed (seed, rover i)
         seed = check_seed(seed)
-        plist = _run_params(params, randomize, seed, n)
-        seed = check_seed(seed, any(p.roughness > 0.0 for p in plist))
-        seeds = [seed] * n
+        plist, P = _run_params(params, randomize, seed, n)
+        key = seed = check_seed(seed, bool((P[:, P_ROUGH] > 0.0).any()))
         rovers = np.arange(n, dtype=np.int64)
-    rough = any(p.roughness > 0.0 for p in plist)
-    initial = _per_run_rows("initial_states", initial_states, n, 6)
+    rough = bool((P[:, P_ROUGH] > 0.0).any())
+    initial = run_rows("initial_states", initial_states, n, 6)
     opts = make_options(integrator, impact_law, rtol, euler_dt)
-    S = np.zeros((n, core.N_STATE))
-    P = np.zeros((n, len(plist[0].as_array())))
-    for i in range(n):
-        try:
-            S[i] = make_state(plist[i], float(targets[i]), initial[i], seeds[i],
-                              int(rovers[i]))
-        except ValueError as err:
-            raise ValueError(f"run {i}: {err}") from None
-        P[i] = plist[i].as_array()
+    S = make_states(P, targets, initial, key, rovers)
 
     # the control grid of simulate()
     n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
@@ -283,11 +306,11 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     result = _result(buf, S, targets, plist, record, dict(
         record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
         schedules=None if use_ctrl else sched, initial=initial, cargs=cargs,
-        seeds=seeds, rovers=rovers,
+        seeds=key, rovers=rovers,
         kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
                     impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
                     sample_dt=sample_dt)))
-    result.seed = (np.array(seeds, dtype=np.uint64) if per_run else seed) if rough else None
+    result.seed = (key.copy() if per_run else seed) if rough else None
     result.rovers = rovers
     return result
 
@@ -299,8 +322,10 @@ def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control
     n = S.shape[0]
     active = np.ones(n, dtype=bool)
     while True:
-        # runs differ in cost (a rover at rest is cheap, a bouncing one is not): hand
-        # them to the threads one at a time instead of in equal static blocks
+        # runs differ in cost (a rover at rest is cheap, a bouncing one is not): chunks
+        # of one run let a layer that hands out chunks dynamically (TBB) balance them;
+        # numba's OpenMP and workqueue layers still give each thread one contiguous
+        # block of runs, whatever the chunk size (docs/SCALING.md, "Threads")
         chunk = numba.set_parallel_chunksize(1)
         try:
             run_threaded(run_many, S, P, opts, sched, ctrl, source, cargs, control_dt,
@@ -316,21 +341,6 @@ def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control
         if not active.any():
             break
         buf.grow_log()
-
-
-def _per_run_seeds(seed, n) -> list:
-    """One seed per run, each an integer in [0, 2^64), as Python ints."""
-    a = np.asarray(seed)
-    if a.shape != (n,) or a.dtype.kind not in "iuO":
-        raise ValueError(f"seed must be None, one integer, or an integer array of shape "
-                         f"({n},) (one per run), got {a.dtype} array of shape {a.shape}")
-    out = []
-    for i, v in enumerate(a.tolist()):
-        try:
-            out.append(check_seed(v))
-        except ValueError as err:
-            raise ValueError(f"run {i}: {err}") from None
-    return out
 
 
 _PAD_LETTERS = np.array(list(core.MODE_LETTERS) + [""])

@@ -23,16 +23,18 @@ import math
 from typing import Callable, Sequence
 
 import numpy as np
+from numba import types as nt
 
 from hoprover_env import core
 from hoprover_env.jit import compiler as _compile
-from hoprover_env.core.params import MAX_MAGNITUDE, RoverParams
+from hoprover_env.jit.compiler import MAT, VEC, kernel
+from hoprover_env.core.params import MAX_MAGNITUDE, P_H, P_ROUGH, RoverParams, from_fields
 from hoprover_env.sim.rollout import Rollout, budget_error, is_compiled, run_rollout
 from hoprover_env.util.validate import (check_rover, check_seed, check_torque, finite_real, positive_real,
                        real_array)
 
-__all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "control_grid",
-           "DEFAULT_RTOL"]
+__all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "make_states",
+           "control_grid", "DEFAULT_RTOL"]
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
 IMPACT_LAWS = {"contest": core.LAW_CONTEST, "dissipative": core.LAW_DISSIPATIVE}
@@ -99,6 +101,75 @@ def make_state(params: RoverParams, target_x: float, initial_state=None, seed=No
         s[core.S_SEED_HI] = seed >> 32
     s[core.S_ROVER] = check_rover(rover)
     return s
+
+
+@kernel(nt.void(MAT, MAT, MAT, VEC, nt.int64[::1]))
+def _init_states(S, P, X, xt, codes):
+    """init_state of every row of S: parameters P[i] (P[0] for all if P has one row),
+    c.m. state X[i] (X[0] for all if one row; upright rest on P's half height if none),
+    target xt[i]; codes[i] its INIT_* code."""
+    for i in range(S.shape[0]):
+        p = P[0] if P.shape[0] == 1 else P[i]
+        if X.shape[0] == 0:
+            codes[i] = core.init_state(S[i], p, 0.0, p[P_H], 0.0, 0.0, 0.0, 0.0, xt[i])
+        else:
+            x = X[0] if X.shape[0] == 1 else X[i]
+            codes[i] = core.init_state(S[i], p, x[0], x[1], x[2], x[3], x[4], x[5], xt[i])
+
+
+def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None = None,
+                seeds=None, rovers: np.ndarray | None = None) -> np.ndarray:
+    """Kernel state vectors at t = 0 of n runs: row i equals make_state(parameters of row
+    i, targets[i], initial[i], seeds[i], rovers[i]) bit for bit, built in one compiled
+    loop with the checks on whole arrays.
+
+    P: kernel parameter rows (validated RoverParams as as_array makes them), (n, N_PARAMS)
+    or one row (1, N_PARAMS) for all runs; targets: (n,) finite floats; initial: None
+    (upright rest), or float64 (1, 6) for all or (n, 6); seeds: None (no key), one
+    integer in [0, 2^64) for all, or (n,) uint64; rovers: (n,) integers (None: 0). A run
+    on rough ground needs a seed (make_state would draw a fresh one; here the caller
+    draws and records it). The first run make_state would refuse raises its ValueError,
+    prefixed with "run i: "."""
+    _compile.prepare()              # on a cold numba cache: compile on two cores
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    n = targets.shape[0]
+    P = np.ascontiguousarray(P, dtype=np.float64).reshape(-1, P.shape[-1])
+    X = np.zeros((0, 6)) if initial is None else np.ascontiguousarray(initial, np.float64)
+    rovers = np.zeros(n, np.int64) if rovers is None else np.asarray(rovers, np.int64)
+    if seeds is None and (P[:, P_ROUGH] > 0.0).any():
+        raise ValueError("make_states: runs on rough ground need seeds (the key of their "
+                         "terrain draws)")
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(targets) | (np.abs(targets) > MAX_MAGNITUDE) \
+            | (rovers < 0) | (rovers >= 2**53)
+        if X.shape[0]:
+            xbad = ~np.isfinite(X).all(axis=1) | (np.abs(X) > MAX_MAGNITUDE).any(axis=1)
+            bad |= xbad if X.shape[0] == n else xbad[0]
+    S = np.zeros((n, core.N_STATE))
+    codes = np.zeros(n, np.int64)
+    _init_states(S, P, X, targets, codes)
+    bad |= codes != core.INIT_OK
+    if bad.any():
+        i = int(np.argmax(bad))
+        seed = None if seeds is None else int(seeds if np.ndim(seeds) == 0 else seeds[i])
+        row = None if initial is None else X[i if X.shape[0] == n else 0]
+        try:
+            make_state(from_fields(P[i if P.shape[0] == n else 0]), float(targets[i]), row,
+                       seed, int(rovers[i]))
+        except ValueError as err:
+            raise ValueError(f"run {i}: {err}") from None
+        raise ValueError(f"run {i}: not a valid start (target_x {targets[i]!r}, rover "
+                         f"{rovers[i]})")
+    if seeds is not None:
+        if np.ndim(seeds) == 0:
+            S[:, core.S_SEED_LO] = int(seeds) & 0xFFFFFFFF
+            S[:, core.S_SEED_HI] = int(seeds) >> 32
+        else:
+            seeds = np.asarray(seeds, dtype=np.uint64)
+            S[:, core.S_SEED_LO] = seeds & np.uint64(0xFFFFFFFF)
+            S[:, core.S_SEED_HI] = seeds >> np.uint64(32)
+    S[:, core.S_ROVER] = rovers
+    return S
 
 
 class RoverSim:

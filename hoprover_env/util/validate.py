@@ -101,3 +101,53 @@ def check_rover(rover) -> int:
             or not 0 <= int(rover) < 2**53:
         raise ValueError(f"rover must be an integer in [0, 2**53), got {rover!r}")
     return int(rover)
+
+
+# ---- per-run arrays: checked as arrays, the first bad run named --------------------------
+def first_true(mask) -> int:
+    """Index of the first True of a 1-D boolean array, or -1."""
+    mask = np.asarray(mask, dtype=bool)
+    return int(np.argmax(mask)) if mask.any() else -1
+
+
+def seed_array(seed, n: int) -> np.ndarray:
+    """One seed per run as a uint64 array of shape (n,): integers in [0, 2^64). ValueError
+    for another shape or dtype, or naming the first run whose seed is out of range (with
+    check_seed's message)."""
+    a = np.asarray(seed)
+    if a.shape != (n,) or a.dtype.kind not in "iuO":
+        raise ValueError(f"seed must be None, one integer, or an integer array of shape "
+                         f"({n},) (one per run), got {a.dtype} array of shape {a.shape}")
+    if a.dtype.kind == "u":
+        return a.astype(np.uint64)
+    if a.dtype.kind == "i":
+        bad = first_true(a < 0)
+    else:                                   # Python objects: each one looked at
+        values = a.tolist()
+        bad = next((i for i, v in enumerate(values) if v is None
+                    or isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral)
+                    or not 0 <= int(v) < 2**64), -1)
+    if bad >= 0:
+        v = a[bad].item() if a.dtype.kind != "O" else a[bad]
+        try:
+            check_seed(v)
+        except ValueError as err:
+            raise ValueError(f"run {bad}: {err}") from None
+        raise ValueError(f"run {bad}: seed must be an integer in [0, 2**64), got {v!r}")
+    return (a.astype(np.uint64) if a.dtype.kind == "i"
+            else np.array([int(v) for v in a.tolist()], dtype=np.uint64))
+
+
+def run_rows(name: str, value, n: int, width: int) -> np.ndarray | None:
+    """None, one row of `width` numbers for every run, or one row per run: None, or a
+    float64 array of shape (1, width) or (n, width) (see real_array)."""
+    if value is None:
+        return None
+    a = real_array(name, value)
+    if a.shape == (width,):
+        return a.reshape(1, width)
+    if a.ndim != 2 or a.shape[1] != width:
+        raise ValueError(f"{name} must have shape ({width},) or (N, {width}), got {a.shape}")
+    if a.shape[0] != n:
+        raise ValueError(f"{name} has {a.shape[0]} rows for {n} runs")
+    return a
