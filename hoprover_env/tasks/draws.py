@@ -105,37 +105,48 @@ def uniforms(w: np.ndarray) -> np.ndarray:
     return (w >> _U64(11)).astype(np.float64) * 2.0 ** -53
 
 
-def invalid_rows(P: np.ndarray) -> np.ndarray:
-    """Rows of P whose fields (mass .. roughness) RoverParams would refuse: its
-    __post_init__'s checks, on whole columns."""
-    F = P[:, :P_ROUGH + 1]
-    with np.errstate(invalid="ignore", over="ignore"):
-        bad = ~np.isfinite(F).all(axis=1) | (np.abs(F) > MAX_MAGNITUDE).any(axis=1)
+@kernel(nt.void(MAT, nt.boolean[::1]))
+def invalid_rows_into(P, bad):
+    """bad[i]: row i's fields (mass .. roughness) break a check of RoverParams'
+    __post_init__ (ranges, mu_dynamic <= mu_static, torque limits, the Painleve regime
+    of min_slide_denominator), in its arithmetic."""
+    for i in range(P.shape[0]):
+        p = P[i]
+        b = False
+        for c in range(P_ROUGH + 1):
+            if not (abs(p[c]) <= MAX_MAGNITUDE):          # also NaN
+                b = True
         for c in (P_M, P_I, P_R, P_H, P_G, P_BAND, P_DWELL):
-            bad |= ~(P[:, c] > 0.0)
+            if not p[c] > 0.0:
+                b = True
         for c in (P_MUS, P_MUD, P_EX, P_EY):
-            bad |= ~((P[:, c] >= 0.0) & (P[:, c] <= 1.0))
-        bad |= P[:, P_MUD] > P[:, P_MUS]
-        bad |= ~(P[:, P_VXMIN] >= 0.0) | ~(P[:, P_VYMIN] > 0.0)
-        bad |= ~(np.abs(P[:, P_SLOPE]) <= MAX_SLOPE) | ~(P[:, P_ROUGH] >= 0.0)
-        bad |= P[:, P_TMIN] > P[:, P_TMAX]
-        bad |= painleve(P)
+            if not (0.0 <= p[c] <= 1.0):
+                b = True
+        if p[P_MUD] > p[P_MUS] or not p[P_VXMIN] >= 0.0 or not p[P_VYMIN] > 0.0 \
+                or not abs(p[P_SLOPE]) <= MAX_SLOPE or not p[P_ROUGH] >= 0.0 \
+                or p[P_TMIN] > p[P_TMAX]:
+            b = True
+        if not b:
+            r, h, mu, m = p[P_R], p[P_H], p[P_MUD], p[P_M]
+            base = p[P_I] + m * (r * r + h * h) / 2.0
+            best = math.inf
+            for sigma in (-1.0, 1.0):
+                a = (r * r - h * h) / 2.0 - sigma * mu * r * h
+                bb = -r * h - sigma * mu * (r * r - h * h) / 2.0
+                low = min(a, -a)
+                psi = math.atan2(-bb, -a) % (2 * math.pi)
+                if psi <= math.pi:
+                    low = min(low, -math.hypot(a, bb))
+                best = min(best, base + m * low)
+            b = best <= PAINLEVE_MARGIN * (p[P_I] + m * math.hypot(r, h) ** 2)
+        bad[i] = b
+
+
+def invalid_rows(P: np.ndarray) -> np.ndarray:
+    """Rows of P whose fields (mass .. roughness) RoverParams would refuse."""
+    bad = np.zeros(len(P), dtype=np.bool_)
+    invalid_rows_into(np.ascontiguousarray(P, dtype=np.float64), bad)
     return bad
-
-
-def painleve(P: np.ndarray) -> np.ndarray:
-    """RoverParams.min_slide_denominator's test (the Painleve regime), row by row."""
-    r, h, mu, m, inertia = P[:, P_R], P[:, P_H], P[:, P_MUD], P[:, P_M], P[:, P_I]
-    base = inertia + m * (r * r + h * h) / 2.0
-    best = np.full(len(P), np.inf)
-    for sigma in (-1.0, 1.0):
-        a = (r * r - h * h) / 2.0 - sigma * mu * r * h
-        b = -r * h - sigma * mu * (r * r - h * h) / 2.0
-        low = np.minimum(a, -a)
-        psi = np.arctan2(-b, -a) % (2 * math.pi)
-        low = np.where(psi <= math.pi, np.minimum(low, -np.hypot(a, b)), low)
-        best = np.minimum(best, base + m * low)
-    return best <= PAINLEVE_MARGIN * (inertia + m * np.hypot(r, h) ** 2)
 
 
 def row_params(p: np.ndarray) -> RoverParams:
