@@ -92,8 +92,10 @@ class HopRoverEnv(gym.Env):
 
     # ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Start an episode: returns (observation, info). `seed` seeds the env's generator
-        (target, randomised parameters, terrain); `options` may fix "target_x" [m],
+        """Start an episode: returns (observation, info). `seed` keys the episode draws
+        (target, randomised parameters, terrain, a task's own: tasks/draws.py) and
+        restarts the episode count; without it the next episode of the last seed (or of
+        a seed from OS entropy) is drawn. `options` may fix "target_x" [m],
         "initial_state" (x, y, theta, vx, vy, omega), "slope" and "roughness" [rad].
         Raises ValueError for an unknown option or a state no contact state allows."""
         super().reset(seed=seed)

@@ -181,7 +181,9 @@ class HopRoverVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
-        (sub-env i gets seed + i) or one per sub-env; the options of
+        (sub-env i gets seed + i) or one per sub-env (None entries: no new seed); a
+        sub-env given no seed draws the next episode of its last one (one never seeded:
+        base + i, base a seed from OS entropy drawn once per call); the options of
         env_config.RESET_OPTIONS ("target_x", "initial_state", "slope", "roughness",
         "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)

@@ -159,14 +159,9 @@ def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
     field of cfg.randomize scaled by U(1 - r, 1 + r) in sorted order, clipped to its
     bounds, mu_dynamic clipped to mu_static; a row that breaks RoverParams' constraints
     (Painleve) draws again at the next attempt, up to MAX_ATTEMPTS times."""
-    rand = cfg.randomize
-    if not rand:
+    if not cfg.randomize:
         return
-    base = cfg.params.as_array()
-    cols = [_COLUMN[key] for key in rand]
-    rel = np.array(list(rand.values()))
-    lo = np.array([RANDOMIZABLE[key][0] for key in rand])
-    hi = np.array([RANDOMIZABLE[key][1] for key in rand])
+    base, cols, rel, lo, hi = _constants(cfg)[1:]
     pending = np.arange(len(P))
     for attempt in range(MAX_ATTEMPTS):
         u = uniforms(words(keys_lo[pending], keys_hi[pending], episodes[pending],
@@ -181,6 +176,21 @@ def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
             return
     raise ValueError(f"randomize: {MAX_ATTEMPTS} draws in a row gave invalid parameters; "
                      f"narrow the ranges {dict(rand)}")
+
+
+def _constants(cfg) -> tuple:
+    """What every draw under `cfg` uses, computed once per config: (its parameter row,
+    then randomisation's base row, columns, half-ranges and bounds)."""
+    got = cfg.__dict__.get("_draw_constants")
+    if got is None:
+        rand = cfg.randomize
+        base = cfg.params.as_array()
+        got = (base, base, np.array([_COLUMN[key] for key in rand], dtype=np.int64),
+               np.array(list(rand.values()), dtype=np.float64),
+               np.array([RANDOMIZABLE[key][0] for key in rand], dtype=np.float64),
+               np.array([RANDOMIZABLE[key][1] for key in rand], dtype=np.float64))
+        object.__setattr__(cfg, "_draw_constants", got)
+    return got
 
 
 def _finite_column(name, value) -> np.ndarray:
@@ -226,7 +236,7 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
         targets = lo + (hi - lo) * u[:, W_TARGET]
     # the parameters
     P = np.empty((n, N_PARAMS))
-    P[:] = cfg.params.as_array()
+    P[:] = _constants(cfg)[0]
     randomize_rows(cfg, P, keys_lo, keys_hi, episodes)
     terrain = cfg.terrain_columns(u[:, W_SLOPE])
     for key in ("slope", "roughness"):
