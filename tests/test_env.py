@@ -363,3 +363,129 @@ def test_sb3_ppo_trains_on_the_adapter(tmp_path):
     model.save(tmp_path / "m")
     venv.save(str(tmp_path / "vn.pkl"))
     assert (tmp_path / "m.zip").exists()
+
+
+# ---- counter draws (tasks/draws.py): vector == single at any position --------------
+DRAW_TASKS = {"HopRover-v0": {"randomize": {"mass": 0.2, "mu_static": 0.3, "restitution_y": 0.5}},
+              "HopRoverHop-v0": {}, "HopRoverTerrain-v0": {}, "HopRoverMission-v0": {}}
+
+
+@pytest.mark.parametrize("threads", [False, True])
+@pytest.mark.parametrize("env_id", list(DRAW_TASKS))
+def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
+    """Sub-env i of a vector env seeded s equals a single env seeded s + i bit for bit,
+    through autoresets (NextStep with threads, SameStep without), a masked reset with new
+    seeds at random positions, and an unseeded reset of all: the counter draws depend on
+    the rover's seed and episode number only."""
+    from hoprover_env.envs.registry import env_class, vector_env_class
+    n, seed = 7, 11
+    kw = dict(DRAW_TASKS[env_id], episode_time=4.0, info_level="full")
+    mode = "NextStep" if threads else "SameStep"
+    venv = vector_env_class(env_id)(n, autoreset_mode=mode, threads=threads, **kw)
+    singles = [env_class(env_id)(**kw) for _ in range(n)]
+    rng = np.random.default_rng(5)
+    obs, info = venv.reset(seed=seed)
+
+    def check_reset(i, o, inf):
+        assert np.array_equal(obs[i], o)
+        for key in ("target_x", "slope", "terrain_seed"):
+            assert info[key][i] == inf[key]
+        assert np.array_equal(venv.P[i], singles[i]._p) and venv.params[i] == singles[i].params
+
+    for i, e in enumerate(singles):
+        check_reset(i, *e.reset(seed=seed + i))
+    pending = np.zeros(n, bool)
+    ended = 0
+    for k in range(40):
+        if k == 15:                             # new seeds at random positions
+            mask = rng.random(n) < 0.5
+            mask[rng.integers(n)] = True
+            seeds = [int(rng.integers(1000)) if rng.random() < 0.7 else None for _ in range(n)]
+            obs, info = venv.reset(seed=seeds, options={"reset_mask": mask})
+            for i in np.flatnonzero(mask):
+                check_reset(i, *singles[i].reset(seed=seeds[i]))
+                pending[i] = False
+        if k == 30:                             # the next episode of every rover
+            obs, info = venv.reset()
+            for i, e in enumerate(singles):
+                check_reset(i, *e.reset())
+            pending[:] = False
+        a = rng.uniform(-1, 1, (n,) + venv.single_action_space.shape).astype(np.float32)
+        obs, r, te, tr, info = venv.step(a.astype(np.float64))
+        for i, e in enumerate(singles):
+            if pending[i]:                      # NextStep: this step was its reset
+                o, inf = e.reset()
+                check_reset(i, o, inf)
+                assert r[i] == 0.0
+                pending[i] = False
+                continue
+            o, rr, t1, t2, inf = e.step(a[i])
+            assert rr == r[i] and t1 == te[i] and t2 == tr[i]
+            assert np.array_equal(info["contact_forces"][i] if mode == "NextStep" or not
+                                  (t1 or t2) else info["final_info"]["contact_forces"][i],
+                                  inf["contact_forces"])
+            if t1 or t2:
+                ended += 1
+                if mode == "SameStep":
+                    assert np.array_equal(info["final_obs"][i], o)
+                    check_reset(i, *e.reset())
+                else:
+                    assert np.array_equal(obs[i], o)
+                    pending[i] = True
+            else:
+                assert np.array_equal(obs[i], o)
+    assert ended >= n
+
+
+def test_counter_draws_seed_episode_and_legacy():
+    """reset(seed=s) restarts the episode count: the same episodes again; an unseeded
+    reset goes on to the next; draws="legacy" is the numpy Generator of old (the same
+    draws as before this option existed)."""
+    from hoprover_env.tasks.config import sample_episode
+    env = HopRoverEnv(randomize={"gravity": 0.3})
+    first = [env.reset(seed=4)[1]["target_x"]] + [env.reset()[1]["target_x"] for _ in range(3)]
+    again = [env.reset(seed=4)[1]["target_x"]] + [env.reset()[1]["target_x"] for _ in range(3)]
+    assert first == again and len(set(first)) == 4
+    old = HopRoverEnv(randomize={"gravity": 0.3}, draws="legacy")
+    _, info = old.reset(seed=4)
+    target, params, *_ = sample_episode(old.config, np.random.default_rng(4))
+    assert info["target_x"] == target and old.params == params
+    with pytest.raises(ValueError, match="draws must be one of"):
+        HopRoverEnv(draws="numpy")
+    venv = HopRoverVectorEnv(3, draws="legacy", randomize={"gravity": 0.3})
+    obs, _ = venv.reset(seed=4)
+    assert np.array_equal(obs[0], old.reset(seed=4)[0]) and venv.params[0] == old.params
+    unseeded = HopRoverVectorEnv(3)
+    a, b = unseeded.reset()[1]["target_x"], HopRoverVectorEnv(3).reset()[1]["target_x"]
+    assert len(set(a)) == 3 and not np.array_equal(a, b)     # fresh OS entropy per call
+
+
+def test_counter_randomisation_redraws_painleve_rows():
+    """A draw in the Painleve regime is drawn again (the next attempt of that rover's
+    counter), row by row; every row is valid and equals the single env's."""
+    from hoprover_env.tasks import draws
+    # a thin, light-inertia rover with high friction: many draws are Painleve
+    base = {"inertia": 2.5e-4, "mu_static": 1.0, "mu_dynamic": 0.3, "half_width": 0.05,
+            "half_height": 0.05}
+    rel = {"inertia": 0.9, "mu_dynamic": 0.9}
+    n = 64
+    venv = HopRoverVectorEnv(n, params=base, randomize=rel)
+    venv.reset(seed=0)
+    assert not draws.invalid_rows(venv.P).any()
+    assert len(set(venv.P[:, 1])) == n
+    for i in (0, 17, 63):
+        e = HopRoverEnv(params=base, randomize=rel)
+        e.reset(seed=i)
+        assert np.array_equal(e._p, venv.P[i])
+    P = np.tile(RoverParams(**base).as_array(), (200, 1))
+    P[:, 1] = np.geomspace(1e-5, 1e-2, 200)
+    P[:, 6] = np.linspace(0.0, 1.0, 200)
+    painleve = []
+    for p in P:
+        try:
+            draws.row_params(p)
+            painleve.append(False)
+        except ValueError:
+            painleve.append(True)
+    assert any(painleve) and not all(painleve)
+    assert np.array_equal(draws.invalid_rows(P), painleve)

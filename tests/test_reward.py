@@ -41,7 +41,9 @@ def play(env_id, seed=3, **kwargs):
 @pytest.mark.parametrize("env_id", sorted(ENVS))
 @pytest.mark.parametrize("energy_weight", [0.0, 0.3])
 def test_terms_sum_to_the_reward(env_id, energy_weight):
-    rewards, infos = play(env_id, energy_weight=energy_weight, attitude_weight=1.0)
+    # seed 5: a target outside the judge's band (with the counter draws seed 3 drew one
+    # inside it, an episode won by resting, with no effort to charge)
+    rewards, infos = play(env_id, seed=5, energy_weight=energy_weight, attitude_weight=1.0)
     for r, info in zip(rewards, infos):
         terms = [info[k] for k in TERMS]
         assert np.isclose(sum(terms), r, rtol=1e-12, atol=1e-12), (env_id, terms, r)

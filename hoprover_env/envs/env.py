@@ -1,6 +1,7 @@
 """The single Gymnasium env of every task: HopRoverEnv steps one rover through a task's
-compiled step (tasks/common.py `build`), draws its episodes (tasks/config.py
-`sample_episode`), builds the info dict (envs/parts.py) and renders.
+compiled step (tasks/common.py `build`), draws its episodes (tasks/draws.py, the vector
+env's draws for one rover; tasks/config.py `sample_episode` with draws="legacy"), builds
+the info dict (envs/parts.py) and renders.
 
 What an env of a task observes, does and pays is the task's: its module's docstring has
 the tables (hoprover_env/tasks/torque.py for HopRover-v0). HopRoverEnv itself is the
@@ -16,9 +17,11 @@ import numpy as np
 
 from hoprover_env import core
 from hoprover_env.jit import compiler as _compile
-from hoprover_env.tasks import reward
+from hoprover_env.tasks import draws, reward
 from hoprover_env.tasks.config import sample_episode
-from hoprover_env.core.params import P_ROUGH
+from hoprover_env.sim.simulate import make_state
+from hoprover_env.util.validate import finite_real
+from hoprover_env.core.params import P_ROUGH, P_SLOPE
 from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
                         info as make_info, task_spaces)
 from hoprover_env.tasks import torque
@@ -79,26 +82,33 @@ class HopRoverEnv(gym.Env):
         self._s = None
         self._p = None
         self._done = False
-        self.params = self.config.params
+        self._params = self.config.params
+        self._legacy = self.config.draws == "legacy"
+        self._keys = draws.RoverKeys(1)
+        self._row = np.zeros(1, dtype=np.int64)
         self.target_x = 0.0
         self._renderer = None
         self._trace: list = []
 
     # ------------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Start an episode: returns (observation, info). `seed` seeds the env's generator
-        (target, randomised parameters, terrain); `options` may fix "target_x" [m],
+        """Start an episode: returns (observation, info). `seed` keys the episode draws
+        (target, randomised parameters, terrain, a task's own: tasks/draws.py) and
+        restarts the episode count; without it the next episode of the last seed (or of
+        a seed from OS entropy) is drawn. `options` may fix "target_x" [m],
         "initial_state" (x, y, theta, vx, vy, omega), "slope" and "roughness" [rad].
         Raises ValueError for an unknown option or a state no contact state allows."""
         super().reset(seed=seed)
-        self.target_x, self.params, self._s, self._p, self.terrain_seed = sample_episode(
-            self.config, self.np_random, options)
+        if self._legacy:
+            self.target_x, self._params, self._s, self._p, self.terrain_seed = \
+                sample_episode(self.config, self.np_random, options)
+            self._step_kernel = self.task.kernels(self.config.integrator,
+                                                  rough=self._p[P_ROUGH] > 0.0).step
+            self.task.start(self.config, self.np_random, self._s, self._p, self._m)
+        else:
+            self._reset_counter(seed, options)
         self._rm[:] = reward.new_memory()
-        # the build without rough-terrain code while the ground is smooth (core/smooth.py)
-        self._step_kernel = self.task.kernels(self.config.integrator,
-                                              rough=self._p[P_ROUGH] > 0.0).step
-        self.task.start(self.config, self.np_random, self._s, self._p, self._m)
-        self._episode = (np.float64(self.target_x), np.float64(self.params.slope),
+        self._episode = (np.float64(self.target_x), np.float64(self._p[P_SLOPE]),
                          np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
                                   else self.terrain_seed))
         self.task.observe(self._s, self._p, self._e, self._m, self._obs)
@@ -109,6 +119,46 @@ class HopRoverEnv(gym.Env):
             if self.render_mode == "human":
                 self.render()
         return self._obs.copy(), self._info(0)
+
+    def _reset_counter(self, seed, options) -> None:
+        """The episode of draws="counter": the vector env's draws for one rover."""
+        keys = self._keys
+        if seed is None:
+            keys.next_episode(self._row)
+        else:
+            keys.seed_rows(self._row, [seed])
+        if options:
+            from hoprover_env.tasks.config import RESET_OPTIONS
+            bad = sorted(set(options) - set(RESET_OPTIONS))
+            if bad:
+                raise ValueError(f"unknown reset option(s) {bad}; valid: "
+                                 f"{sorted(RESET_OPTIONS)}")
+            if "initial_state" in options:
+                st = np.asarray(options["initial_state"])
+                if st.shape != (6,) or st.dtype.kind not in "iuf":
+                    make_state(self.config.params, 0.0, options["initial_state"])  # raises
+            for key in ("target_x", "slope", "roughness"):
+                if key in options:
+                    finite_real(f"options[{key!r}]", options[key])
+            options = {k: np.asarray(v)[None] for k, v in options.items()}
+        ep = draws.sample_episodes(self.task, self.config, keys.lo, keys.hi, keys.episode,
+                                   options)
+        self._s, self._p = ep.S[0], ep.P[0]
+        self._params = None
+        self.target_x = float(ep.targets[0])
+        seed = int(ep.terrain_seeds[0])
+        self.terrain_seed = None if seed == NO_TERRAIN_SEED else seed
+        self._step_kernel = self.task.kernels(self.config.integrator,
+                                              rough=self._p[P_ROUGH] > 0.0).step
+        m = self._m[None, :]
+        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m)
+
+    @property
+    def params(self):
+        """The RoverParams of the episode (built on demand)."""
+        if self._params is None:
+            self._params = draws.row_params(self._p)
+        return self._params
 
     def step(self, action):
         """Hold the torque `action` maps to for one control period. Returns (observation,

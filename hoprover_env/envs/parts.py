@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 from gymnasium import spaces
+from numba import types as nt
 
 from hoprover_env import core
+from hoprover_env.jit.compiler import MAT, kernel
 from hoprover_env.tasks import reward
 
 TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
@@ -50,8 +52,26 @@ def full_info(S: np.ndarray, P: np.ndarray, RM: np.ndarray) -> dict:
         out = {"t": np.float64(S[core.S_T]), "rover_state": S[:6].copy(),
                "contact_forces": np.array(core.contact_forces(S, P))}
     else:
+        forces = np.zeros((len(S), 4))
+        contact_forces_rows(S, P, forces)
         out = {"t": S[:, core.S_T].copy(), "rover_state": S[:, :6].copy(),
-               "contact_forces": np.array([core.contact_forces(s, p) for s, p in zip(S, P)])
-               .reshape(len(S), 4)}
+               "contact_forces": forces}
     out.update(reward.terms_info(RM))
     return out
+
+
+@kernel(nt.void(MAT, MAT, MAT))
+def contact_forces_rows(S, P, out):
+    """core.contact_forces of every row: out[i] = (fAx, fAy, fBx, fBy)."""
+    for i in range(S.shape[0]):
+        f = core.contact_forces(S[i], P[i])
+        for j in range(4):
+            out[i, j] = f[j]
+
+
+def object_rows(rows: np.ndarray) -> np.ndarray:
+    """A 1-D object array of the rows of a 2-D array (copies), built without a Python
+    loop over them (Gymnasium's final_obs)."""
+    out = np.empty(len(rows) + 1, dtype=object)
+    out[:-1] = list(rows.copy())
+    return out[:-1]

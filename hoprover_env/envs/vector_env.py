@@ -4,8 +4,10 @@
     envs = HopRoverVectorEnv(256, autoreset_mode="SameStep", threads=True)
 
 Every sub-env runs its task's step (hoprover_env/tasks), the code `HopRoverEnv` runs, on a
-row of a 2-D state array; resets draw from a per-sub-env numpy Generator exactly as the
-single env does (seed s gives sub-env i the seed s + i, as Gymnasium's SyncVectorEnv).
+row of a 2-D state array; resets draw as the single env does (seed s gives sub-env i the
+seed s + i, as Gymnasium's SyncVectorEnv): with draws="counter" (the default) every row
+reset at once in one vectorised draw keyed by (the sub-env's seed, its episode number)
+(hoprover_env/tasks/draws.py), with draws="legacy" from a numpy Generator per sub-env.
 So sub-env i and `HopRoverEnv` seeded with s + i agree bit for bit.
 
 Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, the
@@ -28,11 +30,11 @@ from gymnasium.vector.utils import batch_space
 
 from hoprover_env import core
 from hoprover_env.jit import compiler as _compile
-from hoprover_env.tasks import reward
+from hoprover_env.tasks import draws, reward
 from hoprover_env.envs.env import check_actions
 from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
 from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
-                        info as make_info, task_spaces)
+                        info as make_info, object_rows, task_spaces)
 from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
 from hoprover_env.tasks import torque
 
@@ -103,7 +105,10 @@ class HopRoverVectorEnv(VectorEnv):
         self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
         self.targets = np.zeros(n)
         self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
-        self.params = [self.config.params] * n
+        self._legacy = self.config.draws == "legacy"
+        self._params = [self.config.params] * n if self._legacy else draws.ParamsView(self.P)
+        self._keys = draws.RoverKeys(n)
+        self._observe_rows = self.task.observer()
         self._rngs: list = [None] * n
         self._traces: list = [[] for _ in range(n)] if render_mode else []
         self._renderers: list = []
@@ -120,6 +125,43 @@ class HopRoverVectorEnv(VectorEnv):
             self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
                             if self.threads else kernels.batch)
             self._rough = rough
+
+    @property
+    def params(self):
+        """The RoverParams of each sub-env's episode (params[i]; built on demand)."""
+        return self._params
+
+    def _reset_rows(self, rows: np.ndarray, options=None):
+        """New episodes of the sub-envs in `rows` (draws="counter"): one draw for all,
+        keyed by each one's seed and episode number (hoprover_env/tasks/draws.py)."""
+        if self._legacy:
+            for i in rows:
+                self._reset_one(i, None if options is None else
+                                {k: (v[i] if k == "initial_state" else
+                                     int(v[i]) if k == "terrain_seed" else float(v[i]))
+                                 for k, v in options.items()})
+            return
+        keys = self._keys
+        ep = draws.sample_episodes(self.task, self.config, keys.lo[rows], keys.hi[rows],
+                                   keys.episode[rows],
+                                   None if options is None else
+                                   {k: v[rows] for k, v in options.items()})
+        self.S[rows] = ep.S
+        self.P[rows] = ep.P
+        self._params.forget(rows)
+        self.targets[rows] = ep.targets
+        self.terrain_seeds[rows] = ep.terrain_seeds
+        self._steps[rows] = 0
+        self._rm[rows] = reward.new_memory()
+        m = self.task.new_memory(len(rows))
+        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m)
+        self.M[rows] = m
+        if not self._rough and (ep.P[:, P_ROUGH] > 0.0).any():   # an autoreset onto bumps
+            self._choose_kernel(True)
+        self._observe_rows(self.S, self.P, self._e, self.M, self._obs, rows)
+        if self.render_mode:
+            for i in rows:
+                self._traces[i] = [(float(self.S[i, core.S_X]), float(self.S[i, core.S_Y]))]
 
     def _reset_one(self, i: int, options=None):
         target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
@@ -139,15 +181,15 @@ class HopRoverVectorEnv(VectorEnv):
 
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
-        (sub-env i gets seed + i) or one per sub-env; the options of
+        (sub-env i gets seed + i) or one per sub-env (None entries: no new seed); a
+        sub-env given no seed draws the next episode of its last one (one never seeded:
+        base + i, base a seed from OS entropy drawn once per call); the options of
         env_config.RESET_OPTIONS ("target_x", "initial_state", "slope", "roughness",
         "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
-        if seed is None:
-            seeds = [None] * n
-        elif isinstance(seed, (int, np.integer)):
-            seeds = [int(seed) + i for i in range(n)]
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = None
         else:
             seeds = list(seed)
             if len(seeds) != n:
@@ -171,13 +213,24 @@ class HopRoverVectorEnv(VectorEnv):
         if options:
             raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
                              f"{sorted(('reset_mask',) + RESET_OPTIONS)}")
-        for i in np.flatnonzero(mask):
-            if seeds[i] is not None or self._rngs[i] is None:
-                self._rngs[i], _ = seeding.np_random(seeds[i])
-            opt = {k: (v[i] if k == "initial_state" else
-                       int(v[i]) if k == "terrain_seed" else float(v[i]))
-                   for k, v in per_env.items()}
-            self._reset_one(i, opt)
+        rows = np.flatnonzero(mask)
+        if self._legacy:
+            if seeds is None:
+                seeds = [None if seed is None else int(seed) + i for i in range(n)]
+            for i in rows:
+                if seeds[i] is not None or self._rngs[i] is None:
+                    self._rngs[i], _ = seeding.np_random(seeds[i])
+        else:
+            keys = self._keys
+            if seed is not None and seeds is None:
+                keys.seed_consecutive(int(seed), rows)
+            elif seeds is not None:
+                given = np.array([seeds[i] is not None for i in rows], dtype=np.bool_)
+                keys.seed_rows(rows[given], [seeds[i] for i in rows[given]])
+                keys.next_episode(rows[~given])
+            else:
+                keys.next_episode(rows)
+        self._reset_rows(rows, per_env or None)
         self._choose_kernel((self.P[:, P_ROUGH] > 0.0).any())
         self._autoreset[mask] = False
         self._ready = True
@@ -199,8 +252,7 @@ class HopRoverVectorEnv(VectorEnv):
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
             done = np.flatnonzero(self._autoreset)
             active = ~self._autoreset
-            for i in done:
-                self._reset_one(i)
+            self._autoreset_rows(done)
         else:
             done = np.zeros(0, dtype=np.int64)
             active = self._all
@@ -226,9 +278,8 @@ class HopRoverVectorEnv(VectorEnv):
             idx = np.flatnonzero(ended)
             final_info = self._infos(self._nev, mask=ended)
             final_obs = np.full(n, None, dtype=object)
-            for i in idx:
-                final_obs[i] = self._obs[i].copy()
-                self._reset_one(i)
+            final_obs[idx] = object_rows(self._obs[idx])
+            self._autoreset_rows(idx)
             infos = self._infos(self._nev)
             infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
             infos["final_info"], infos["_final_info"] = final_info, ended.copy()
@@ -237,6 +288,11 @@ class HopRoverVectorEnv(VectorEnv):
             self._autoreset = ended.copy()
         return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(),
                 infos)
+
+    def _autoreset_rows(self, rows) -> None:
+        if not self._legacy:
+            self._keys.next_episode(rows)
+        self._reset_rows(rows)
 
     def _infos(self, nev, mask=None) -> dict:
         n = self.num_envs

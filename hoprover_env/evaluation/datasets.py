@@ -153,12 +153,18 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     return [buffers[k] for k in sorted(buffers)]
 
 
+def suite_draws() -> str:
+    from hoprover_env.evaluation.suites import SUITE_DRAWS
+    return SUITE_DRAWS
+
+
 def suite_return(task: str, policy, kwargs: dict, suite) -> float:
     """Mean undiscounted return of `policy` on `task`'s frozen suite (episode e seeded e)."""
     terrain = suite.terrain()
     eps = [(e, {"target_x": float(suite.targets[e]),
                 **{k: v[e] for k, v in terrain.items()}}) for e in range(len(suite))]
-    bufs = collect(task, [policy], kwargs, episodes=eps, num_envs=min(64, len(eps)))
+    bufs = collect(task, [policy], {**kwargs, "draws": suite_draws()}, episodes=eps,
+                   num_envs=min(64, len(eps)))
     return float(np.mean([sum(b.rewards) for b in bufs]))
 
 

@@ -66,6 +66,11 @@ SIZES = {"level": 200, "terrain": 200}
 TERRAIN_SLOPES = TerrainEnvConfig.slope_range      # the terrain task's default ground
 TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
 CONTEST_TARGET = 0.5
+# The env draws (EnvConfig.draws) a suite's episodes are run with: episode e is seeded e,
+# and what its reset options do not fix (a mission's sensors, actuator and randomised
+# ground) comes from that seed as these draws make it. "legacy" keeps every suite's
+# episodes, and the scores of every run on them, as they were when frozen.
+SUITE_DRAWS = "legacy"
 FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt",
           "reference_ttrtp")
 
@@ -266,10 +271,13 @@ def run(policy, suite: Suite, batch: int = 256, progress=None,
         env_kwargs: dict | None = None) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
     contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
-    arguments (say a mission task's noise_scale); the suite's episode time stays."""
+    arguments (say a mission task's noise_scale); the suite's episode time stays, and so
+    do the draws its episodes were frozen with (`SUITE_DRAWS`: what the options of an
+    episode leave to the seed, such as the mission task's sensors and unknown ground)."""
     from hoprover_env.evaluation.episodes import run_episodes
     results = run_episodes(policy, suite.targets,
-                           env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
+                           env_kwargs={"draws": SUITE_DRAWS, **(env_kwargs or {}),
+                                       "episode_time": EPISODE_TIME},
                            batch=batch, progress=progress, terrain=suite.terrain())
     return judged(results, suite)
 

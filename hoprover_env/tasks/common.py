@@ -71,8 +71,15 @@ class TaskSpec:
                         observation (None: obs_low/high)
     ``action_dim``      the action's size: Box(-1, 1, (action_dim,))
     ``memory``          slots of per-rover task memory M (0: none)
-    ``reset_memory``    ``f(config, rng, S, P, M)`` at every reset, after the episode's
-                        draws, from the same generator (None: M is zeroed)
+    ``reset_memory``    ``f(config, U, S, P, M)`` at every reset, on the rows of the
+                        rovers reset (2-D: S, P and M, which it fills, one row per
+                        rover; M is zeroed before), after the episode's draws; U holds
+                        ``reset_draws`` uniforms in [0, 1) per rover, drawn from the
+                        rover's (seed, episode) (tasks/draws.py). None: M is zeroed
+    ``reset_draws``     how many uniforms reset_memory takes per rover
+    ``legacy_reset_memory``  ``f(config, rng, S, P, M)`` on one rover's rows, from its
+                        numpy Generator, for draws="legacy" (None: reset_memory with
+                        uniforms from that Generator)
     ``holes``           further placeholders of the step template and their kernels
     ``hidden_info``     ``f(M) -> dict``: what info_level="full" adds of the task memory
                         (a task that hides state from the policy shows it here)
@@ -88,6 +95,8 @@ class TaskSpec:
     action_dim: int = 1
     memory: int = 0
     reset_memory: Callable | None = None
+    reset_draws: int = 0
+    legacy_reset_memory: Callable | None = None
     holes: dict = dataclasses.field(default_factory=dict)
     hidden_info: Callable | None = None
     obs_bounds: Callable | None = None
@@ -119,10 +128,32 @@ class TaskSpec:
         return np.zeros(self.memory_width if n is None else (n, self.memory_width))
 
     def start(self, config, rng, S, P, M) -> None:
-        """Fill a rover's task memory at reset (after sample_episode's draws)."""
+        """Fill a rover's task memory at reset (after sample_episode's draws), from its
+        numpy Generator (draws="legacy")."""
+        M[:] = 0.0
+        if self.legacy_reset_memory is not None:
+            self.legacy_reset_memory(config, rng, S, P, M)
+        elif self.reset_memory is not None:
+            m = M[None, :].copy()
+            self.reset_memory(config, rng.random((1, self.reset_draws)), S[None, :],
+                              P[None, :], m)
+            M[:] = m[0]
+
+    def start_rows(self, config, U, S, P, M) -> None:
+        """Fill the task memory M of the rovers reset (2-D rows, one per rover) from
+        their uniforms U (n, reset_draws) (draws="counter")."""
         M[:] = 0.0
         if self.reset_memory is not None:
-            self.reset_memory(config, rng, S, P, M)
+            self.reset_memory(config, U, S, P, M)
+
+    def observer(self):
+        """A compiled loop of the task's observe over some rows:
+        ``f(S, P, E, M, obs, rows)``, built once per task."""
+        cache = _BUILT.setdefault(id(self), {})
+        if "observe_rows" not in cache:
+            cache["observe_rows"] = kernel(bind_globals(observe_rows, f"{self.name}_observe_rows",
+                                                        _OBSERVE=self.observe))
+        return cache["observe_rows"]
 
 
 _BUILT: dict = {}
@@ -176,6 +207,13 @@ def step_and_observe(S, P, O, E, RW, RM, M, action, obs, ev, W):
     out = _STEP(S, P, O, E, RW, RM, M, action, ev, W)
     _OBSERVE(S, P, E, M, obs)
     return out
+
+
+def observe_rows(S, P, E, M, obs, rows):
+    """The task's observation of the rovers in `rows` (their indices)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        _OBSERVE(S[i], P[i], E, M[i], obs[i])
 
 
 def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, succ, nev,

@@ -2,9 +2,11 @@
 
 `EnvConfig` validates every argument once (with errors that name the argument). The
 single env, the vector env and the SB3 adapter all draw an episode's target and
-(randomised) parameters with `sample_episode` from a per-env numpy Generator, in the
-same order, so that sub-env i of a vector env seeded with s replays a single env seeded
-with s + i bit for bit.
+(randomised) parameters the same way, so that sub-env i of a vector env seeded with s
+replays a single env seeded with s + i bit for bit: with `draws="counter"` (the default)
+from tasks/draws.py, counter-based and vectorised over rovers; with `draws="legacy"`
+with `sample_episode` below, from a per-env numpy Generator (the draws of earlier
+versions).
 """
 from __future__ import annotations
 
@@ -42,6 +44,7 @@ class EnvConfig(RewardConfig):
     action_map: str = "linear"
     action_scale: float = 1.0
     info_level: str = "basic"
+    draws: str = "counter"
     # the arguments a task does not use, each with the reason: refused, not ignored
     unused: ClassVar[dict] = {}
 
@@ -83,6 +86,8 @@ class EnvConfig(RewardConfig):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
+        if self.draws not in DRAWS:
+            raise ValueError(f"draws must be one of {list(DRAWS)}, got {self.draws!r}")
 
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":
@@ -117,6 +122,11 @@ class EnvConfig(RewardConfig):
     def draw_terrain(self, rng: np.random.Generator) -> dict:
         """The terrain of a new episode ({} here: the ground `params` says; a terrain task
         draws its slope)."""
+        return {}
+
+    def terrain_columns(self, u: np.ndarray) -> dict:
+        """draw_terrain of draws="counter", for n rovers at once from one uniform each
+        in [0, 1) (`u`): fields of RoverParams and their values (arrays or scalars)."""
         return {}
 
     def draws_bumps(self) -> bool:
@@ -177,6 +187,11 @@ def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
     state = make_state(params, target, options.get("initial_state"), seed=seed)
     return target, params, state, params.as_array(), seed
 
+
+# How an env draws its episodes: "counter" (tasks/draws.py: vectorised, keyed by each
+# rover's seed and episode number) or "legacy" (sample_episode below: a numpy Generator
+# per rover, the draws of earlier versions, kept to reproduce old results).
+DRAWS = ("counter", "legacy")
 
 RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness", "terrain_seed")
 

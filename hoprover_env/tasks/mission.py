@@ -281,10 +281,22 @@ def bounds(config) -> tuple:
     return np.tile(OBS_LOW, config.history), np.tile(OBS_HIGH, config.history)
 
 
-def start(config, rng: np.random.Generator, S, P, M) -> None:
-    """A new episode's sensors and actuator, drawn from the env's generator after the
-    episode's target, ground and terrain: the sensor seed, then the actuator's scale.
-    The rover has rested before the episode, so its first reading carries a fix."""
+def start(config, U, S, P, M) -> None:
+    """New episodes' sensors and actuators, for the rows reset (one per rover), from
+    their two uniforms (tasks/draws.py: after the episode's target, ground and terrain):
+    the sensor seed (53 bits), then the actuator's scale. The rover has rested before
+    the episode, so its first reading carries a fix."""
+    seed = (U[:, 0] * 2.0 ** 53).astype(np.uint64)
+    M[:, M_SEED_LO] = seed & np.uint64(0xFFFFFFFF)
+    M[:, M_SEED_HI] = seed >> np.uint64(32)
+    M[:, M_ACT_SCALE] = 1.0 + config.actuator_error * config.noise_scale * (2.0 * U[:, 1] - 1.0)
+    M[:, M_REST] = config.fix_rest
+    M[:, M_LAST_T] = S[:, S_T]
+
+
+def start_legacy(config, rng: np.random.Generator, S, P, M) -> None:
+    """start of draws="legacy", on one rover's rows, from its numpy Generator: the
+    sensor seed (63 bits), then the actuator's scale."""
     seed = int(rng.integers(2**63))
     scale = 1.0 + config.actuator_error * config.noise_scale * rng.uniform(-1.0, 1.0)
     M[M_SEED_LO] = seed & 0xFFFFFFFF
@@ -306,5 +318,6 @@ def hidden_info(M) -> dict:
 TASK = dataclasses.replace(
     torque.TASK, name="mission", config=MissionEnvConfig, observe=observe,
     obs_low=OBS_LOW, obs_high=OBS_HIGH, memory=N_M, reset_memory=start,
+    reset_draws=2, legacy_reset_memory=start_legacy,
     holes={"ACTUATE": actuate}, hidden_info=hidden_info, obs_bounds=bounds)
 REGISTER = (Registration("HopRoverMission-v0", suite="terrain"),)

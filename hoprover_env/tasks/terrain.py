@@ -105,6 +105,10 @@ class TerrainEnvConfig(EnvConfig):
         return {"slope": float(rng.uniform(*self.slope_range)),
                 "roughness": float(self.roughness)}
 
+    def terrain_columns(self, u: np.ndarray) -> dict:
+        lo, hi = self.slope_range
+        return {"slope": lo + (hi - lo) * u, "roughness": float(self.roughness)}
+
     def draws_bumps(self) -> bool:
         return self.roughness > 0.0
 

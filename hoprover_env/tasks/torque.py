@@ -132,6 +132,7 @@ store it (TorchRL's info reader wants a `.dtype`; TorchRL and Tianshou refuse No
 | `energy_weight` | 0.0 | weight of the effort: the integral of abs(T) / T_limit over each step [s] |
 | `action_map`, `action_scale` | "linear", 1.0 | action -> torque map and its range fraction |
 | `info_level` | "basic" | "full" adds state and forces to info |
+| `draws` | "counter" | how episodes are drawn from the seed: "counter" (keyed by the seed and the episode number, vectorised) or "legacy" (a numpy Generator per env, the draws of earlier versions; docs/changelog.md) |
 | `render_mode` | None | "rgb_array" or "human" |
 
 ## Version history

@@ -242,7 +242,8 @@ def _main(argv=None) -> int:
         t0 = time.perf_counter()
         try:
             results = run_episodes(pol, targets, batch=args.batch, progress=progress,
-                                   terrain=ground)
+                                   terrain=ground, env_kwargs={"draws": suites.SUITE_DRAWS}
+                                   if suite else None)
         except ValueError as exc:         # a bad --slope / --roughness, named by the env
             print(f"error: {exc}", file=sys.stderr)
             return 2
