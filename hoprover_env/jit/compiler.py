@@ -7,8 +7,9 @@
 
 Every kernel is cached on disk (numba's ``cache=True``), uses numpy's error model (a
 division by zero gives inf/nan, which callers check, instead of raising) and no
-reference counting (nothing allocates). On top of plain numba it adds five things, each
-for the cold start (the first use after installing or editing):
+reference counting (nothing allocates). On top of plain numba it adds four things, each
+for the cold start (the first use after installing or editing), none of which changes
+numba for anyone else in the process (docs/COMPILING.md):
 
 * ``inner=True``: no Python/C entry wrappers. numba would otherwise build, optimise and
   link one per helper into every caller. Python calling such a function raises a
@@ -19,23 +20,21 @@ for the cold start (the first use after installing or editing):
 * stale caches are dropped: numba keys a cached function on its own file only, so a
   caller would keep an old callee's code linked in. One fingerprint over the kernel
   sources guards every module's cache.
-* changes to numba's compiler (`_numba_layer`): a function only jitted code calls is
-  neither optimised as a module nor turned into machine code on its own, since its
-  callers optimise and emit it with themselves (the cache keeps its linkable bitcode);
-  compiler flags are hashed and compared without rebuilding their option dicts; no
-  events around numba's LLVM lock, IR variables listed by type, error messages marked
-  up without colorama. ``HOPROVER_NUMBA_LAYER=0`` leaves numba as it is.
-* `prepare()`: on a cold cache with two or more cores, a helper process (a fork of this
-  one on Linux) and this one compile the simulator's parts into the cache, each taking
-  the next part the other has not taken, like ``make -j2``.
-  ``HOPROVER_PARALLEL_COMPILE=0`` turns it off.
+* `prepare()`: on a cold cache it prints one line (MESSAGE) and, with two or more cores,
+  a helper process (a fresh interpreter, never a fork) and this one compile the
+  simulator's parts into the cache, each taking the next part the other has not taken,
+  like ``make -j2``. ``HOPROVER_PARALLEL_COMPILE=0`` turns the helper off.
 
-These lean on numba internals (`_numba_internals`): the CPUDispatcher class, its
-`get_call_template` hook, a dispatcher's `_cache`, the wrapper options, the JIT code
-library and the flags class (`_numba_layer`). Should a numba release move one of the
-first four, everything falls back to plain ``numba.njit(cache=True)`` with a warning:
-correct results, a slower cold start (tests/test_compile.py hides them); should it move
-one of the last two, only `_numba_layer` is left out, with a warning.
+``HOPROVER_NUMBA_LAYER=1`` (opt-in) also installs `numba_layer`, changes to numba's own
+compiler classes that shorten a cold compile: they apply to the whole process, the
+user's own numba code included, and rest on numba internals that may move.
+
+`kernel` leans on numba internals (`_numba_internals`): the CPUDispatcher class, its
+`get_call_template` hook, a dispatcher's `_cache` and the wrapper options. Should a numba
+release move one of them, everything falls back to plain ``numba.njit(cache=True)`` with
+a warning: correct results, a slower cold start (tests/test_compile.py hides them);
+should one the opt-in layer uses move, only the layer is left out, with a warning.
+`run_threaded` restores the OpenMP settings numba's OpenMP layer changes.
 """
 from __future__ import annotations
 
@@ -46,7 +45,6 @@ import importlib
 import inspect
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -56,7 +54,6 @@ import types
 import warnings
 
 from numba import njit, types as nt
-from numba.core import event
 
 F64, I64, BOOL, NONE = nt.float64, nt.int64, nt.boolean, nt.none
 VEC, VEC32, MAT = nt.float64[::1], nt.float32[::1], nt.float64[:, ::1]
@@ -73,7 +70,7 @@ KERNEL_SOURCES = sorted(glob.glob(os.path.join(_PACKAGE, "core", "*.py"))
                             "controllers.py", "rollout.py")])
 
 
-LAYER_SWITCH = "HOPROVER_NUMBA_LAYER"        # "0": numba as it is (_numba_layer)
+LAYER_SWITCH = "HOPROVER_NUMBA_LAYER"        # "1": install numba_layer (opt-in; see there)
 
 
 @functools.lru_cache(maxsize=None)
@@ -93,7 +90,7 @@ def _numba_internals():
                       "results are the same, the first run compiles more slowly",
                       RuntimeWarning, stacklevel=3)
         return None
-    if os.environ.get(LAYER_SWITCH, "1") != "0":
+    if layer_requested():
         try:
             from hoprover_env.jit import numba_layer as _numba_layer
             _numba_layer.install()
@@ -103,6 +100,12 @@ def _numba_internals():
                           "compiling without them: the same results, a slower first run",
                           RuntimeWarning, stacklevel=3)
     return CPUDispatcher
+
+
+def layer_requested() -> bool:
+    """Whether this process asked for `numba_layer` (``HOPROVER_NUMBA_LAYER=1``). Off by
+    default: it changes numba's classes for the whole process (docs/COMPILING.md)."""
+    return os.environ.get(LAYER_SWITCH, "0").strip() == "1"
 
 
 class _JitOnly:
@@ -226,8 +229,10 @@ def _cache_path(dispatcher):
 @functools.lru_cache(maxsize=None)
 def _fingerprint() -> str:
     h = hashlib.sha256()
-    # a cache of link-only libraries is unreadable without them, and the reverse
-    h.update(b"link-only" if _layer_active() else b"numba")
+    # a cache of link-only libraries is unreadable without them, and the reverse. What was
+    # asked for, not what is installed now: the fingerprint may be taken before the layer
+    # is, and a cache written with the layer must never be marked as plain numba's
+    h.update(b"link-only" if layer_requested() else b"numba")
     for path in KERNEL_SOURCES:
         with open(path, "rb") as fh:
             h.update(fh.read())
@@ -266,7 +271,7 @@ def drop_stale_cache(dispatcher) -> None:
 
 
 # ---------------------------------------------------------------- the two-process compile
-ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0": no helper; "spawn": not a fork
+ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0": no helper
 _HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
 HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
 # The end of a phase (built for the ground, core/smooth.py), the largest piece (about
@@ -331,16 +336,22 @@ def prepare(extra=(), rough: bool = True) -> None:
     """Called by every entry point (envs, simulate, simulate_batch) before its first kernel
     call; returns at once after the first call in a process. `extra`: more declared
     functions ("module:name") to compile, such as an env's reward and observation;
-    `rough`: False for a caller that starts on smooth ground (core/smooth.py)."""
+    `rough`: False for a caller that starts on smooth ground (core/smooth.py).
+
+    On a cold cache it prints the compile notice (MESSAGE) and, with two or more cores,
+    compiles with a helper process (`_start_helper`)."""
     global _prepared
     if _prepared:
         return
     _prepared = True
-    if _numba_internals() is None or os.environ.get(_HELPER_FLAG) \
-            or os.environ.get(ENV_SWITCH, "1") == "0" or _cores() < 2:
+    if os.environ.get(_HELPER_FLAG):
         return
     functions = _resolve(HELPER_FUNCTIONS + tuple(extra))
     if all(_cached(d) for d in functions):
+        return
+    print(MESSAGE, file=sys.stderr, flush=True)
+    if _numba_internals() is None or os.environ.get(ENV_SWITCH, "1").strip() == "0" \
+            or _cores() < 2:
         return
     lock = _claim(functions[0])
     if lock is None:
@@ -353,8 +364,7 @@ def prepare(extra=(), rough: bool = True) -> None:
         if taken is None:
             return
         queue = (taken,) + QUEUE + tuple(extra) + QUEUE_END
-        fork = os.environ.get(ENV_SWITCH) != "spawn" and _can_fork()
-        helper = _start_helper(queue, fork)
+        helper = _start_helper(queue)
         if helper is None:
             return
         started = time.monotonic()
@@ -390,16 +400,13 @@ def compile_queue(queue) -> None:
         compile_now(_resolve((name,))[0])
 
 
-def _start_helper(queue, fork: bool):
-    """The helper process working through `queue` (`compile_queue`); None if it cannot
-    start. `fork`: a fork of this process, which spares the helper the start of a new
-    interpreter and its imports (about 0.4 s); else a fresh interpreter
-    (``HOPROVER_PARALLEL_COMPILE=spawn`` asks for one where a fork would do)."""
-    if fork:
-        try:
-            return _Forked(queue)
-        except OSError:
-            return None
+def _start_helper(queue):
+    """The helper process working through `queue` (`compile_queue`): a fresh interpreter,
+    which shares nothing with this process but the cache directory and the directory of
+    marks; None if it cannot start. (It was a fork of this process on Linux until
+    2026-11-27, which spared it the start of an interpreter, but a fork is only safe
+    where no other thread holds a lock the child needs, and hoprover cannot see threads
+    that never run Python, such as numpy's BLAS pool: docs/COMPILING.md.)"""
     # the helper must compile this very package, wherever it was imported from
     parent = os.path.dirname(_PACKAGE)
     path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
@@ -413,127 +420,74 @@ def _start_helper(queue, fork: bool):
         return None
 
 
-def _can_fork() -> bool:
-    """Linux, and no Python thread but this one: a thread of ours (Jupyter's, a Ray
-    worker's) could hold a lock at the moment of the fork that the child would then
-    wait on for ever. Threads that never run Python (a BLAS pool) hold nothing the child
-    uses: it only compiles."""
-    return sys.platform.startswith("linux") and threading.active_count() == 1
-
-
-class _Forked:
-    """The helper as a fork of this process, with the part of `subprocess.Popen`'s
-    interface `prepare` uses (poll, wait, kill).
-
-    It forks under numba's compiler lock, so that no other thread is halfway through a
-    compilation whose state the child would inherit. The child works through its queue
-    into numba's cache with its standard streams on /dev/null and leaves by `os._exit`: no
-    atexit handlers, no flushing of the buffers it shares with this process."""
-
-    def __init__(self, queue):
-        from numba.core.compiler_lock import global_compiler_lock
-        self.returncode = None
-        with warnings.catch_warnings():
-            # Python 3.12+ warns of a fork in a process with threads (a BLAS pool's);
-            # _can_fork said why the child is safe from them
-            warnings.simplefilter("ignore", DeprecationWarning)
-            with global_compiler_lock:
-                self.pid = os.fork()
-                if self.pid == 0:
-                    self._child(queue)
-
-    @staticmethod
-    def _child(queue):
-        code = 1
-        try:
-            null = os.open(os.devnull, os.O_RDWR)
-            for fd in (0, 1, 2):
-                os.dup2(null, fd)
-            compile_queue(queue)
-            code = 0
-        finally:
-            os._exit(code)
-
-    def poll(self):
-        if self.returncode is None:
-            try:
-                pid, status = os.waitpid(self.pid, os.WNOHANG)
-            except ChildProcessError:       # reaped elsewhere (SIGCHLD ignored): gone
-                self.returncode = -1
-                return self.returncode
-            if pid:
-                self.returncode = os.waitstatus_to_exitcode(status)
-        return self.returncode
-
-    def wait(self, timeout=None):
-        deadline = None if timeout is None else time.monotonic() + timeout
-        while self.poll() is None:
-            if deadline is not None and time.monotonic() >= deadline:
-                raise subprocess.TimeoutExpired("hoprover compile helper", timeout)
-            time.sleep(0.002)
-        return self.returncode
-
-    def kill(self):
-        try:
-            os.kill(self.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-
-
 # ---------------------------------------------------------------- the compile notice
 MESSAGE = ("hoprover_env: compiling the simulator with numba, once after installing or "
            "editing it (usually 5-15 s; cached afterwards) ...")
 
 
-@functools.cache
+_OPENMP = []        # [runtime or None], once known (_openmp)
+
+
 def _openmp():
-    """The OpenMP runtime numba's default threading layer runs on: libgomp by its soname,
-    which resolves to the copy already loaded if there is one (with torch imported,
-    numba's layer and torch were seen to share it). None where there is none."""
+    """The OpenMP runtime numba's OpenMP layer runs on, if one is loaded: libgomp by its
+    soname, which is the copy already loaded (torch's, if torch came first: numba's and
+    torch's were seen to share it). Loads nothing (RTLD_NOLOAD). Known for good once one
+    is loaded, or once numba's threads have started without one (its TBB or workqueue
+    layer); until then None, looked up again at the next call."""
+    if _OPENMP:
+        return _OPENMP[0]
     import ctypes
     try:
-        lib = ctypes.CDLL("libgomp.so.1")
-        lib.omp_get_max_threads.restype = ctypes.c_int
-        lib.omp_set_num_threads.argtypes = [ctypes.c_int]
-        return lib
+        lib = ctypes.CDLL("libgomp.so.1", mode=getattr(os, "RTLD_NOLOAD", 4))
+        for name in ("omp_get_max_threads", "omp_get_max_active_levels"):
+            getattr(lib, name).restype = ctypes.c_int
+        for name in ("omp_set_num_threads", "omp_set_max_active_levels"):
+            getattr(lib, name).argtypes = [ctypes.c_int]
     except (OSError, AttributeError):
+        try:
+            from numba.np.ufunc import parallel
+            if parallel._is_initialized:        # numba's threads run without OpenMP
+                _OPENMP.append(None)
+        except (ImportError, AttributeError):
+            pass
         return None
+    _OPENMP.append(lib)
+    return lib
+
+
+def _openmp_settings(lib):
+    return lib.omp_get_max_threads(), lib.omp_get_max_active_levels()
+
+
+def _default_threads(lib) -> int:
+    """The OpenMP thread count a thread that never set one reads: the runtime's default."""
+    out = []
+    thread = threading.Thread(target=lambda: out.append(lib.omp_get_max_threads()))
+    thread.start()
+    thread.join()
+    return out[0]
 
 
 def run_threaded(fn, *args):
-    """`fn(*args)` for a parallel kernel, leaving the caller's OpenMP thread count as it
-    was. numba's OpenMP layer sets it to numba's thread count in the calling thread at
-    every launch, and every later OpenMP user in the process inherits that: after one
-    threaded step, torch.set_num_threads(1) reads 2 and torch's small ops run on two
-    threads that spin against the env's (PPO's updates 5x slower here, on 2 cores)."""
+    """`fn(*args)` for a parallel kernel, leaving the caller's OpenMP settings as they
+    were. numba's OpenMP layer sets the calling thread's OpenMP thread count to numba's
+    thread count when it starts and at every launch, and the runtime's nesting level
+    when it starts; every later OpenMP user in the process inherits that: after one
+    threaded step, torch.set_num_threads(1) read 2 and torch's small ops ran on two
+    threads that spun against the env's (PPO's updates 5x slower here, on 2 cores).
+    numba's own thread count (numba.set_num_threads) is neither read nor changed."""
     lib = _openmp()
-    if lib is None:
-        return fn(*args)
-    n = lib.omp_get_max_threads()
+    before = _openmp_settings(lib) if lib is not None else None
     try:
         return fn(*args)
     finally:
-        if lib.omp_get_max_threads() != n:
-            lib.omp_set_num_threads(n)
-
-
-class _CompileNotice(event.Listener):
-    """One line on stderr when numba starts compiling one of this package's kernels
-    (cached runs compile nothing and print nothing)."""
-
-    shown = False
-
-    def on_start(self, ev):
-        if self.shown:
-            return
-        data = ev.data if isinstance(ev.data, dict) else {}
-        func = getattr(data.get("dispatcher"), "py_func", None)
-        if (getattr(func, "__module__", None) or "").startswith("hoprover_env."):
-            type(self).shown = True
-            print(MESSAGE, file=sys.stderr, flush=True)
-
-    def on_end(self, ev):
-        pass
-
-
-event.register("numba:compile", _CompileNotice())
+        if lib is None and not _OPENMP:
+            lib = _openmp()
+            if lib is not None:     # loaded by this call (numba's threads started)
+                before = (_default_threads(lib), lib.omp_get_max_active_levels())
+        if lib is not None:
+            now = _openmp_settings(lib)
+            if now[0] != before[0]:
+                lib.omp_set_num_threads(before[0])
+            if now[1] != before[1]:
+                lib.omp_set_max_active_levels(before[1])

@@ -1,6 +1,16 @@
-"""What hoprover changes in numba's compiler, for the cold start: link-only libraries, a
-cheaper comparison of compiler flags, and three of numba's Python-side costs cut without
-changing what it computes. `install()` applies them all.
+"""What hoprover can change in numba's compiler, for the cold start: link-only libraries,
+a cheaper comparison of compiler flags, and three of numba's Python-side costs cut
+without changing what it computes. `install()` applies them all.
+
+**Opt-in: ``HOPROVER_NUMBA_LAYER=1``.** By default hoprover leaves numba as it is and
+this module is not imported. With the switch on, `install()` (called when the first
+kernel is declared) replaces methods of numba's ``JITCodeLibrary``, ``JITCPUCodegen``,
+``TargetConfig`` (the compiler flags), ``ir.Inst`` and its error colour scheme, and drops
+numba's callbacks around llvmlite's lock, for the whole process and for good: the
+user's own numba code compiles through them too, and they rest on numba internals that
+a numba release may move or change in meaning (a move is caught: `install` then changes
+nothing and warns; a change in meaning is not). What it saves and costs is measured in
+docs/COMPILING.md.
 
 **Link-only libraries.** numba finalises the library of every function it compiles at
 once: the function's LLVM module, with every callee's module linked in, goes through the
@@ -58,8 +68,8 @@ each with the same result as numba's own:
 
 This leans on numba internals (``JITCodeLibrary``, ``JITCPUCodegen.set_env``,
 ``TargetConfig``, ``ir.Inst._rec_list_vars``, llvmlite's lock callbacks), as the rest of
-`_compile`: if any is missing, `install` raises AttributeError before changing anything,
-and `_compile` warns and compiles with numba as it is.
+`compiler`: if any is missing, `install` raises AttributeError before changing anything,
+and `compiler` warns and compiles with numba as it is.
 """
 from __future__ import annotations
 

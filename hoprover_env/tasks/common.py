@@ -263,8 +263,10 @@ def build(task: TaskSpec, integrator: str, rough: bool = True) -> TaskKernels:
                          f"{integrator!r}")
     name = f"{task.name}_{integrator}" + ("" if rough else "_smooth")
     advance = INTEGRATORS[integrator] if rough else SMOOTH_INTEGRATORS[integrator]
-    inner = kernel(inner=True)(bind_globals(task.step, f"{name}_inner", ADVANCE=advance,
-                                            **task.holes))
+    # inlined into its three callers: numba then optimises one module per caller instead
+    # of emitting the step's own library too (a shorter cold compile, the same bits)
+    inner = kernel(inner=True, inline=True)(bind_globals(task.step, f"{name}_inner",
+                                                         ADVANCE=advance, **task.holes))
     bound = dict(_STEP=inner, _OBSERVE=task.observe)
     return TaskKernels(
         step=kernel(bind_globals(step_and_observe, f"{name}_step", **bound)),
