@@ -7,7 +7,7 @@ Prints one JSON line: the median over `reps` of reset(seed=0) of n rovers, of a 
 n rovers (small random torques), and of a step in which every rover autoresets (NextStep:
 the step resets them and moves none), each in microseconds per rover. Runs on any
 version of the package (it uses only the public API and the NextStep flags), so that
-two checkouts can be compared in one session.
+two checkouts can be compared in alternating runs.
 """
 from __future__ import annotations
 
