@@ -112,7 +112,7 @@ def export(cfg, venv, model, out) -> None:
 
 def collect_cmd(args) -> None:
     from hoprover_env.training.imitation import collect
-    from hoprover_env.agents.policies import load_policy
+    from agents.plan_clone.gated import load_any as load_policy   # a research .pt too
     from hoprover_env.training.sb3_agents import env_kwargs
     cfg, venv, model = _model(args.action_map, args.arch, args.activation, args.features)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}

@@ -254,6 +254,15 @@ def load_policy(path) -> GatedPolicy:
     return GatedPolicy(net, name=Path(path).stem, env_kwargs=meta["env_kwargs"])
 
 
+def load_any(spec: str, **kwargs):
+    """A research network's .pt (`load_policy`), or anything the package's
+    `hoprover_env.agents.policies.load_policy` loads (a name, a model, a .pt2)."""
+    if str(spec).endswith(".pt"):
+        return load_policy(spec)
+    from hoprover_env.agents.policies import load_policy as load_package_policy
+    return load_package_policy(str(spec), **kwargs)
+
+
 GROUP = "Imitation of a planner"        # the leaderboard's group of a network made here
 HOW_MADE = ("two networks cloned by least squares and DAgger rounds from the plan-table "
             "teacher, joined by fixed, hand-written parts; no slope input, level ground only")

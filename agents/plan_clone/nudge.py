@@ -218,7 +218,7 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     from pathlib import Path
     from agents.plan_clone.clone_study import fit, judge, report
     from hoprover_env.util.files import write_npz
-    from hoprover_env.agents.policies import load_policy
+    from agents.plan_clone.gated import load_any as load_policy
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
     hold, rest = bool(cfg.get("hold", False)), bool(cfg.get("rest", False))
     deadzone = float(cfg.get("deadzone", 0.01))
