@@ -30,10 +30,10 @@ import numpy as np
 from numba import types as nt
 
 from hoprover_env import core
-from hoprover_env.core.params import (MAX_MAGNITUDE, MAX_SLOPE, N_PARAMS, P_BAND, P_DWELL,
-                                      P_G, P_GC, P_GS, P_H, P_I, P_M, P_MUD, P_MUS, P_R,
-                                      P_ROUGH, P_SLOPE, P_TMAX, P_TMIN, P_VXMIN, P_VYMIN,
-                                      P_EX, P_EY, PAINLEVE_MARGIN, RoverParams)
+from hoprover_env.core.params import (FIELD_INDEX, MAX_MAGNITUDE, N_FIELDS, N_PARAMS, P_G,
+                                      P_GC, P_GS, P_H, P_MUD, P_MUS, P_ROUGH, P_SLOPE,
+                                      from_fields)
+from hoprover_env.core.params import invalid_rows as invalid_field_rows
 from hoprover_env.core.terrain import philox4x64
 from hoprover_env.jit.compiler import MAT, VEC, kernel
 from hoprover_env.sim.randomize import RANDOMIZABLE
@@ -45,8 +45,7 @@ KEY_TAG = 0x6570697364726177           # "episdraw": keys apart from the terrain
 MAX_ATTEMPTS = 100                     # randomisation draws per row before giving up
 _U64 = np.uint64
 _MASK64 = (1 << 64) - 1
-_FIELDS = [f.name for f in dataclasses.fields(RoverParams)]     # the P_* order, to P_ROUGH
-_COLUMN = {name: i for i, name in enumerate(_FIELDS)}
+_COLUMN = FIELD_INDEX                  # a field's column in a parameter row (P_* order)
 _NO_SEED = -1
 
 
@@ -105,53 +104,13 @@ def uniforms(w: np.ndarray) -> np.ndarray:
     return (w >> _U64(11)).astype(np.float64) * 2.0 ** -53
 
 
-@kernel(nt.void(MAT, nt.boolean[::1]))
-def invalid_rows_into(P, bad):
-    """bad[i]: row i's fields (mass .. roughness) break a check of RoverParams'
-    __post_init__ (ranges, mu_dynamic <= mu_static, torque limits, the Painleve regime
-    of min_slide_denominator), in its arithmetic."""
-    for i in range(P.shape[0]):
-        p = P[i]
-        b = False
-        for c in range(P_ROUGH + 1):
-            if not (abs(p[c]) <= MAX_MAGNITUDE):          # also NaN
-                b = True
-        for c in (P_M, P_I, P_R, P_H, P_G, P_BAND, P_DWELL):
-            if not p[c] > 0.0:
-                b = True
-        for c in (P_MUS, P_MUD, P_EX, P_EY):
-            if not (0.0 <= p[c] <= 1.0):
-                b = True
-        if p[P_MUD] > p[P_MUS] or not p[P_VXMIN] >= 0.0 or not p[P_VYMIN] > 0.0 \
-                or not abs(p[P_SLOPE]) <= MAX_SLOPE or not p[P_ROUGH] >= 0.0 \
-                or p[P_TMIN] > p[P_TMAX]:
-            b = True
-        if not b:
-            r, h, mu, m = p[P_R], p[P_H], p[P_MUD], p[P_M]
-            base = p[P_I] + m * (r * r + h * h) / 2.0
-            best = math.inf
-            for sigma in (-1.0, 1.0):
-                a = (r * r - h * h) / 2.0 - sigma * mu * r * h
-                bb = -r * h - sigma * mu * (r * r - h * h) / 2.0
-                low = min(a, -a)
-                psi = math.atan2(-bb, -a) % (2 * math.pi)
-                if psi <= math.pi:
-                    low = min(low, -math.hypot(a, bb))
-                best = min(best, base + m * low)
-            b = best <= PAINLEVE_MARGIN * (p[P_I] + m * math.hypot(r, h) ** 2)
-        bad[i] = b
-
-
 def invalid_rows(P: np.ndarray) -> np.ndarray:
-    """Rows of P whose fields (mass .. roughness) RoverParams would refuse."""
-    bad = np.zeros(len(P), dtype=np.bool_)
-    invalid_rows_into(np.ascontiguousarray(P, dtype=np.float64), bad)
-    return bad
+    """Rows of P whose fields (mass .. roughness) RoverParams would refuse: the
+    constructor's verdict (core/params.py `invalid_rows`, on the field columns)."""
+    return invalid_field_rows(P[:, :N_FIELDS])
 
 
-def row_params(p: np.ndarray) -> RoverParams:
-    """The RoverParams of a parameter row (validated: raises RoverParams' ValueError)."""
-    return RoverParams(*(float(v) for v in p[:P_ROUGH + 1]))
+row_params = from_fields       # the RoverParams of a parameter row (validated)
 
 
 def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
@@ -175,7 +134,7 @@ def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
         if not pending.size:
             return
     raise ValueError(f"randomize: {MAX_ATTEMPTS} draws in a row gave invalid parameters; "
-                     f"narrow the ranges {dict(rand)}")
+                     f"narrow the ranges {dict(cfg.randomize)}")
 
 
 def _constants(cfg) -> tuple:
