@@ -303,18 +303,17 @@ def export(net: GatedNet, path, meta: dict) -> None:
     `hoprover_env.agents.policies.load_policy` runs it with no code of this module."""
     from hoprover_env.agents.base import TorchPolicy
     from hoprover_env.tasks.observation import OBS_DIM
-    arch = {k: meta[k] for k in ("main", "nudge", "deadzone", "nudge_max", "symmetric",
-                                 "flight", "hold", "rest") if k in meta}
-    meta = {**meta, "kind": "torch.export", "made_by": "imitation of a planner",
+    arch_keys = ("main", "nudge", "deadzone", "nudge_max", "symmetric", "flight", "hold",
+                 "rest")
+    arch = {k: meta[k] for k in arch_keys if k in meta}
+    meta = {**{k: v for k, v in meta.items() if k not in arch_keys},
+            "kind": "torch.export", "made_by": "imitation of a planner",
             "hand_written": hand_written(arch), "architecture": arch, "group": GROUP,
             "how_made": HOW_MADE, "teacher": TEACHER}
-    for k in ("main", "nudge", "deadzone", "nudge_max", "symmetric", "flight", "hold", "rest"):
-        meta.pop(k, None)
     example = torch.zeros((4, OBS_DIM), dtype=torch.float32)
     TorchPolicy.save(net.eval(), example, path, meta)
-    write_meta = {k: v for k, v in meta.items()}
     from hoprover_env.util.files import write_json
-    write_json(Path(path).with_suffix(".json"), write_meta)
+    write_json(Path(path).with_suffix(".json"), meta)
 
 
 def main(argv=None) -> int:
