@@ -1,10 +1,10 @@
 """The cold first step (or first simulate) of several checkouts or settings, in
 alternating fresh interpreters.
 
-    git worktree add /tmp/old d9bab3a
-    python -m benchmarks.cold_compare /tmp/old . --rounds 5
-    python -m benchmarks.cold_compare /tmp/old . --rounds 4 --one-process
-    python -m benchmarks.cold_compare /tmp/old . --rounds 3 --what step simulate
+    git worktree add ../hoprover-old d9bab3a
+    python -m benchmarks.cold_compare ../hoprover-old . --rounds 5
+    python -m benchmarks.cold_compare ../hoprover-old . --rounds 4 --one-process
+    python -m benchmarks.cold_compare ../hoprover-old . --rounds 3 --what step simulate
     python -m benchmarks.cold_compare .:HOPROVER_NUMBA_LAYER=1 . --rounds 3
 
 Each argument is a checkout, optionally followed by ``:VAR=VALUE,VAR=VALUE`` settings
