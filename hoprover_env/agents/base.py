@@ -6,7 +6,8 @@ n episodes; ``name`` labels tables; ``env_id`` and ``env_kwargs`` say which task
 settings it acts in.
 
 * ``SB3Policy`` -- a Stable-Baselines3 model with the observation normalisation it was
-  trained with (VecNormalize statistics), deterministic.
+  trained with (VecNormalize statistics), deterministic; a recurrent one (RecurrentPPO)
+  keeps its memory per episode.
 * ``TorchPolicy`` -- a self-describing torch module (``torch.export``, .pt2) that maps raw
   observations to actions, pre- and post-processing included; its metadata travels in
   the file.
@@ -31,10 +32,15 @@ from hoprover_env.core.params import RoverParams
 class SB3Policy:
     """A trained SB3 model plus its observation normalisation, acting deterministically.
 
-    Parameters: `model` (PPO, SAC or TD3); `obs_rms` the VecNormalize running statistics
-    (None: observations unnormalised); `clip_obs` and `epsilon` as VecNormalize's; `name`
-    for tables; `env_kwargs` the env arguments it was trained with (e.g. control_dt
-    [s]); `env_id` the task it acts in (HopRoverHop-v0: one action per hop).
+    Parameters: `model` (PPO, SAC, TD3, TQC, CrossQ or RecurrentPPO); `obs_rms` the
+    VecNormalize running statistics (None: observations unnormalised); `clip_obs` and
+    `epsilon` as VecNormalize's; `name` for tables; `env_kwargs` the env arguments it was
+    trained with (e.g. control_dt [s]); `env_id` the task it acts in (HopRoverHop-v0: one
+    action per hop).
+
+    A recurrent model (an LSTM policy) keeps its memory per sub-env of the batch: `reset(n)`
+    empties it for all n, `restart(slots)` for the slots whose sub-env starts a new
+    episode within the batch (a driver that refills finished slots calls it).
     """
 
     def __init__(self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8,
@@ -45,9 +51,22 @@ class SB3Policy:
         self.name = name
         self.env_kwargs = dict(env_kwargs or {})
         self.env_id = env_id             # the task it acts in (HopRoverHop-v0: one hop a step)
+        # sb3-contrib's recurrent policies carry the shape of their memory
+        self.recurrent = hasattr(getattr(model, "policy", None), "lstm_hidden_state_shape")
+        self.state = None                # the LSTM's (hidden, cell) per sub-env
+        self.episode_start = None        # per sub-env: its memory starts over at this step
 
     def reset(self, n: int) -> None:
-        """Start `n` episodes (the model keeps no per-episode state)."""
+        """Start `n` episodes (a recurrent model's memory starts empty in each; other
+        models keep no per-episode state)."""
+        if self.recurrent:
+            self.state, self.episode_start = None, np.ones(n, dtype=bool)
+
+    def restart(self, slots) -> None:
+        """New episodes in `slots` (indices or a boolean mask of the batch): a recurrent
+        model forgets what it saw there."""
+        if self.recurrent and self.episode_start is not None:
+            self.episode_start[slots] = True
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         """`obs` (N, 19) as the model saw them in training: standardised and clipped."""
@@ -58,7 +77,15 @@ class SB3Policy:
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Deterministic actions (N, 1) for the observations `obs` (N, 19)."""
-        action, _ = self.model.predict(self.normalize(obs), deterministic=True)
+        if not self.recurrent:
+            action, _ = self.model.predict(self.normalize(obs), deterministic=True)
+        else:
+            if self.episode_start is None or len(self.episode_start) != len(obs):
+                self.reset(len(obs))     # acting without reset: a fresh batch
+            action, self.state = self.model.predict(
+                self.normalize(obs), state=self.state, episode_start=self.episode_start,
+                deterministic=True)
+            self.episode_start = np.zeros(len(obs), dtype=bool)
         return np.asarray(action, dtype=np.float64).reshape(len(obs), 1)
 
 

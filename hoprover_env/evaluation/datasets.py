@@ -117,6 +117,9 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
             key: np.full(num_envs, v) for key, v in opt.items()}})
         obs[i] = o[i]
         slots[i] = (k, s, opt, [o[i].copy()], [], [], [], [])
+        for p in policies:              # a recurrent policy forgets the slot's last episode
+            if hasattr(p, "restart"):
+                p.restart([i])
 
     for i in range(num_envs):
         start(i)

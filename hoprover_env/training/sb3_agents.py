@@ -2,15 +2,16 @@
 
 A config has these sections (every key is checked; a typo is an error that names it):
 
-    algo: ppo | sac | td3
+    algo: ppo | sac | td3 | tqc | crossq | recurrentppo   # the last three: sb3-contrib
     env_id: HopRover-v0             # or HopRoverContest-v0 (fixes the target)
     n_envs: 32                      # sub-envs of the native batched env
     timesteps: 2000000
     seed: 0
     env: {...}                      # HopRoverEnv arguments (control_dt, shaping, ...)
     normalize: {obs: true, reward: true, clip_obs: 10.0}
-    policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init
-    hyperparams: {...}              # keyword arguments of PPO / SAC / TD3
+    policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
+                                    # and the algorithm's own (n_quantiles, lstm_hidden_size)
+    hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
                                     # VecNormalize statistics (a bundled name, a run
@@ -29,16 +30,21 @@ from typing import Any
 import numpy as np
 import yaml
 
+from hoprover_env.agents.policies import ALGOS, SB3_ALGOS, _algo_class
 
-ALGOS = ("ppo", "sac", "td3")
 TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
             "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from"}
 # hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
 # learning rate fall linearly from `learning_rate` to it over the run
 OWN_HYPER_KEYS = {"learning_rate_end"}
 NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
+# the policy keys a config may set; an algorithm takes those its policy class does
+# (policy_keys): TQC's n_quantiles, CrossQ's batch renormalisation, RecurrentPPO's LSTM
 POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
-               "squash_output", "n_critics", "share_features_extractor", "features_extractor"}
+               "squash_output", "n_critics", "share_features_extractor", "features_extractor",
+               "full_std", "clip_mean", "n_quantiles", "batch_norm", "batch_norm_momentum",
+               "batch_norm_eps", "renorm_warmup_steps", "lstm_hidden_size", "n_lstm_layers",
+               "shared_lstm", "enable_critic_lstm"}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {"expert": "scripted", "episodes": 400, "epochs": 30, "batch_size": 1024,
                      "learning_rate": 1e-3, "seed": 1, "value_epochs": 10, "log_std": -2.5,
@@ -66,10 +72,30 @@ class ConfigError(ValueError):
 
 
 def algo_class(algo: str):
-    from stable_baselines3 import PPO, SAC, TD3
+    """The SB3 class of `algo`; ConfigError for an unknown name, or when sb3-contrib (for
+    tqc, crossq, recurrentppo) is not installed."""
     if algo not in ALGOS:
         raise ConfigError(f"algo must be one of {list(ALGOS)}, got {algo!r}")
-    return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    try:
+        return _algo_class(algo)
+    except ImportError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def hyper_keys(algo: str) -> set:
+    """The `hyperparams` keys of `algo`: its constructor's keyword arguments (less those
+    train.py sets itself) and hoprover's own."""
+    params = set(inspect.signature(algo_class(algo).__init__).parameters)
+    return (params - {"self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
+                      "_init_setup_model"}) | OWN_HYPER_KEYS
+
+
+def policy_keys(algo: str) -> set:
+    """The `policy` keys of `algo`: those of POLICY_KEYS that its policy class takes."""
+    cls = algo_class(algo)
+    params = set(inspect.signature(cls.policy_aliases[SB3_ALGOS[algo][2]].__init__).parameters)
+    params.add("features_extractor")          # hoprover's name of features_extractor_class
+    return POLICY_KEYS & params
 
 
 def _check_keys(section: str, given: dict, valid: set):
@@ -144,8 +170,8 @@ def load_config(path: str | Path | None, overrides: dict | None = None,
 
 def validate(cfg: dict) -> None:
     if "algo" not in cfg:
-        raise ConfigError("config key 'algo' is missing (ppo, sac or td3)")
-    cls = algo_class(cfg["algo"])
+        raise ConfigError(f"config key 'algo' is missing ({', '.join(ALGOS)})")
+    algo_class(cfg["algo"])
     from hoprover_env.envs.registry import ENVS, config_class
     if cfg.get("env_id") not in ENVS:
         raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
@@ -158,7 +184,7 @@ def validate(cfg: dict) -> None:
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"config section 'env': {exc}") from None
     _check_keys("normalize", cfg["normalize"], NORMALIZE_KEYS)
-    _check_keys("policy", cfg["policy"], POLICY_KEYS)
+    _check_keys("policy", cfg["policy"], policy_keys(cfg["algo"]))
     if "activation_fn" in cfg["policy"] and cfg["policy"]["activation_fn"] not in ACTIVATIONS:
         raise ConfigError(f"config key 'policy.activation_fn' must be one of "
                           f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}")
@@ -170,10 +196,7 @@ def validate(cfg: dict) -> None:
                               f"({extractor.__name__}) needs normalize.obs: true and "
                               "normalize.update: false (it reads the frozen observation "
                               "statistics)")
-    params = set(inspect.signature(cls.__init__).parameters) - {"self", "policy", "env",
-                                                                 "policy_kwargs", "seed",
-                                                                 "tensorboard_log", "_init_setup_model"}
-    _check_keys("hyperparams", cfg["hyperparams"], params | OWN_HYPER_KEYS)
+    _check_keys("hyperparams", cfg["hyperparams"], hyper_keys(cfg["algo"]))
     init = cfg.get("init_from")
     if init is not None:
         if not (isinstance(init, str) and init):
@@ -198,6 +221,12 @@ def validate(cfg: dict) -> None:
         for key, value in (cfg.get(section) or {}).items():
             if key in types:
                 _check_value(f"{section}.{key}", value, types[key])
+    pol = cfg["policy"]
+    if pol.get("shared_lstm") and (pol.get("enable_critic_lstm", True)
+                                   or not pol.get("share_features_extractor", True)):
+        raise ConfigError("config key 'policy.shared_lstm': true shares the actor's LSTM "
+                          "with the critic: it needs policy.enable_critic_lstm: false (and "
+                          "share_features_extractor left true)")
 
 
 # Value kinds: (test, what is expected). The test sees the raw YAML value, so 64.5, "fifty"
@@ -229,7 +258,8 @@ NET_ARCH = (lambda v: _is_layers(v) or (isinstance(v, dict) and len(v) > 0 and a
     k in ("pi", "vf", "qf") and _is_layers(x) for k, x in v.items())),
     "a list of positive layer sizes, e.g. [64, 64], or {pi: [...], vf: [...]} / {pi, qf}")
 ENT_COEF = (lambda v: NONNEG_REAL[0](v) or (isinstance(v, str) and v.startswith("auto")),
-            "a finite number >= 0 (or 'auto' for SAC)")
+            "a finite number >= 0 (or 'auto' for SAC, TQC and CrossQ)")
+TARGET_ENTROPY = (lambda v: REAL[0](v) or v == "auto", "a finite number or 'auto'")
 TRAIN_FREQ = (lambda v: POS_INT[0](v) or (isinstance(v, list) and len(v) == 2 and POS_INT[0](
     v[0]) and v[1] in ("step", "episode")), "a positive integer or [n, step|episode]")
 GRADIENT_STEPS = (lambda v: _is_int(v) and (v >= 1 or v == -1), "a positive integer or -1")
@@ -238,7 +268,11 @@ NORMALIZE_TYPES = {"obs": BOOL, "reward": BOOL, "update": BOOL, "clip_obs": POS_
                    "clip_reward": POS_REAL}
 POLICY_TYPES = {"net_arch": NET_ARCH, "log_std_init": REAL, "ortho_init": BOOL,
                 "use_expln": BOOL, "squash_output": BOOL, "n_critics": POS_INT,
-                "share_features_extractor": BOOL}
+                "share_features_extractor": BOOL, "full_std": BOOL, "clip_mean": POS_REAL,
+                "n_quantiles": POS_INT, "batch_norm": BOOL, "batch_norm_momentum": UNIT,
+                "batch_norm_eps": POS_REAL, "renorm_warmup_steps": NONNEG_INT,
+                "lstm_hidden_size": POS_INT, "n_lstm_layers": POS_INT, "shared_lstm": BOOL,
+                "enable_critic_lstm": BOOL}
 PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
                   "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
                   "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,
@@ -247,7 +281,7 @@ PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy
                   "learning_rate_end": POS_REAL}
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
 CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
-# the common keyword arguments of PPO / SAC / TD3 (which ones an algorithm takes is checked
+# the keyword arguments of the algorithms (which ones an algorithm takes is checked
 # against its constructor's signature in validate)
 HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_INT,
                "n_epochs": POS_INT, "gamma": UNIT, "gae_lambda": UNIT_CLOSED,
@@ -259,7 +293,9 @@ HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_
                "policy_delay": POS_INT, "target_policy_noise": NONNEG_REAL,
                "target_noise_clip": NONNEG_REAL, "action_noise": NONNEG_REAL,
                "target_update_interval": POS_INT, "stats_window_size": POS_INT,
-               "learning_rate_end": POS_REAL}
+               "learning_rate_end": POS_REAL, "target_entropy": TARGET_ENTROPY,
+               "top_quantiles_to_drop_per_net": NONNEG_INT, "use_sde_at_warmup": BOOL,
+               "optimize_memory_usage": BOOL}
 
 
 def _check_value(key: str, value, kind) -> None:
@@ -313,7 +349,7 @@ def policy_kwargs(cfg: dict) -> dict:
 
 
 def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str = "cpu"):
-    """A fresh PPO / SAC / TD3 from a validated config."""
+    """A fresh agent of the config's algorithm (ALGOS) from a validated config."""
     cls = algo_class(cfg["algo"])
     hyper: dict[str, Any] = dict(cfg["hyperparams"])
     if "learning_rate_end" in hyper:
@@ -324,9 +360,10 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
         start = hyper.get("learning_rate",
                           inspect.signature(cls.__init__).parameters["learning_rate"].default)
         hyper["learning_rate"] = LinearSchedule(start, hyper.pop("learning_rate_end"), 1.0)
-    if cfg["algo"] == "td3" and isinstance(hyper.get("action_noise"), (int, float)):
+    if isinstance(hyper.get("action_noise"), (int, float)):     # TD3, TQC, CrossQ
         from stable_baselines3.common.noise import NormalActionNoise
-        sigma = float(hyper.pop("action_noise"))
-        hyper["action_noise"] = NormalActionNoise(np.zeros(1), sigma * np.ones(1))
-    return cls("MlpPolicy", venv, policy_kwargs=policy_kwargs(cfg), seed=cfg["seed"],
-               tensorboard_log=tensorboard_log, device=device, verbose=0, **hyper)
+        sigma, dim = float(hyper.pop("action_noise")), venv.action_space.shape[0]
+        hyper["action_noise"] = NormalActionNoise(np.zeros(dim), sigma * np.ones(dim))
+    return cls(SB3_ALGOS[cfg["algo"]][2], venv, policy_kwargs=policy_kwargs(cfg),
+               seed=cfg["seed"], tensorboard_log=tensorboard_log, device=device, verbose=0,
+               **hyper)

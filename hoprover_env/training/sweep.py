@@ -103,16 +103,13 @@ SECTIONS = ("hyperparams", "env", "policy")
 def section_keys(cfg: dict, section: str) -> set:
     """The keys a config section accepts (those hoprover_env.training.sb3_agents.validate checks)."""
     import dataclasses
-    import inspect
-    from hoprover_env.training.sb3_agents import POLICY_KEYS, algo_class
+    from hoprover_env.training.sb3_agents import hyper_keys, policy_keys
     if section == "hyperparams":
-        return set(inspect.signature(algo_class(cfg["algo"]).__init__).parameters) - {
-            "self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
-            "_init_setup_model"}
+        return hyper_keys(cfg["algo"])
     if section == "env":
         from hoprover_env.envs.registry import config_class
         return {f.name for f in dataclasses.fields(config_class(cfg["env_id"]))}
-    return set(POLICY_KEYS)
+    return policy_keys(cfg["algo"])
 
 
 def _validate(cfg: dict) -> None:

@@ -7,11 +7,11 @@
 The run directory gets: config.yaml (the resolved config), TensorBoard logs (tb/),
 evaluations.csv (the contest judge on a fixed target set every evaluation.freq steps),
 best_model.zip (+ _vecnormalize.pkl, .json), final_model.zip, and checkpoints/last.*
-(model, VecNormalize statistics, replay buffer for SAC/TD3, progress), all written
-atomically. A checkpoint is taken every checkpoint.freq steps and every
-checkpoint.seconds of wall time (default 300 s, --checkpoint-seconds), so a killed run
-loses at most that. --resume continues from the last checkpoint to the requested total;
-Ctrl-C saves a checkpoint before exiting.
+(model, VecNormalize statistics, the replay buffer of an off-policy learner: SAC, TD3,
+TQC, CrossQ; progress), all written atomically. A checkpoint is taken every
+checkpoint.freq steps and every checkpoint.seconds of wall time (default 300 s,
+--checkpoint-seconds), so a killed run loses at most that. --resume continues from the
+last checkpoint to the requested total; Ctrl-C saves a checkpoint before exiting.
 """
 from __future__ import annotations
 
@@ -33,8 +33,8 @@ import yaml
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.util.files import atomic_write, write_json, write_npz
 from hoprover_env.agents.policies import SB3Policy
-from hoprover_env.training.sb3_agents import (ConfigError, algo_class, env_kwargs, load_config,
-                                     make_agent, pretrain_settings)
+from hoprover_env.training.sb3_agents import (ALGOS, ConfigError, algo_class, env_kwargs,
+                                              load_config, make_agent, pretrain_settings)
 from hoprover_env.util.buildinfo import git_commit
 
 EVAL_FIELDS = ["timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken"]
@@ -44,7 +44,8 @@ def parse_args(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter,
                                  epilog=__doc__.split("\n", 2)[2])
-    ap.add_argument("--algo", choices=["ppo", "sac", "td3"], default=None)
+    ap.add_argument("--algo", choices=ALGOS, default=None,
+                    help="the config's algo by default (tqc, crossq, recurrentppo: sb3-contrib)")
     ap.add_argument("--config", type=str, default=None,
                     help="YAML config: a path, or a packaged config by name (ppo_hop)")
     from hoprover_env.envs.registry import ENVS
@@ -92,6 +93,12 @@ def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
 
 
 # ---- files --------------------------------------------------------------------------
+def has_replay_buffer(model) -> bool:
+    """An off-policy learner (SAC, TD3, TQC, CrossQ): its experience lives in a replay
+    buffer, which checkpoints keep; an on-policy one (PPO, RecurrentPPO) has none."""
+    return getattr(model, "replay_buffer", None) is not None
+
+
 def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> None:
     """model.zip, _vecnormalize.pkl, .json (and _replay_buffer.pkl) next to `stem`,
     each written to a temporary name first and renamed, so a crash leaves either the
@@ -240,7 +247,7 @@ class Trainer:
         self.model = cls.load(str(self.ckpt) + ".zip", env=self.venv, device=self.device,
                               tensorboard_log=tensorboard_dir(self.out))
         rb = Path(str(self.ckpt) + "_replay_buffer.pkl")
-        if rb.exists() and hasattr(self.model, "load_replay_buffer"):
+        if rb.exists() and has_replay_buffer(self.model):
             self.model.load_replay_buffer(str(rb))
         print(f"resuming {self.out} at {self.model.num_timesteps} steps", file=sys.stderr)
 
@@ -384,11 +391,12 @@ class Trainer:
         return self.env0 + self.venv.venv.venv.step_seconds
 
     def checkpoint(self):
-        # PPO: a checkpoint taken inside a rollout counts only the steps trained on, so that
-        # --resume collects the unfinished rollout again (off-policy steps live in the
-        # replay buffer, which is saved with the checkpoint)
+        # on-policy (PPO, RecurrentPPO): a checkpoint taken inside a rollout counts only the
+        # steps trained on, so that --resume collects the unfinished rollout again
+        # (off-policy steps live in the replay buffer, which is saved with the checkpoint)
         steps = self.model.num_timesteps
-        if self.cfg["algo"] == "ppo":
+        replay = has_replay_buffer(self.model)
+        if not replay:
             self.model.num_timesteps = self.trained_steps
         try:
             # evaluations of steps the checkpoint does not count are redone by --resume:
@@ -397,7 +405,7 @@ class Trainer:
             meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
                     "evaluations": done, "best": list(self.best), "wall_s": self.wall(),
                     "env_s": self.env_seconds()}
-            save_model(self.model, self.venv, self.ckpt, meta, replay=self.cfg["algo"] != "ppo")
+            save_model(self.model, self.venv, self.ckpt, meta, replay=replay)
             return meta["timesteps"]
         finally:
             self.model.num_timesteps = steps

@@ -21,8 +21,8 @@ from hoprover_env.agents.base import (ArrayPolicy, ControllerPolicy, RandomPolic
                                       TorchPolicy, torque_to_action)
 
 __all__ = ["ArrayPolicy", "ControllerPolicy", "RandomPolicy", "SB3Policy", "TorchPolicy",
-           "torque_to_action", "BUNDLED", "BUNDLED_NETS", "BUNDLED_DIR", "model_files",
-           "load_sb3", "load_controller", "load_policy"]
+           "torque_to_action", "BUNDLED", "BUNDLED_NETS", "BUNDLED_DIR", "ALGOS", "SB3_ALGOS",
+           "model_files", "load_sb3", "load_controller", "load_policy"]
 
 BUNDLED_DIR = Path(__file__).resolve().parent      # the bundled models beside this file
 BUNDLED_NAME = "ppo_hoprover"
@@ -43,13 +43,54 @@ BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop"
 # metadata for people): the clone of the plan table with its nudge branch, made by the
 # research pipeline in agents/plan_clone/ of the repository
 BUNDLED_NETS = {"plan_clone": "plan_clone"}
-ALGOS = ("ppo", "sac", "td3")
+# the algorithms a model may be trained with (train.py's `algo`) and loaded with: name ->
+# (module, class, the policy train.py builds); sb3-contrib's need the contrib extra
+SB3_ALGOS = {"ppo": ("stable_baselines3", "PPO", "MlpPolicy"),
+             "sac": ("stable_baselines3", "SAC", "MlpPolicy"),
+             "td3": ("stable_baselines3", "TD3", "MlpPolicy"),
+             "tqc": ("sb3_contrib", "TQC", "MlpPolicy"),
+             "crossq": ("sb3_contrib", "CrossQ", "MlpPolicy"),
+             "recurrentppo": ("sb3_contrib", "RecurrentPPO", "MlpLstmPolicy")}
+ALGOS = tuple(SB3_ALGOS)
+ALGO_NAMES = ", ".join(cls for _, cls, _ in SB3_ALGOS.values())   # for messages
 
 
 # ---- loading ------------------------------------------------------------------------
 def _algo_class(algo: str):
-    from stable_baselines3 import PPO, SAC, TD3
-    return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    """The SB3 class of `algo` (one of ALGOS). KeyError for another name; ImportError
+    saying what to install when sb3-contrib is missing."""
+    import importlib
+    module, cls, _ = SB3_ALGOS[algo]
+    try:
+        return getattr(importlib.import_module(module), cls)
+    except ImportError as err:
+        raise ImportError(f"algo {algo!r} ({cls}) needs sb3-contrib: pip install "
+                          "'hoprover[contrib]'") from err
+
+
+def _bare_algo(path: Path) -> str:
+    """The algorithm of an SB3 .zip without hoprover's metadata, read from the policy
+    class saved in it (the most specific one that an algorithm of ALGOS builds): trying
+    the classes in turn is ambiguous, SAC loads a TQC model and PPO a RecurrentPPO one.
+    ValueError if it is none of them."""
+    from stable_baselines3.common.save_util import load_from_zip_file
+    try:
+        data, _, _ = load_from_zip_file(str(path), device="cpu")
+    except Exception as exc:           # noqa: BLE001 - a foreign file raises various errors
+        raise ValueError(f"{path} is not an SB3 model ({type(exc).__name__}: {exc})") from None
+    policy = (data or {}).get("policy_class")
+    owners: dict = {}
+    for algo in ALGOS:
+        try:
+            for cls in _algo_class(algo).policy_aliases.values():
+                owners.setdefault(cls, algo)
+        except ImportError:            # sb3-contrib missing: its models cannot be read
+            continue
+    for cls in getattr(policy, "__mro__", ()):
+        if cls in owners:
+            return owners[cls]
+    raise ValueError(f"{path} is not a model of {ALGO_NAMES} (those of TQC, CrossQ and "
+                     "RecurrentPPO need sb3-contrib)")
 
 
 def model_files(spec: str | os.PathLike) -> tuple[Path, Path | None]:
@@ -83,7 +124,8 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
     (default: the file's or directory's name).
 
     Raises FileNotFoundError if the file (or a run directory's model) is missing, and
-    ValueError if a bare .zip is not a PPO, SAC or TD3 model."""
+    ValueError if a bare .zip is not a model of one of ALGOS (PPO, SAC, TD3, TQC, CrossQ,
+    RecurrentPPO)."""
     if Path(path).is_dir():
         # every run directory holds a best_model.zip: the directory is what names the run
         name = name or Path(path).resolve().name
@@ -94,18 +136,9 @@ def load_sb3(path: str | os.PathLike, name: str | None = None) -> SB3Policy:
         from hoprover_env.agents.mission_hop import load_mission_policy
         return load_mission_policy(path, name=name or path.stem)
     algo = meta.get("algo")
-    if algo is None:                   # a bare SB3 zip: try the algorithms in turn
-        for cand in ALGOS:
-            try:
-                model = _algo_class(cand).load(str(path), device="cpu")
-                algo = cand
-                break
-            except Exception:          # noqa: BLE001 - the wrong class raises various errors
-                continue
-        else:
-            raise ValueError(f"{path} is not a PPO, SAC or TD3 model")
-    else:
-        model = _algo_class(algo).load(str(path), device="cpu")
+    if algo is None:                   # a bare SB3 zip: its policy says which algorithm
+        algo = _bare_algo(path)
+    model = _algo_class(algo).load(str(path), device="cpu")
     obs_rms, clip = None, 10.0
     if vn_path is not None:
         with open(vn_path, "rb") as fh:
