@@ -27,6 +27,7 @@ from benchmarks.report import machine, read_sections, section_block
 SECTIONS = [("accuracy", "benchmarks.bench_accuracy"), ("env", "benchmarks.bench_env"),
             ("stress", "benchmarks.bench_stress"), ("training", "benchmarks.bench_training"),
             ("oracle", "benchmarks.bench_oracle"), ("learning", "benchmarks.bench_learning"),
+            ("baselines", "benchmarks.bench_baselines"),
             ("runs", "benchmarks.bench_runs"), ("terrain", "benchmarks.bench_terrain"),
             ("scaling", "benchmarks.bench_scaling")]
 

@@ -489,3 +489,30 @@ def test_counter_randomisation_redraws_painleve_rows():
             painleve.append(True)
     assert any(painleve) and not all(painleve)
     assert np.array_equal(draws.invalid_rows(P), painleve)
+
+
+@pytest.mark.parametrize("rl_id, base", [("HopRoverRL-v0", "HopRover-v0"),
+                                         ("HopRoverTerrainRL-v0", "HopRoverTerrain-v0"),
+                                         ("HopRoverHopRL-v0", "HopRoverHop-v0")])
+def test_rl_ids_are_their_task_with_the_rl_settings_as_defaults(rl_id, base):
+    """An RL id is its task, scored on the same suite, with the settings RL trains with
+    as defaults: the same bits as the task given those settings, and still overridable."""
+    from hoprover_env.envs.registry import task
+    from hoprover_env.evaluation.suites import SUITE_OF
+    settings = task(rl_id).kwargs
+    assert settings and SUITE_OF[rl_id] == SUITE_OF[base]
+    assert task(rl_id).hops == task(base).hops
+    a, b = gym.make(rl_id), gym.make(base, **settings)
+    for name, value in settings.items():
+        assert getattr(a.unwrapped.config, name) == value
+    oa, _ = a.reset(seed=3)
+    ob, _ = b.reset(seed=3)
+    assert np.array_equal(oa, ob)
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        act = rng.uniform(-0.3, 0.3, a.action_space.shape).astype(np.float32)
+        ra, rb = a.step(act), b.step(act)
+        assert np.array_equal(ra[0], rb[0]) and ra[1:4] == rb[1:4]
+        if ra[2] or ra[3]:
+            break
+    assert gym.make(rl_id, time_cost=0.0).unwrapped.config.time_cost == 0.0

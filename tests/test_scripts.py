@@ -121,6 +121,10 @@ def test_train_interrupted_saves_a_checkpoint(tmp_path, monkeypatch):
     ({"algo": "dqn"}, "algo must be one of"),
     ({"pretrain": {"expert": "scripted", "epochz": 3}}, "pretrain.epochz"),
     ({"env": {"control_dt": -1}}, "control_dt must be a positive finite number"),
+    # the shaping's discount is not the learner's: a bonus for staying away
+    ({"env": {"gamma": 0.995}, "hyperparams": {"gamma": 0.99}},
+     "'env.gamma' (0.995) and 'hyperparams.gamma' (0.99) differ"),
+    ({"env": {"gamma": 0.995}}, "'env.gamma' (0.995) and 'hyperparams.gamma' (0.99) differ"),
 ])
 def test_bad_config_keys_are_named(tmp_path, capsys, bad, words):
     cfg = write_cfg(tmp_path, {**TINY, **bad})
@@ -252,6 +256,7 @@ def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, c
         assert len(f["obs"]) > 0
     # another discount: the stored returns were discounted with the old one
     cfg["hyperparams"] = {**cfg.get("hyperparams", {}), "gamma": 0.9}
+    cfg["env"] = {**cfg.get("env", {}), "gamma": 0.9}
     cfg_path = write_cfg(tmp_path, cfg, "gamma.yaml")
     third = tmp_path / "third"
     (third / "pretrain").mkdir(parents=True)

@@ -1,7 +1,8 @@
-"""Third-party front-ends: RL Baselines3 Zoo's hyperparameter file (configs/zoo_ppo.yml)
-builds and trains SB3's PPO the way the zoo builds it, the zoo itself trains and enjoys
-HopRover-v0 where rl_zoo3 is installed, and CleanRL's wrapper stack (gymnasium 1.x
-signatures) runs on HopRover-v0 and reports episode statistics."""
+"""Third-party front-ends: RL Baselines3 Zoo's hyperparameter files (hyperparams/*.yml)
+name registered ids and build and train SB3's PPO the way the zoo builds it, the zoo
+itself trains, evaluates and enjoys with them as its users run it (no env arguments on
+the command line) where rl_zoo3 is installed, and CleanRL's wrapper stack (gymnasium
+1.x signatures) runs on HopRover-v0 and reports episode statistics."""
 from __future__ import annotations
 
 import ast
@@ -17,14 +18,30 @@ import yaml
 import hoprover_env  # noqa: F401  (registers the envs)
 
 ROOT = Path(__file__).resolve().parent.parent
-ZOO_FILE = ROOT / "configs" / "zoo_ppo.yml"
+HYPERPARAMS = ROOT / "hyperparams"
+ZOO_FILE = HYPERPARAMS / "ppo.yml"
 # keys the zoo consumes itself; everything else goes to the algorithm's constructor
 ZOO_ONLY = {"n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "env_wrapper",
             "policy_kwargs"}
 
 
 def zoo_hyperparams() -> dict:
-    return yaml.safe_load(ZOO_FILE.read_text())["HopRover-v0"]
+    return yaml.safe_load(ZOO_FILE.read_text())["HopRoverRL-v0"]
+
+
+@pytest.mark.parametrize("path", sorted(HYPERPARAMS.glob("*.yml")), ids=lambda p: p.stem)
+def test_hyperparams_files_name_registered_ids_and_carry_no_env_kwargs(path):
+    """The zoo gives a file's env_kwargs to its training envs only, never to the env it
+    evaluates and picks the best model on; so each entry's settings must be its id's
+    defaults."""
+    entries = yaml.safe_load(path.read_text())
+    assert entries
+    for env_id, hp in entries.items():
+        assert env_id in gym.registry, f"{path.name}: {env_id} is not a registered id"
+        assert "env_kwargs" not in hp, f"{path.name}: {env_id} passes env_kwargs"
+        assert {"n_timesteps", "policy"} <= set(hp)
+        if "gamma" in hp:      # the shaping's discount must be the learner's
+            assert gym.spec(env_id).kwargs.get("gamma") == hp["gamma"], (path.name, env_id)
 
 
 def test_zoo_file_trains_sb3_ppo_as_the_zoo_would(tmp_path):
@@ -39,9 +56,8 @@ def test_zoo_file_trains_sb3_ppo_as_the_zoo_would(tmp_path):
     policy_kwargs = eval(hp["policy_kwargs"], {"nn": nn, "dict": dict})  # noqa: S307
     algo_kwargs = {k: v for k, v in hp.items() if k not in ZOO_ONLY}
     algo_kwargs.update(n_steps=64, batch_size=128)            # a tiny budget, same code path
-    venv = VecNormalize(make_vec_env("HopRover-v0", n_envs=2, env_kwargs=hp["env_kwargs"]),
-                        **norm)
-    assert venv.venv.envs[0].unwrapped.config.control_dt == hp["env_kwargs"]["control_dt"]
+    venv = VecNormalize(make_vec_env("HopRoverRL-v0", n_envs=2), **norm)
+    assert venv.venv.envs[0].unwrapped.config.control_dt == 2.0
     model = PPO(hp["policy"], venv, policy_kwargs=policy_kwargs, seed=0, **algo_kwargs)
     model.learn(256)
     assert model.num_timesteps >= 256
@@ -50,22 +66,33 @@ def test_zoo_file_trains_sb3_ppo_as_the_zoo_would(tmp_path):
     assert act.shape == (2, 1) and np.all(np.isfinite(act))
 
 
-def test_zoo_trains_and_enjoys(tmp_path):
+@pytest.mark.parametrize("algo", sorted(p.stem for p in HYPERPARAMS.glob("*.yml")))
+def test_zoo_trains_evaluates_and_enjoys_as_its_users_run_it(tmp_path, algo):
+    """The README's zoo command, on a short budget: no env arguments on the command line.
+    The zoo's evaluation env (EvalCallback: the best model and its evaluations) must be
+    the training env, i.e. the id's defaults: a 2 s control period, so at most 300 steps
+    in the 600 s episode (HopRover-v0's default 0.5 s would allow 1200)."""
     pytest.importorskip("rl_zoo3", reason="RL Baselines3 Zoo is not installed: pip install rl_zoo3")
-    env_kwargs = [f"{k}:{v!r}" for k, v in zoo_hyperparams()["env_kwargs"].items()]
-    common = ["--algo", "ppo", "--env", "HopRover-v0", "--gym-packages", "hoprover_env",
+    common = ["--algo", algo, "--env", "HopRoverRL-v0", "--gym-packages", "hoprover_env",
               "-f", str(tmp_path / "logs")]
-    subprocess.run([sys.executable, "-m", "rl_zoo3.train", *common, "--conf-file", str(ZOO_FILE),
-                    "-n", "4096", "--eval-freq", "2048", "--eval-episodes", "2", "--seed", "0",
-                    "--eval-env-kwargs", *env_kwargs], check=True, cwd=tmp_path, timeout=600)
-    evals = np.load(tmp_path / "logs" / "ppo" / "HopRover-v0_1" / "evaluations.npz")
-    # the evaluation env is the training env (control_dt 2 s: at most 300 steps in
-    # 600 s), not one built with default kwargs (0.5 s: up to 1200)
+    # a short budget: the zoo's own options, no change to the file's hyperparameters
+    # beyond when off-policy learning starts (so that this budget trains at all)
+    short = ["-n", "2048", "--eval-freq", "1024", "--eval-episodes", "2", "--seed", "0"]
+    if algo != "ppo":
+        short += ["-params", "learning_starts:256"]
+    subprocess.run([sys.executable, "-m", "rl_zoo3.train", *common, "--conf-file",
+                    str(HYPERPARAMS / f"{algo}.yml"), *short], check=True, cwd=tmp_path,
+                   timeout=600)
+    run = tmp_path / "logs" / algo / "HopRoverRL-v0_1"
+    evals = np.load(run / "evaluations.npz")
     assert evals["ep_lengths"].size and evals["ep_lengths"].max() <= 300
+    assert (run / "best_model.zip").exists()
     out = subprocess.run([sys.executable, "-m", "rl_zoo3.enjoy", *common, "--exp-id", "1",
-                          "-n", "400", "--no-render", "--env-kwargs", *env_kwargs],
+                          "--load-best", "-n", "400", "--no-render"],
                          check=True, cwd=tmp_path, timeout=600, capture_output=True, text=True)
-    assert "Episode Length" in out.stdout
+    lengths = [int(line.split()[-1]) for line in out.stdout.splitlines()
+               if line.startswith("Episode Length")]
+    assert lengths and max(lengths) <= 300
 
 
 def test_cleanrl_wrapper_stack_runs_on_gymnasium_1():

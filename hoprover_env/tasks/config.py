@@ -24,6 +24,18 @@ from hoprover_env.tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE
                                       E_T_TOTAL, N_E)
 from hoprover_env.util.validate import finite_real, is_real, positive_real
 
+# The settings that RL from scratch trains with on the torque-level tasks
+# (docs/studies/policies.md, "Learning from scratch"): a 2 s control period (a flight is
+# tens of decisions, not hundreds), the landing-point shaping (a hop is credited at
+# launch), the bounded flight-attitude potential, a time cost of 0.01 per second (a faster
+# TTRTP pays) and the discount the learners use, which the shaping must share. The ids
+# HopRoverRL-v0 and HopRoverTerrainRL-v0 have them as defaults, so that a front-end that
+# passes no env arguments to its evaluation env (RL Baselines3 Zoo) evaluates on what it
+# trains on; hyperparams/*.yml and configs/*.yaml are tuned on them.
+RL_SETTINGS = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0,
+               "gamma": 0.995, "time_cost": 0.01}
+
+
 @dataclasses.dataclass(frozen=True)
 class EnvConfig(RewardConfig):
     """The arguments every task shares (the table in hoprover_env/tasks/torque.py); the

@@ -74,7 +74,7 @@ import numpy as np
 from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
 from hoprover_env.core.params import MAX_SLOPE, P_SLOPE
 from hoprover_env.tasks import torque
-from hoprover_env.tasks.config import EnvConfig
+from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
 from hoprover_env.tasks import Registration
 from hoprover_env.util.validate import is_real
 from hoprover_env.tasks.observation import OBS_DIM, OBS_HIGH as FLAT_HIGH, OBS_LOW as FLAT_LOW, observe as \
@@ -128,4 +128,5 @@ def observe(S, P, E, M, obs):
 
 TASK = dataclasses.replace(torque.TASK, name="terrain", config=TerrainEnvConfig,
                            observe=observe, obs_low=OBS_LOW, obs_high=OBS_HIGH)
-REGISTER = (Registration("HopRoverTerrain-v0", suite="terrain"),)
+REGISTER = (Registration("HopRoverTerrain-v0", suite="terrain"),
+            Registration("HopRoverTerrainRL-v0", RL_SETTINGS, suite="terrain"))

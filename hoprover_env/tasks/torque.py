@@ -165,7 +165,7 @@ Its step calls these jitted functions: `common.open_step`, `ACTUATE` (bound to
 """
 from hoprover_env.jit.compiler import kernel, F64, VEC
 from hoprover_env.core.layout import S_T
-from hoprover_env.tasks.config import EnvConfig
+from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
 from hoprover_env.core.params import P_TMAX, P_TMIN
 from hoprover_env.tasks import reward
 from hoprover_env.tasks import Registration
@@ -222,4 +222,5 @@ TASK = TaskSpec(
         ("hoprover_env.tasks.torque", "action_to_torque"),
         ("hoprover_env.tasks.observation", "observe"))))
 REGISTER = (Registration("HopRover-v0"),
-            Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"))
+            Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),
+            Registration("HopRoverRL-v0", RL_SETTINGS))

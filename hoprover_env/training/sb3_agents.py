@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import inspect
+import math
 from pathlib import Path
 from typing import Any
 
@@ -168,6 +169,23 @@ def load_config(path: str | Path | None, overrides: dict | None = None,
     return cfg
 
 
+def _check_discounts(cfg: dict, env_config) -> None:
+    """The reward's shaping, gamma Phi(s') - Phi(s), leaves the best policy unchanged only
+    when the learner discounts with the same gamma (Ng et al. 1999); with another, it adds
+    (gamma - gamma_learner) Phi(s') to every step, a bonus or a cost for being far from
+    the target. Both default to 0.99, so a config that sets one must set the other."""
+    env_gamma = getattr(env_config, "gamma", None)
+    if env_gamma is None:
+        return
+    learner = cfg["hyperparams"].get(
+        "gamma", inspect.signature(algo_class(cfg["algo"]).__init__).parameters["gamma"].default)
+    if not math.isclose(float(env_gamma), float(learner), rel_tol=0, abs_tol=1e-12):
+        raise ConfigError(f"config keys 'env.gamma' ({env_gamma}) and 'hyperparams.gamma' "
+                          f"({learner}) differ: the reward's shaping must be discounted as "
+                          f"the learner discounts, or it changes what the best policy is; "
+                          f"set both to the same value")
+
+
 def validate(cfg: dict) -> None:
     if "algo" not in cfg:
         raise ConfigError(f"config key 'algo' is missing ({', '.join(ALGOS)})")
@@ -180,7 +198,7 @@ def validate(cfg: dict) -> None:
     env_fields = {f.name for f in dataclasses.fields(env_cls)}
     _check_keys("env", cfg["env"], env_fields)
     try:
-        env_cls(**cfg["env"])
+        env_config = env_cls(**env_kwargs(cfg))
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"config section 'env': {exc}") from None
     _check_keys("normalize", cfg["normalize"], NORMALIZE_KEYS)
@@ -227,6 +245,7 @@ def validate(cfg: dict) -> None:
         raise ConfigError("config key 'policy.shared_lstm': true shares the actor's LSTM "
                           "with the critic: it needs policy.enable_critic_lstm: false (and "
                           "share_features_extractor left true)")
+    _check_discounts(cfg, env_config)
 
 
 # Value kinds: (test, what is expected). The test sees the raw YAML value, so 64.5, "fifty"

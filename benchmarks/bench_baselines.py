@@ -1,0 +1,62 @@
+"""Baselines over seeds: every algorithm that learns from reward, scored on the frozen
+suites with rliable's intervals over seeds, with its learning curves against environment
+steps and against wall time.
+
+This section trains nothing: it reads what `python -m agents.baselines ... --record`
+wrote into benchmarks/results/baselines/ (one `NAME.json` with the score matrix summary,
+the per-seed rows and the command; `NAME.md`, the tables; `NAME.png`, the curves). One
+table per suite and task, then each baseline's per-seed table and curves. Rerun a row
+with the command printed under its table.
+
+    python -m benchmarks --only baselines
+"""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+from benchmarks.report import Section
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results" / "baselines"
+
+
+def per_seed(name: str) -> str:
+    """The per-seed table of a recorded baseline (the second table of its NAME.md)."""
+    md = (RESULTS / f"{name}.md").read_text() if (RESULTS / f"{name}.md").exists() else ""
+    tables, current = [], []
+    for line in md.splitlines():
+        if line.startswith("|"):
+            current.append(line)
+        elif current:
+            tables.append(current)
+            current = []
+    if current:
+        tables.append(current)
+    return "\n".join(tables[1]) if len(tables) > 1 else ""
+
+
+def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
+    from agents.yardstick.leaderboard import baseline_tables
+    names = sorted(p.stem for p in RESULTS.glob("*.json"))
+    if not names:
+        return Section("Baselines over seeds", "None recorded yet: `python -m agents.baselines "
+                       "--config CONFIG --seeds 0-4 --out runs/baselines/NAME --record`.")
+    md = ["Each row: one config trained from scratch with several seeds (`python -m "
+          "agents.baselines`), each seed's best model (chosen on train.py's validation "
+          "targets, which the suites never share) playing its task's frozen suite. Success, "
+          "median regret (TTRTP over the best-known reference's), mean and IQM normalised "
+          "score, each with a 95 % stratified-bootstrap interval over seeds (rliable). "
+          "docs/studies/baselines.md and docs/studies/off-policy.md read them.",
+          baseline_tables(RESULTS)]
+    figures = []
+    for name in names:
+        res = json.loads((RESULTS / f"{name}.json").read_text())
+        md.append(f"### {name}\n\n`{res.get('command', '?')}`\n\n{per_seed(name)}")
+        png = RESULTS / f"{name}.png"
+        if png.exists():
+            dest = Path(fig_dir) / f"baseline_{name}.png"
+            shutil.copyfile(png, dest)
+            figures.append(str(dest))
+    return Section("Baselines over seeds", "\n\n".join(md), figures)
