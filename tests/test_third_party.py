@@ -122,3 +122,62 @@ def test_cleanrl_wrapper_stack_runs_on_gymnasium_1():
         if len(returns) >= 2:
             break
     assert len(returns) >= 2 and np.all(np.isfinite(returns))
+
+
+def _zoo_entry_as_config(algo: str, env_id: str, hp: dict) -> dict:
+    """A zoo entry in train.py's terms: what the two must agree on."""
+    from torch import nn
+    from hoprover_env.training.sb3_agents import ACTIVATIONS
+    hp = dict(hp)
+    norm = ast.literal_eval(hp.pop("normalize", "{}"))
+    pk = eval(hp.pop("policy_kwargs", "dict()"), {"nn": nn, "dict": dict})  # noqa: S307
+    if "activation_fn" in pk:
+        names = {getattr(nn, v): k for k, v in ACTIVATIONS.items()}
+        pk["activation_fn"] = names[pk["activation_fn"]]
+    if "noise_std" in hp:                       # the zoo's Gaussian action noise
+        assert hp.pop("noise_type") == "normal"
+        hp["action_noise"] = hp.pop("noise_std")
+    return {"algo": algo, "n_envs": hp.pop("n_envs"), "timesteps": int(hp.pop("n_timesteps")),
+            "policy": pk, "obs": norm.get("norm_obs", True), "reward": norm.get("norm_reward", True),
+            "hyperparams": {k: v for k, v in hp.items() if k != "policy"}}
+
+
+def _config_of(path) -> dict:
+    from hoprover_env.training.sb3_agents import load_config
+    cfg = load_config(path)
+    return {"algo": cfg["algo"], "n_envs": cfg["n_envs"], "timesteps": cfg["timesteps"],
+            "policy": cfg["policy"], "obs": cfg["normalize"]["obs"],
+            "reward": cfg["normalize"]["reward"], "hyperparams": dict(cfg["hyperparams"])}
+
+
+def _rollout_size(cfg: dict) -> dict:
+    """PPO's settings with the rollout as its size: the zoo steps single envs in a
+    DummyVecEnv, so its files use fewer envs for more steps each (32 x 1024 for
+    train.py's 128 x 256); an off-policy learner's envs per update must match."""
+    if cfg["algo"] in ("ppo", "recurrentppo"):
+        cfg = {**cfg, "hyperparams": dict(cfg["hyperparams"])}
+        cfg["n_envs"] *= cfg["hyperparams"].pop("n_steps")
+    return cfg
+
+
+@pytest.mark.parametrize("path", sorted(HYPERPARAMS.glob("*.yml")), ids=lambda p: p.stem)
+def test_each_zoo_entry_is_a_train_py_config(path):
+    """hyperparams/ALGO.yml and configs/ hold the same settings twice, in the zoo's words
+    and in train.py's: each zoo entry must equal a config of that algorithm whose env is
+    the entry's id, its defaults included."""
+    from hoprover_env.envs.registry import config_class, task
+    from hoprover_env.training.sb3_agents import env_kwargs, load_config
+    configs = [p for p in (ROOT / "configs").glob("*.yaml")
+               if yaml.safe_load(p.read_text()).get("algo") == path.stem]
+    for env_id, hp in yaml.safe_load(path.read_text()).items():
+        want = config_class(env_id)(**task(env_id).kwargs)
+        matches = []
+        for p in configs:
+            cfg = load_config(p)
+            if config_class(cfg["env_id"]) is type(want) and \
+                    config_class(cfg["env_id"])(**env_kwargs(cfg)) == want:
+                matches.append(p)
+        assert matches, f"{path.name}: no configs/*.yaml trains {path.stem} on {env_id}'s settings"
+        assert _rollout_size(_zoo_entry_as_config(path.stem, env_id, hp)) in [
+            _rollout_size(_config_of(p)) for p in matches], \
+            f"{path.name}: {env_id} differs from {[p.name for p in matches]}"
