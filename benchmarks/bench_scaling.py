@@ -7,13 +7,14 @@ what one core does, and what Ray costs.
 
 The section (`run`) measures fixed work at 1, 2, 4, ... numba threads up to all of this
 machine's cores (numba.set_num_threads, restored after): `simulate_batch` runs of 300 s
-under sparse random torques (runs/s) and the HopRover-v0 vector env stepped from one
-reset (steps/s); for each, the speed-up, the parallel efficiency, the kernel's own
-speed-up, the speed-up the threads' CPU time implies on idle cores (`Clock`), and the
-serial time (Python outside the threaded kernel) per run and per step, with what
-Amdahl's law predicts from that serial fraction at 16 and 64 threads. Each
-thread count is timed `repeat` times, in turn with the others (best kept), so that a
-machine shared with other work slows all of them alike.
+under sparse random torques (runs/s), the same batch with its second half at rest (the
+costly runs grouped together: how evenly the threads share them) and the HopRover-v0
+vector env stepped from one reset (steps/s); for each, the speed-up, the parallel
+efficiency, the kernel's own speed-up, the speed-up the threads' CPU time implies on
+idle cores (`Clock`), and the serial time (Python outside the threaded kernel) per run
+and per step, with what Amdahl's law predicts from that serial fraction at 16 and 64
+threads. Each thread count is timed `repeat` times, in turn with the others (best
+kept), so that a machine shared with other work slows all of them alike.
 
 Without --threads: vector-env steps/s on one core (numba serial), PPO steps/s of one
 trial with configs/ppo_scratch.yaml's settings (one torch thread), evaluation episodes/s
@@ -57,6 +58,15 @@ def batch_workload(n: int, t_end: float, seed: int = 0):
     kicks = rng.random((n, k)) < BATCH_KICK_RATE
     sched = np.where(kicks, rng.uniform(-BATCH_KICK_NM, BATCH_KICK_NM, (n, k)), 0.0)
     return sched, rng.uniform(-1.0, 1.0, n)
+
+
+def grouped_workload(n: int, t_end: float, seed: int = 0):
+    """batch_workload with the second half of the runs at rest (zero torque): the
+    costly runs sit together, as the hops of a planner's population or the rovers in
+    flight of a vector env do."""
+    sched, targets = batch_workload(n, t_end, seed)
+    sched[n // 2:] = 0.0
+    return sched, targets
 
 
 def thread_cpu() -> dict:
@@ -226,6 +236,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     time_batch(sched[:8], targets[:8], t_end)                      # compiled and warm
     batch_best = over_threads(lambda: time_batch(sched, targets, t_end), threads, repeat)
     b_rows, b_sum = scaling_rows(batch_best, n_runs)
+    g_sched, g_targets = grouped_workload(n_runs, t_end)
+    grouped_best = over_threads(lambda: time_batch(g_sched, g_targets, t_end), threads,
+                                repeat)
+    g_rows, g_sum = scaling_rows(grouped_best, n_runs)
     env_best = over_threads(VectorEnvWork(n_envs, steps), threads, repeat)
     e_rows, e_sum = scaling_rows(env_best, n_envs * steps)
 
@@ -234,6 +248,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     head = ["threads", "runs / s", "speed-up", "efficiency", "kernel speed-up",
             "speed-up by CPU time", "CPU s / wall s"]
     b_md = table(head, b_rows, {"runs / s": ",.0f", **fmt})
+    g_md = table(head, g_rows, {"runs / s": ",.0f", **fmt})
     e_md = table(["threads", "steps / s"] + head[2:], e_rows, {"steps / s": ",.0f", **fmt})
     summary = table(
         ["", "serial (outside the kernel), 1 thread", "serial fraction f",
@@ -263,6 +278,9 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
         f"{BATCH_CONTROL_DT:g} s, zero torque but for kicks of up to "
         f"{BATCH_KICK_NM:g} N m in {BATCH_KICK_RATE:.0%} of the periods; summaries only):",
         b_md,
+        f"The same {n_runs} runs with the second half at rest (zero torque): the costly "
+        "runs grouped together, which a thread per contiguous block of runs would "
+        "split unevenly:", g_md,
         f"HopRover-v0 vector env (`HopRoverVectorEnv({n_envs}, threads=True)`): {steps} "
         f"steps from one reset, random actions in +-{ENV_ACTION:g}:", e_md,
         "Serial time (Python outside the threaded kernel, at one thread) and what it "
@@ -274,6 +292,8 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
                 "batch_speedup_top": b_sum["speedup_top"],
                 "batch_serial_us_per_run": b_sum["serial_s"] / n_runs * 1e6,
                 "batch_amdahl_16": b_sum["amdahl_16"], "batch_amdahl_64": b_sum["amdahl_64"],
+                "grouped_runs_per_s_1": g_rows[0][1],
+                "grouped_speedup_top": g_sum["speedup_top"],
                 "env_steps_per_s_1": e_rows[0][1], "env_steps_per_s_top": e_rows[-1][1],
                 "env_speedup_top": e_sum["speedup_top"],
                 "env_serial_us_per_step": e_sum["serial_s"] / steps * 1e6,

@@ -41,14 +41,17 @@ class MPCPolicy:
 
     Parameters: `budget` candidate plans simulated per decision on smooth ground,
     `rough_budget` on rough ground (each flown over `terrain_samples` seeds of the
-    agent's own, drawn from `seed`); `name` for tables. Statistics: `decisions` (plans
-    made) and `planning_seconds` (wall time spent searching).
+    agent's own, drawn from `seed`); `name` for tables; `workers`, the processes
+    `run_episodes` (and so the suites and evaluate.py) spreads this agent's episodes
+    over (None: one per core; 1: all in the calling process). An episode plays the same
+    in any batch (`decision_rng`, per-problem search seeds), so the spread changes no
+    result. Statistics: `decisions` (plans made) and `planning_seconds` (time spent
+    searching, summed over the workers).
     """
-
 
     def __init__(self, budget: int = DEFAULT_BUDGET, rough_budget: int = DEFAULT_ROUGH_BUDGET,
                  terrain_samples: int = DEFAULT_TERRAIN_SAMPLES, seed: int = 0,
-                 name: str = "mpc"):
+                 name: str = "mpc", workers: int | None = None):
         if not (isinstance(budget, int) and budget >= 100):
             raise ValueError(f"budget must be an integer >= 100 (candidates per decision), "
                              f"got {budget!r}")
@@ -57,6 +60,10 @@ class MPCPolicy:
         if not (isinstance(terrain_samples, int) and terrain_samples >= 1):
             raise ValueError(f"terrain_samples must be an integer >= 1, got "
                              f"{terrain_samples!r}")
+        if workers is not None and not (isinstance(workers, int) and workers >= 1):
+            raise ValueError(f"workers must be None (one per core) or an integer >= 1, "
+                             f"got {workers!r}")
+        self.workers = workers
         self.budget, self.rough_budget = budget, rough_budget
         self.terrain_samples = terrain_samples
         self.seed = seed
@@ -67,6 +74,15 @@ class MPCPolicy:
         self.estimates = EstimatorBank()
         self.decisions = 0
         self.planning_seconds = 0.0
+
+    def statistics(self) -> dict:
+        """What a worker process reports back to `add_statistics` (run_episodes)."""
+        return {"decisions": self.decisions, "planning_seconds": self.planning_seconds}
+
+    def add_statistics(self, stats: dict) -> None:
+        """Count the plans a copy of this agent made in a worker process."""
+        self.decisions += stats["decisions"]
+        self.planning_seconds += stats["planning_seconds"]
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         """Start `n` episodes: no plans yet (and, on a task that hides its state, fresh

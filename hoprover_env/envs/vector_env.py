@@ -30,6 +30,7 @@ from gymnasium.vector.utils import batch_space
 
 from hoprover_env import core
 from hoprover_env.jit import compiler as _compile
+from hoprover_env.jit.spread import spread_order
 from hoprover_env.tasks import draws, reward
 from hoprover_env.envs.env import check_actions
 from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
@@ -39,6 +40,12 @@ from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
 from hoprover_env.tasks import torque
 
 THREAD_THRESHOLD = 64
+
+
+def _threaded_step(batch_threaded, order, *args):
+    """The task's threaded batch step over the rows in `order`, leaving the caller's
+    OpenMP settings as they were (jit.compiler.run_threaded)."""
+    return _compile.run_threaded(batch_threaded, *args, order)
 
 
 class HopRoverVectorEnv(VectorEnv):
@@ -103,6 +110,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._all = np.ones(n, dtype=np.bool_)
         self._log = np.zeros((0, core.EV_COLS))
         self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
+        self._order = spread_order(n)       # the rows in the order the threaded step reads them
         self.targets = np.zeros(n)
         self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
         self._legacy = self.config.draws == "legacy"
@@ -121,8 +129,11 @@ class HopRoverVectorEnv(VectorEnv):
         rough = bool(rough)
         if rough != self._rough:
             kernels = self.task.kernels(self.config.integrator, rough=rough)
-            # a threaded step leaves the caller's OpenMP thread count (torch's) as it was
-            self._kernel = (functools.partial(_compile.run_threaded, kernels.batch_threaded)
+            # a threaded step leaves the caller's OpenMP thread count (torch's) as it was,
+            # and reads the rovers in an order that gives each thread a fair share of
+            # the costly ones (jit.spread)
+            self._kernel = (functools.partial(_threaded_step, kernels.batch_threaded,
+                                              self._order)
                             if self.threads else kernels.batch)
             self._rough = rough
 

@@ -3,11 +3,20 @@
 All sub-episodes run side by side in one `HopRoverVectorEnv` (one target each, a
 single episode each), so a neural policy is queried once per control step for the
 whole batch. The judge is the simulator's own: TTRTP exact to event precision.
+
+A policy that spends its time per rover in Python (`mpc`: a search per decision) gains
+little from the vector env's threads; one that says how many processes its episodes
+may be spread over (a `workers` attribute: `MPCPolicy`) has them run in chunks in
+that many worker processes, each a fresh interpreter (spawn: never a fork of this
+process, whose threads may hold locks), the results put back in episode order. Only a
+policy whose every episode plays the same in any batch may say so: the results are
+then those of the serial run, field for field (the wall time aside).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 
 import numpy as np
@@ -47,7 +56,8 @@ def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.
 
 def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
                  progress=None, first_episode: int = 0,
-                 terrain: dict | None = None) -> list[EpisodeResult]:
+                 terrain: dict | None = None,
+                 workers: int | None = None) -> list[EpisodeResult]:
     """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
     env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
     `terrain` fixes each episode's ground: {"slope": per-episode slopes [rad],
@@ -56,6 +66,10 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     `progress` is called with the number of finished episodes. `first_episode` numbers
     the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
     start at multiples of `batch`, so each batch is the one a local run has).
+    `workers`: the processes to spread the episodes over, for a policy that allows it
+    (one with a `workers` attribute, such as mpc; the module docstring says why only
+    those): None takes the policy's own (mpc's default: one per core), 1 runs them all
+    here, as any other policy's are.
 
     Returns one `EpisodeResult` per target [m], in order. Raises ValueError for bad env
     arguments, as the env does."""
@@ -67,6 +81,10 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     terrain = {k: np.broadcast_to(np.asarray(v, dtype=np.int64 if k == "terrain_seed"
                                              else float), targets.shape)
                for k, v in (terrain or {}).items()}
+    n_workers = episode_workers(policy, workers, len(targets))
+    if n_workers > 1:
+        return _run_spread(policy, targets, kwargs, batch, progress, first_episode,
+                           terrain, n_workers)
     for start in range(0, len(targets), batch):
         chunk = targets[start:start + batch]
         ground = {k: v[start:start + batch] for k, v in terrain.items()}
@@ -117,6 +135,97 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
     for r in out:
         r.wall_time = wall / n          # a batch shares its wall time: report the mean
     return out
+
+
+CHUNKS_PER_WORKER = 8     # chunks handed out as workers free up: the last ones end together
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def episode_workers(policy, workers: int | None, n: int) -> int:
+    """How many processes `run_episodes` spreads n episodes of `policy` over: 1 for a
+    policy without a `workers` attribute (its episodes may depend on their batch: a
+    network's output can differ in the last bit with the batch's size), else `workers`
+    or the policy's own (None: one per core), at most one per episode."""
+    if not hasattr(policy, "workers"):
+        return 1
+    want = workers if workers is not None else policy.workers
+    if want is None:
+        want = cores()
+    if not (isinstance(want, (int, np.integer)) and want >= 1):
+        raise ValueError(f"workers must be None or an integer >= 1, got {want!r}")
+    return int(max(1, min(want, n)))
+
+
+def _run_spread(policy, targets, kwargs, batch, progress, first_episode, terrain,
+                n_workers) -> list[EpisodeResult]:
+    """run_episodes over chunks of the targets in `n_workers` spawned processes, each
+    running its chunk with a copy of `policy` as the serial path would (episode e seeded
+    first_episode + e); the results in order (each with the run's wall time per
+    episode), the policy's statistics (if it keeps any: `statistics`/`add_statistics`)
+    summed over the copies."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    n = len(targets)
+    size = -(-n // (n_workers * CHUNKS_PER_WORKER))
+    starts = list(range(0, n, size))
+    # each worker gets its share of the cores for numba's threads (a worker on every
+    # core with a thread per core would only make them wait for each other)
+    threads = max(1, cores() // n_workers)
+    chunks: list = [None] * len(starts)
+    done = 0
+    t_start = time.perf_counter()
+    with ProcessPoolExecutor(n_workers, mp_context=multiprocessing.get_context("spawn"),
+                             initializer=_start_worker, initargs=(threads,)) as pool:
+        pending = {pool.submit(_run_chunk, policy, targets[s:s + size], kwargs, batch,
+                               first_episode + s, {k: v[s:s + size] for k, v in
+                                                   terrain.items()}): k
+                   for k, s in enumerate(starts)}
+        try:
+            while pending:
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in finished:
+                    k = pending.pop(fut)
+                    chunks[k], stats = fut.result()
+                    if stats is not None:
+                        policy.add_statistics(stats)
+                    done += len(chunks[k])
+                    if progress is not None:
+                        progress(done)
+        except BaseException:
+            for fut in pending:        # a chunk failed, or the caller interrupts: stop
+                fut.cancel()
+            raise
+    results = [r for chunk in chunks for r in chunk]
+    # the chunks ran side by side: an episode's share of the wall time is the whole
+    # run's over all of them (as a batch's is in the serial path), not its chunk's
+    wall = time.perf_counter() - t_start
+    for r in results:
+        r.wall_time = wall / n
+    return results
+
+
+def _start_worker(threads: int) -> None:
+    import numba
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+
+
+def _run_chunk(policy, targets, kwargs, batch, first_episode, terrain):
+    """One chunk in a worker: its results and what the policy's copy counted meanwhile."""
+    keeps = hasattr(policy, "statistics")
+    before = policy.statistics() if keeps else None
+    results = run_episodes(policy, targets, env_kwargs=kwargs, batch=batch,
+                           first_episode=first_episode, terrain=terrain, workers=1)
+    if not keeps:
+        return results, None
+    after = policy.statistics()
+    return results, {k: after[k] - before[k] for k in after}
 
 
 def venv_final_x(info, i) -> float:

@@ -268,17 +268,20 @@ def _read(path: Path, name: str, version: int) -> Suite:
 
 
 def run(policy, suite: Suite, batch: int = 256, progress=None,
-        env_kwargs: dict | None = None) -> list[dict]:
+        env_kwargs: dict | None = None, workers: int | None = None) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
     contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
     arguments (say a mission task's noise_scale); the suite's episode time stays, and so
     do the draws its episodes were frozen with (`SUITE_DRAWS`: what the options of an
-    episode leave to the seed, such as the mission task's sensors and unknown ground)."""
+    episode leave to the seed, such as the mission task's sensors and unknown ground).
+    `workers`: processes for a policy that may be spread over them (`run_episodes`;
+    None: the policy's own, mpc's one per core; 1: this process only)."""
     from hoprover_env.evaluation.episodes import run_episodes
     results = run_episodes(policy, suite.targets,
                            env_kwargs={"draws": SUITE_DRAWS, **(env_kwargs or {}),
                                        "episode_time": EPISODE_TIME},
-                           batch=batch, progress=progress, terrain=suite.terrain())
+                           batch=batch, progress=progress, terrain=suite.terrain(),
+                           workers=workers)
     return judged(results, suite)
 
 

@@ -49,6 +49,7 @@ import numpy as np
 from hoprover_env import core
 from hoprover_env.sim import rollout
 from hoprover_env.jit.compiler import run_threaded
+from hoprover_env.jit.spread import spread_order
 from hoprover_env.sim.randomize import check_randomize, draw_fields, rng_for_seeds
 from hoprover_env.core.params import (N_PARAMS, P_ROUGH, RoverParams, as_arrays, from_fields,
                                       kernel_rows)
@@ -321,16 +322,18 @@ def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control
     for the runs that ran out of room in it; a run that failed raises (check_status)."""
     n = S.shape[0]
     active = np.ones(n, dtype=bool)
+    # runs differ in cost (a rover at rest is cheap, a bouncing one is not) and costly
+    # ones often sit together: numba's OpenMP and workqueue layers give each thread one
+    # contiguous block of the loop, so the loop reads the runs in an order that spreads
+    # every block over all of them (jit.spread); chunks of one run also let a layer that
+    # hands out chunks dynamically (TBB) balance them (docs/SCALING.md, "Threads")
+    order = spread_order(n)
     while True:
-        # runs differ in cost (a rover at rest is cheap, a bouncing one is not): chunks
-        # of one run let a layer that hands out chunks dynamically (TBB) balance them;
-        # numba's OpenMP and workqueue layers still give each thread one contiguous
-        # block of runs, whatever the chunk size (docs/SCALING.md, "Threads")
         chunk = numba.set_parallel_chunksize(1)
         try:
             run_threaded(run_many, S, P, opts, sched, ctrl, source, cargs, control_dt,
                          t_end, n_ctrl, sub, record, buf.rows, buf.cmds, buf.applied,
-                         buf.log, buf.prog, active, evbuf, w, backup, cbuf)
+                         buf.log, buf.prog, active, evbuf, w, backup, cbuf, order)
         finally:
             numba.set_parallel_chunksize(chunk)
         status = buf.prog[:, rollout.G_STATUS]

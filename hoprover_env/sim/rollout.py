@@ -201,11 +201,16 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
 
 def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
               subb, recordb, rowsb, cmdsb, appliedb, logb, progb, activeb, evbufb, Wb,
-              backupb, cbufb):
+              backupb, cbufb, orderb):
     """`_run` over the rows where `active` is set, spread over numba's threads; each
-    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]. (Argument
-    names differ from `_run`'s: numba's parfor outlining clashes on shared names.)"""
-    for i in prange(Sb.shape[0]):
+    thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]. Iteration j
+    runs row order[j] (a permutation, jit.spread.spread_order): numba gives each thread
+    one contiguous range of iterations, and runs of like cost often sit together (a
+    population's candidates, rovers at rest), so rows read in their own order would
+    leave one thread most of the work. (Argument names differ from `_run`'s: numba's
+    parfor outlining clashes on shared names.)"""
+    for j in prange(orderb.shape[0]):
+        i = orderb[j]
         if activeb[i]:
             tid = get_thread_id()
             run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
@@ -216,7 +221,7 @@ def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n
 _RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
                    _V, _M, _V, _V, _V)
 _RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B, _T3, _M,
-                        _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M)
+                        _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M, nt.int64[::1])
 # Explicit signatures make the controller a function pointer (one compiled loop for every
 # controller); they would also compile at import, so the two entry points are built on
 # first use: most sessions (the environments) never need them.

@@ -233,14 +233,18 @@ def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, 
 
 
 def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, termb,
-                   truncb, succb, nevb, evb, Wb):
+                   truncb, succb, nevb, evb, Wb, orderb):
     """The step over the active rows, spread over numba's threads; each thread uses its
-    own workspace row W[thread id]. Returns as batch_serial. (Argument names differ from
-    batch_serial's: numba's parfor outlining clashes on shared names.)"""
+    own workspace row W[thread id]. Iteration j steps row order[j] (a permutation,
+    jit.spread.spread_order): numba gives each thread one contiguous range of
+    iterations, and rovers of like cost sit together (those in flight, those whose
+    episodes ended and wait inactive). Returns as batch_serial. (Argument names differ
+    from batch_serial's: numba's parfor outlining clashes on shared names.)"""
     bad = first_bad_action(actionsb, activeb)
     if bad >= 0:
         return bad
-    for i in prange(Sb.shape[0]):
+    for j in prange(orderb.shape[0]):
+        i = orderb[j]
         if activeb[i]:
             rewb[i], termb[i], truncb[i], succb[i], nevb[i] = _STEP(
                 Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], Mb[i], actionsb[i], evb,
