@@ -399,13 +399,14 @@ def write_pages(results: dict, stamp: str, readme: bool = True) -> None:
                  "says how it was made (its model's .json in hoprover_env/agents/policies/)."
                  f"\n\n## The bundled agents on the frozen suites\n\n{md}\n\n"
                  f"{stamp_lines(stamp)}\n\n"
-                 "## Baselines from scratch, over seeds\n\n"
+                 "## Baselines from scratch, over seeds (RL from reward)\n\n"
                  f"{baseline_tables() or 'None scored yet.'}\n\nAll RL from reward (PPO, SAC, "
-                 "TD3 from random weights; the hop and mission tasks fly each hop with their "
-                 "hand-written controllers). Each "
-                 "trained by `python -m agents.baselines --config CONFIG --seeds 0-4`, its best "
-                 "model (chosen on train.py's validation episodes) scored on the suite; "
-                 "docs/studies/baselines.md has the per-seed tables, learning curves and times.\n\n"
+                 "TD3, TQC, CrossQ from random weights; the hop and mission tasks fly each hop "
+                 "with their hand-written controllers). Each trained by `python -m "
+                 "agents.baselines` with the command under its table, its best model (chosen "
+                 "on train.py's validation episodes) scored on the suite; "
+                 "docs/studies/baselines.md and docs/studies/off-policy.md have the per-seed "
+                 "tables, learning curves and times (BENCHMARKS.md, `baselines`, all of them).\n\n"
                  f"## What each agent knows\n\n{privilege_table()}\n")
     if readme:
         splice(ROOT / "README.md", f"{headline(results)}\n\n{short_stamp(stamp)}")
