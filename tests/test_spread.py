@@ -2,6 +2,11 @@
 (hoprover_env/jit/spread.py) and give the same bits on any thread count; mpc's episodes
 spread over worker processes give the serial run's results."""
 import dataclasses
+import os
+import subprocess
+import sys
+import threading
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -126,7 +131,9 @@ def test_mpc_episodes_spread_over_processes_equal_the_serial_run():
     serial = run_episodes(serial_agent, targets, workers=1, **kw)
     done = []
     spread_agent = agent(workers=2)
+    threads = threading.active_count()
     spread_out = run_episodes(spread_agent, targets, progress=done.append, **kw)
+    assert threading.active_count() == threads         # the pool's threads are joined
     assert mpc_rows(spread_out) == mpc_rows(serial)
     assert [r.episode for r in spread_out] == list(range(len(targets)))
     assert done[-1] == len(targets) and done == sorted(done)
@@ -152,3 +159,34 @@ def test_who_is_spread_over_processes():
         MPCPolicy(workers=0)
     with pytest.raises(ValueError, match="workers"):
         episode_workers(MPCPolicy(), 0, 10)
+
+
+UNGUARDED = """
+import numpy as np
+from hoprover_env.agents.mpc import MPCPolicy
+from hoprover_env.evaluation.episodes import run_episodes
+# no `if __name__ == "__main__"`: the workers must not run this script again
+results = run_episodes(MPCPolicy(workers=2), np.zeros(3), env_kwargs={"episode_time": 20.0})
+print("done", len(results), sum(r.success for r in results))
+"""
+
+
+def test_a_script_without_a_main_guard_spreads_its_episodes(tmp_path):
+    script = tmp_path / "unguarded.py"
+    script.write_text(UNGUARDED)
+    root = str(Path(__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        p for p in (root, os.environ.get("PYTHONPATH")) if p))
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         timeout=900, env=env, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.split() == ["done", "3", "3"]       # once, by the script alone
+
+
+def test_an_error_in_a_worker_is_raised_in_the_caller():
+    from hoprover_env.agents.mpc import MPCPolicy
+    from hoprover_env.evaluation.episodes import run_episodes
+    with pytest.raises(ValueError, match="episode_time"):
+        run_episodes(MPCPolicy(workers=1), np.zeros(2), env_kwargs={"episode_time": -1.0})
+    with pytest.raises(ValueError, match="episode_time"):
+        run_episodes(MPCPolicy(workers=2), np.zeros(2), env_kwargs={"episode_time": -1.0})

@@ -7,10 +7,11 @@ whole batch. The judge is the simulator's own: TTRTP exact to event precision.
 A policy that spends its time per rover in Python (`mpc`: a search per decision) gains
 little from the vector env's threads; one that says how many processes its episodes
 may be spread over (a `workers` attribute: `MPCPolicy`) has them run in chunks in
-that many worker processes, each a fresh interpreter (spawn: never a fork of this
-process, whose threads may hold locks), the results put back in episode order. Only a
-policy whose every episode plays the same in any batch may say so: the results are
-then those of the serial run, field for field (the wall time aside).
+that many worker processes, each a fresh interpreter (`evaluation.workers`: never a
+fork of this process, whose threads may hold locks, and no re-run of the caller's
+script), the results put back in episode order. Only a policy whose every episode
+plays the same in any batch may say so: the results are then those of the serial run,
+field for field (the wall time aside).
 """
 from __future__ import annotations
 
@@ -165,43 +166,31 @@ def episode_workers(policy, workers: int | None, n: int) -> int:
 
 def _run_spread(policy, targets, kwargs, batch, progress, first_episode, terrain,
                 n_workers) -> list[EpisodeResult]:
-    """run_episodes over chunks of the targets in `n_workers` spawned processes, each
-    running its chunk with a copy of `policy` as the serial path would (episode e seeded
+    """run_episodes over chunks of the targets in `n_workers` worker processes
+    (evaluation.workers), each running its chunk with a copy of `policy` as the serial path would (episode e seeded
     first_episode + e); the results in order (each with the run's wall time per
     episode), the policy's statistics (if it keeps any: `statistics`/`add_statistics`)
     summed over the copies."""
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from hoprover_env.evaluation import workers as pool
     n = len(targets)
     size = -(-n // (n_workers * CHUNKS_PER_WORKER))
     starts = list(range(0, n, size))
     # each worker gets its share of the cores for numba's threads (a worker on every
     # core with a thread per core would only make them wait for each other)
     threads = max(1, cores() // n_workers)
+    calls = [(_run_chunk, (policy, targets[s:s + size], kwargs, batch, first_episode + s,
+                           {k: v[s:s + size] for k, v in terrain.items()}))
+             for s in starts]
     chunks: list = [None] * len(starts)
     done = 0
     t_start = time.perf_counter()
-    with ProcessPoolExecutor(n_workers, mp_context=multiprocessing.get_context("spawn"),
-                             initializer=_start_worker, initargs=(threads,)) as pool:
-        pending = {pool.submit(_run_chunk, policy, targets[s:s + size], kwargs, batch,
-                               first_episode + s, {k: v[s:s + size] for k, v in
-                                                   terrain.items()}): k
-                   for k, s in enumerate(starts)}
-        try:
-            while pending:
-                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    k = pending.pop(fut)
-                    chunks[k], stats = fut.result()
-                    if stats is not None:
-                        policy.add_statistics(stats)
-                    done += len(chunks[k])
-                    if progress is not None:
-                        progress(done)
-        except BaseException:
-            for fut in pending:        # a chunk failed, or the caller interrupts: stop
-                fut.cancel()
-            raise
+    for k, (chunk, stats) in pool.run(calls, n_workers, setup=(_start_worker, (threads,))):
+        chunks[k] = chunk
+        if stats is not None:
+            policy.add_statistics(stats)
+        done += len(chunk)
+        if progress is not None:
+            progress(done)
     results = [r for chunk in chunks for r in chunk]
     # the chunks ran side by side: an episode's share of the wall time is the whole
     # run's over all of them (as a batch's is in the serial path), not its chunk's
