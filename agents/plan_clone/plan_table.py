@@ -254,6 +254,9 @@ class PlanTableTeacher(MPCPolicy):
     then mpc replans (with `budget` candidates) as it would; so does a rest state the
     table does not cover (beyond its farthest target, or too late in the episode)."""
 
+    # counted in run_episodes' worker processes too (MPCPolicy.COUNTERS)
+    COUNTERS = MPCPolicy.COUNTERS + ("table_plans",)
+
     def __init__(self, table: dict, interpolate: bool = False, grace: float = 5.0, **kw):
         super().__init__(**kw)
         self.targets, self.points, self.ttrtp = table["targets"], table["u"], table["ttrtp"]

@@ -75,14 +75,18 @@ class MPCPolicy:
         self.decisions = 0
         self.planning_seconds = 0.0
 
+    # the counters a copy of the agent in a worker process reports back (a subclass that
+    # counts more adds its own), so that they count the episodes of every worker
+    COUNTERS = ("decisions", "planning_seconds")
+
     def statistics(self) -> dict:
-        """What a worker process reports back to `add_statistics` (run_episodes)."""
-        return {"decisions": self.decisions, "planning_seconds": self.planning_seconds}
+        """The counters (`COUNTERS`), for `add_statistics` (run_episodes' workers)."""
+        return {k: getattr(self, k) for k in self.COUNTERS}
 
     def add_statistics(self, stats: dict) -> None:
-        """Count the plans a copy of this agent made in a worker process."""
-        self.decisions += stats["decisions"]
-        self.planning_seconds += stats["planning_seconds"]
+        """Add what a copy of this agent counted in a worker process."""
+        for k, v in stats.items():
+            setattr(self, k, getattr(self, k) + v)
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         """Start `n` episodes: no plans yet (and, on a task that hides its state, fresh
