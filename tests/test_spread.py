@@ -151,7 +151,8 @@ def test_who_is_spread_over_processes():
     from hoprover_env.evaluation.episodes import cores, episode_workers
     assert episode_workers(RandomPolicy(0), None, 100) == 1       # batch-bound policies
     assert episode_workers(RandomPolicy(0), 4, 100) == 1
-    assert episode_workers(MPCPolicy(), None, 100) == min(cores(), 100)
+    assert episode_workers(MPCPolicy(), None, 100) == min(cores(), 12)
+    assert episode_workers(MPCPolicy(), None, 7) == 1               # not worth a start
     assert episode_workers(MPCPolicy(workers=3), None, 100) == 3
     assert episode_workers(MPCPolicy(workers=3), 1, 100) == 1     # the caller decides
     assert episode_workers(MPCPolicy(workers=8), None, 5) == 5    # one per episode at most

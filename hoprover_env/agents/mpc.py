@@ -43,9 +43,9 @@ class MPCPolicy:
     `rough_budget` on rough ground (each flown over `terrain_samples` seeds of the
     agent's own, drawn from `seed`); `name` for tables; `workers`, the processes
     `run_episodes` (and so the suites and evaluate.py) spreads this agent's episodes
-    over (None: one per core; 1: all in the calling process). An episode plays the same
-    in any batch (`decision_rng`, per-problem search seeds), so the spread changes no
-    result. Statistics: `decisions` (plans made) and `planning_seconds` (time spent
+    over (None: one per core, at most one per 8 episodes; 1: all in the calling
+    process). An episode plays the same in any batch (`decision_rng`, per-problem search
+    seeds), so the spread changes no result. Statistics: `decisions` (plans made) and `planning_seconds` (time spent
     searching, summed over the workers).
     """
 

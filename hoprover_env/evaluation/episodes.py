@@ -69,8 +69,8 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     start at multiples of `batch`, so each batch is the one a local run has).
     `workers`: the processes to spread the episodes over, for a policy that allows it
     (one with a `workers` attribute, such as mpc; the module docstring says why only
-    those): None takes the policy's own (mpc's default: one per core), 1 runs them all
-    here, as any other policy's are.
+    those): None takes the policy's own (mpc's default: one per core, at most one per
+    `EPISODES_PER_WORKER` episodes), 1 runs them all here, as any other policy's are.
 
     Returns one `EpisodeResult` per target [m], in order. Raises ValueError for bad env
     arguments, as the env does."""
@@ -139,6 +139,9 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
 
 
 CHUNKS_PER_WORKER = 8     # chunks handed out as workers free up: the last ones end together
+# a worker costs seconds to start (an interpreter importing hoprover, loading its compiled
+# kernels): left to choose, run_episodes gives each at least this many episodes
+EPISODES_PER_WORKER = 8
 
 
 def cores() -> int:
@@ -153,12 +156,13 @@ def episode_workers(policy, workers: int | None, n: int) -> int:
     """How many processes `run_episodes` spreads n episodes of `policy` over: 1 for a
     policy without a `workers` attribute (its episodes may depend on their batch: a
     network's output can differ in the last bit with the batch's size), else `workers`
-    or the policy's own (None: one per core), at most one per episode."""
+    or the policy's own, at most one per episode; None for both: one per core, as far as
+    each gets `EPISODES_PER_WORKER` episodes (a few episodes run sooner here)."""
     if not hasattr(policy, "workers"):
         return 1
     want = workers if workers is not None else policy.workers
     if want is None:
-        want = cores()
+        want = max(1, min(cores(), n // EPISODES_PER_WORKER))
     if not (isinstance(want, (int, np.integer)) and want >= 1):
         raise ValueError(f"workers must be None or an integer >= 1, got {want!r}")
     return int(max(1, min(want, n)))
