@@ -317,7 +317,7 @@ def test_off_policy_configs_train_and_resume(tmp_path, algo):
     cfg.update({"n_envs": 2, "timesteps": 300,
                 "evaluation": {"freq": 200, "episodes": 2, "seed": 1},
                 "checkpoint": {"freq": 100}})
-    cfg["env"].update({"episode_time": 30.0, "control_dt": 1.0})
+    cfg["env"] = {**cfg.get("env", {}), "episode_time": 30.0, "control_dt": 1.0}
     cfg["hyperparams"].update({"learning_starts": 50, "buffer_size": 1000, "batch_size": 32})
     out = tmp_path / algo
     path = write_cfg(tmp_path, cfg)
