@@ -6,14 +6,14 @@ This section trains nothing: it reads what `python -m agents.baselines ... --rec
 wrote into benchmarks/results/baselines/ (one `NAME.json` with the score matrix summary,
 the per-seed rows and the command; `NAME.md`, the tables; `NAME.png`, the curves). One
 table per suite and task, then each baseline's per-seed table and curves. Rerun a row
-with the command printed under its table.
+with the command printed under its table. The curves are linked where they were
+recorded, relative to the repository root (where BENCHMARKS.md is).
 
     python -m benchmarks --only baselines
 """
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 from benchmarks.report import Section
@@ -50,13 +50,11 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
           "score, each with a 95 % stratified-bootstrap interval over seeds (rliable). "
           "docs/studies/baselines.md and docs/studies/off-policy.md read them.",
           baseline_tables(RESULTS)]
-    figures = []
     for name in names:
         res = json.loads((RESULTS / f"{name}.json").read_text())
-        md.append(f"### {name}\n\n`{res.get('command', '?')}`\n\n{per_seed(name)}")
-        png = RESULTS / f"{name}.png"
-        if png.exists():
-            dest = Path(fig_dir) / f"baseline_{name}.png"
-            shutil.copyfile(png, dest)
-            figures.append(str(dest))
-    return Section("Baselines over seeds", "\n\n".join(md), figures)
+        part = f"### {name}\n\n`{res.get('command', '?')}`\n\n{per_seed(name)}"
+        if (RESULTS / f"{name}.png").exists():      # the recorded curves, linked where they are
+            part += (f"\n\n![{name}: validation success against steps and wall time]"
+                     f"(benchmarks/results/baselines/{name}.png)")
+        md.append(part)
+    return Section("Baselines over seeds", "\n\n".join(md))
