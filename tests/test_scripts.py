@@ -406,3 +406,12 @@ def test_learning_rate_end_falls_from_the_algorithms_own_default(tmp_path):
         model = make_agent(cfg, HopRoverSB3VecEnv(2))
         assert model.lr_schedule(1.0) == pytest.approx(start)
         assert model.lr_schedule(0.0) == pytest.approx(1e-6)
+
+
+def test_evaluate_workers_flag(capsys):
+    """--workers reaches run_episodes (mpc spreads its episodes over that many processes;
+    other policies play in this one); a count below 1 is refused by name."""
+    assert evaluate.main(["--policy", "random", "--episodes", "2", "--workers", "0"]) == 2
+    assert "--workers must be at least 1, got 0" in capsys.readouterr().err
+    assert evaluate.main(["--policy", "random", "--episodes", "2", "--workers", "1",
+                          "--no-progress"]) == 0

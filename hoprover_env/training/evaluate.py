@@ -101,6 +101,9 @@ def parse_args(argv=None):
     ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
                     help="run the episodes as Ray tasks, one batch each: on a local Ray, "
                          "or on the cluster at ADDRESS (or RAY_ADDRESS); same results")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="worker processes for a policy that plays its episodes in them "
+                         "(mpc; default: one per core, 1 = in this process); same results")
     from hoprover_env.training.ray_utils import SHIP_CODE_HELP
     ap.add_argument("--ship-code", action="store_true", help="with --ray: " + SHIP_CODE_HELP)
     args = ap.parse_args(_join_dash_values(sys.argv[1:] if argv is None else list(argv)))
@@ -108,6 +111,8 @@ def parse_args(argv=None):
         ap.error(f"--batch must be at least 1, got {args.batch}")
     if args.episodes < 1:
         ap.error(f"--episodes must be at least 1, got {args.episodes}")
+    if args.workers is not None and args.workers < 1:
+        ap.error(f"--workers must be at least 1, got {args.workers}")
     if not (math.isfinite(args.control_dt) and args.control_dt > 0):
         ap.error(f"--control-dt must be a finite number > 0, got {args.control_dt}")
     low, high = args.target_range
@@ -243,7 +248,7 @@ def _main(argv=None) -> int:
         try:
             results = run_episodes(pol, targets, batch=args.batch, progress=progress,
                                    terrain=ground, env_kwargs={"draws": suites.SUITE_DRAWS}
-                                   if suite else None)
+                                   if suite else None, workers=args.workers)
         except ValueError as exc:         # a bad --slope / --roughness, named by the env
             print(f"error: {exc}", file=sys.stderr)
             return 2
