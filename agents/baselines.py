@@ -130,18 +130,22 @@ def score(out: Path, seeds: list[int], name: str) -> dict:
             "summary": summary.row(), "runs": runs, "_summary": summary}
 
 
-def markdown(result: dict) -> str:
-    from hoprover_env.evaluation.scores import format_table
-    lines = [f"### {result['name']} on the {result['suite']} suite ({result['env_id']})", "",
-             format_table([result["_summary"]]), "",
-             "| seed | success | median regret | worst regret | steps to 95 % | "
+def seed_table(runs: list[dict]) -> str:
+    """The per-seed table of a result's `runs` (as summary.json records them)."""
+    lines = ["| seed | success | median regret | worst regret | steps to 95 % | "
              "wall time to 95 % |", "|---|---|---|---|---|---|"]
-    for r in result["runs"]:
+    for r in runs:
         steps = "never" if r["steps_to_goal"] is None else f"{r['steps_to_goal']:,}"
         wall = "never" if r["wall_s_to_goal"] is None else f"{r['wall_s_to_goal']:.0f} s"
         lines.append(f"| {r['seed']} | {100 * r['success']:.1f} % | {r['median_regret']:.3f}"
                      f" | {r['worst_regret']:.3f} | {steps} | {wall} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines)
+
+
+def markdown(result: dict) -> str:
+    from hoprover_env.evaluation.scores import format_table
+    return (f"### {result['name']} on the {result['suite']} suite ({result['env_id']})\n\n"
+            f"{format_table([result['_summary']])}\n\n{seed_table(result['runs'])}\n")
 
 
 def plot(result: dict, path: Path) -> None:

@@ -4,7 +4,7 @@ steps and against wall time.
 
 This section trains nothing: it reads what `python -m agents.baselines ... --record`
 wrote into benchmarks/results/baselines/ (one `NAME.json` with the score matrix summary,
-the per-seed rows and the command; `NAME.md`, the tables; `NAME.png`, the curves). One
+the per-seed rows and the command; `NAME.png`, the curves). One
 table per suite and task, then each baseline's per-seed table and curves. Rerun a row
 with the command printed under its table. The curves are linked where they were
 recorded, relative to the repository root (where BENCHMARKS.md is).
@@ -22,22 +22,8 @@ ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "baselines"
 
 
-def per_seed(name: str) -> str:
-    """The per-seed table of a recorded baseline (the second table of its NAME.md)."""
-    md = (RESULTS / f"{name}.md").read_text() if (RESULTS / f"{name}.md").exists() else ""
-    tables, current = [], []
-    for line in md.splitlines():
-        if line.startswith("|"):
-            current.append(line)
-        elif current:
-            tables.append(current)
-            current = []
-    if current:
-        tables.append(current)
-    return "\n".join(tables[1]) if len(tables) > 1 else ""
-
-
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
+    from agents.baselines import seed_table
     from agents.yardstick.leaderboard import baseline_tables
     names = sorted(p.stem for p in RESULTS.glob("*.json"))
     if not names:
@@ -52,7 +38,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
           baseline_tables(RESULTS)]
     for name in names:
         res = json.loads((RESULTS / f"{name}.json").read_text())
-        part = f"### {name}\n\n`{res.get('command', '?')}`\n\n{per_seed(name)}"
+        part = f"### {name}\n\n`{res.get('command', '?')}`\n\n{seed_table(res['runs'])}"
         if (RESULTS / f"{name}.png").exists():      # the recorded curves, linked where they are
             part += (f"\n\n![{name}: validation success against steps and wall time]"
                      f"(benchmarks/results/baselines/{name}.png)")

@@ -91,6 +91,12 @@ def hyper_keys(algo: str) -> set:
                       "_init_setup_model"}) | OWN_HYPER_KEYS
 
 
+def algo_default(algo: str, name: str):
+    """The default of `algo`'s constructor argument `name` (what a config that leaves it
+    unset trains with)."""
+    return inspect.signature(algo_class(algo).__init__).parameters[name].default
+
+
 def policy_keys(algo: str) -> set:
     """The `policy` keys of `algo`: those of POLICY_KEYS that its policy class takes."""
     cls = algo_class(algo)
@@ -177,8 +183,7 @@ def _check_discounts(cfg: dict, env_config) -> None:
     env_gamma = getattr(env_config, "gamma", None)
     if env_gamma is None:
         return
-    learner = cfg["hyperparams"].get(
-        "gamma", inspect.signature(algo_class(cfg["algo"]).__init__).parameters["gamma"].default)
+    learner = cfg["hyperparams"].get("gamma", algo_default(cfg["algo"], "gamma"))
     if not math.isclose(float(env_gamma), float(learner), rel_tol=0, abs_tol=1e-12):
         raise ConfigError(f"config keys 'env.gamma' ({env_gamma}) and 'hyperparams.gamma' "
                           f"({learner}) differ: the reward's shaping must be discounted as "
@@ -376,8 +381,7 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
             from stable_baselines3.common.utils import LinearSchedule
         except ImportError:            # stable-baselines3 < 2.7
             from stable_baselines3.common.utils import get_linear_fn as LinearSchedule
-        start = hyper.get("learning_rate",
-                          inspect.signature(cls.__init__).parameters["learning_rate"].default)
+        start = hyper.get("learning_rate", algo_default(cfg["algo"], "learning_rate"))
         hyper["learning_rate"] = LinearSchedule(start, hyper.pop("learning_rate_end"), 1.0)
     if isinstance(hyper.get("action_noise"), (int, float)):     # TD3, TQC, CrossQ
         from stable_baselines3.common.noise import NormalActionNoise
