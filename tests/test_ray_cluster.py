@@ -124,12 +124,18 @@ def test_sweep_that_loses_the_node_of_a_trial_restores_it_elsewhere(cluster, tmp
                             text=True)
     try:
         def trial_with_checkpoint():     # the trial's node, once a checkpoint is stored
-            # two checkpoint rows: Tune has registered the first one for certain (killed
-            # while it handled the first, the trial once restarted from scratch, 1 CI run
-            # in 5)
+            # Tune has registered a checkpoint for certain once the row after it is in
+            # result.json (the trial waits in tune.report until Tune has handled the save):
+            # so the second-to-last checkpoint row counts. It must also hold trained steps:
+            # the checkpoint reported at evaluation k is the trainer's from evaluation k-1,
+            # and PPO's checkpoint counts only steps trained on (the one at 128 steps, taken
+            # as the first rollout ends, holds 0), so the first checkpoint with steps is
+            # reported at 384. Restored from an earlier one, the trial resumes at 0 steps
+            # and the check below cannot tell a restore from a fresh start (1 CI run in 5
+            # with two checkpoint rows).
             for d in (out / "lost").glob("trainable_*"):
                 rows = [r for r in _results(d) if r.get("checkpoint_dir_name")]
-                if len(rows) >= 2:
+                if len(rows) >= 2 and rows[-2]["timesteps"] >= 3 * 128:
                     return d, rows[-1]["node"]
         trial, node_id = _wait_for(trial_with_checkpoint, proc)
         node = next(n for n in _workers(cluster) if n.node_id == node_id)
@@ -152,7 +158,8 @@ def test_sweep_that_loses_the_node_of_a_trial_restores_it_elsewhere(cluster, tmp
     assert steps == sorted(set(steps)) and set(steps) <= set(every) and steps[-1] == every[-1]
     assert {r["seed"] for r in rows} == {3}                 # trial 0: SEEDS[0]
     assert rows[-1]["node"] != node_id                      # it finished elsewhere
-    resumed = [r["resumed_at"] for r in rows if r["node"] != node_id]
+    lost_at = max(i for i, r in enumerate(rows) if r["node"] == node_id)
+    resumed = [r["resumed_at"] for r in rows[lost_at + 1:]]
     assert resumed[0] > 0 and resumed[0] in every           # from a checkpoint, not anew
     assert (out / "lost" / "best_config.yaml").exists()
 
