@@ -48,3 +48,13 @@ def test_the_tipping_action_follows_the_action_map():
     cub = diagnose.tipping_action({"env_id": "HopRover-v0", "env": {"action_map": "cubic"}})
     assert lin == pytest.approx(4.9e-6 / 5e-4)          # m g r / T_max
     assert cub == pytest.approx(lin ** (1 / 3))
+
+
+@pytest.mark.parametrize("path", sorted(diagnose.Path(diagnose.__file__).parent.glob("*.yaml")),
+                         ids=lambda p: p.stem)
+def test_every_recorded_variant_is_a_config_train_py_accepts(path):
+    """The configs behind the recorded CSVs stay runnable: keys, the learner's own
+    arguments (target_entropy, top_quantiles_to_drop_per_net, ...) and the discount
+    check are the same validation train.py applies."""
+    from hoprover_env.training.sb3_agents import load_config
+    assert load_config(path)["algo"] in {"sac", "td3", "tqc", "crossq"}
