@@ -152,6 +152,15 @@ def test_trials_get_the_seeds_in_turn():
     assert [trial_index(d, "_".join(d.split("_")[1:3]), 0) for d in plain] == [0, 1]
 
 
+def test_asha_stops_no_trial_on_its_untrained_evaluation():
+    # the evaluation at step 0 is reported as iteration 1 and scores the untrained policy,
+    # which differs by seed alone: ASHA's first rung must come after a trained one
+    from hoprover_env.training.sweep import asha_grace, parse_args
+    assert [asha_grace(g, 10) for g in (1, 2, 9, 20)] == [2, 3, 10, 10]
+    with pytest.raises(SystemExit):
+        parse_args(["--config", "configs/ppo_hop.yaml", "--grace", "0"])
+
+
 def test_policy_files_travel_with_the_tasks(tmp_path):
     # a run directory on the driver only: its model files are read here, rebuilt there
     from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED

@@ -7,7 +7,8 @@
 Each trial is train.py's Trainer (the same config, checks, evaluations and files) with
 the sampled values applied. Optuna proposes the values (Tune's OptunaSearch); ASHA stops
 trials whose judged success rate lags at an evaluation (each `evaluation.freq` steps is
-one ASHA time unit). Trial k (Tune's k-th trial, from 0) trains with seed
+one ASHA time unit; --grace counts those after training has started, as the evaluation
+at step 0 tells the trials' seeds apart, not their settings). Trial k (Tune's k-th trial, from 0) trains with seed
 SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never searched over (picking
 a lucky seed is not tuning). One CPU per trial by default.
 
@@ -148,7 +149,8 @@ def parse_args(argv=None):
     ap.add_argument("--timesteps", type=int, default=None, help="override the config's budget")
     ap.add_argument("--cpus-per-trial", type=float, default=1.0)
     ap.add_argument("--grace", type=int, default=2,
-                    help="evaluations every trial gets before ASHA may stop it")
+                    help="evaluations after training has started that every trial gets "
+                         "before ASHA may stop it (the one at step 0 does not count)")
     ap.add_argument("--address", default=None,
                     help="Ray cluster address (HOST:6379 on a node, ray://HOST:10001 from "
                          "outside); default RAY_ADDRESS or a local Ray")
@@ -161,6 +163,8 @@ def parse_args(argv=None):
     args = ap.parse_args(argv)
     if args.samples < 1:
         ap.error(f"--samples must be at least 1, got {args.samples}")
+    if args.grace < 1:
+        ap.error(f"--grace must be at least 1, got {args.grace}")
     if not args.cpus_per_trial > 0:
         ap.error(f"--cpus-per-trial must be > 0, got {args.cpus_per_trial}")
     try:
@@ -176,6 +180,13 @@ def trial_index(dir_name: str, trial_id: str, first: int) -> int:
     search algorithm and from 0 without one (`first`); a hash of the id if it is not there."""
     m = re.match(r"_(\d+)", dir_name.split(trial_id, 1)[1]) if trial_id in dir_name else None
     return int(m.group(1)) - first if m else int(hashlib.sha1(trial_id.encode()).hexdigest(), 16)
+
+
+def asha_grace(grace: int, n_evals: int) -> int:
+    """ASHA's grace period in reported evaluations: `grace` trained ones after the one at
+    step 0. That one scores the untrained policy, which differs between trials by seed
+    alone: a rung there stops trials for the seed they drew, not for their settings."""
+    return min(grace + 1, n_evals)
 
 
 REPORTED = "tune_reported.json"      # in a Tune checkpoint: the evaluations Tune has
@@ -358,7 +369,7 @@ def _run_sweep(args, base: dict, searched: list, expected: dict) -> dict:
                 search_alg=OptunaSearch(metric=METRIC, mode="max", seed=args.seeds[0])
                 if space else None,
                 scheduler=ASHAScheduler(metric=METRIC, mode="max", max_t=n_evals,
-                                        grace_period=min(args.grace, n_evals))),
+                                        grace_period=asha_grace(args.grace, n_evals))),
             run_config=RunConfig(name=name, storage_path=storage, verbose=0,
                                  failure_config=FailureConfig(max_failures=args.max_failures),
                                  checkpoint_config=CheckpointConfig(num_to_keep=2)))
