@@ -92,7 +92,7 @@ def kernel_cost_per_sim_second(kind: str, n: int = 512, steps: int = 40) -> floa
     active = np.ones(n, dtype=bool)
     args = (venv.P, venv._o, venv._e, venv._rw, venv._rm, venv.M, act[:, None].copy(), active,
             venv._obs, venv._rew, venv._term, venv._trunc, venv._succ, venv._nev, venv._log,
-            venv._work)
+            venv._work, venv._steps, 0, venv._ended, *venv._info_columns)
     batch = torque.TASK.kernels("event").batch
 
     def go():

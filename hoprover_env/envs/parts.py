@@ -15,8 +15,8 @@ from numba import types as nt
 from hoprover_env import core
 from hoprover_env.jit.compiler import MAT, kernel
 from hoprover_env.tasks import reward
+from hoprover_env.tasks.common import TTRTP_NOT_REACHED  # noqa: F401  (the envs' import)
 
-TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
 NO_TERRAIN_SEED = -1         # info["terrain_seed"] on smooth ground (nothing is drawn)
 
 

@@ -34,10 +34,11 @@ from hoprover_env.jit.spread import spread_order
 from hoprover_env.tasks import draws, reward
 from hoprover_env.envs.env import check_actions
 from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
-from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
+from hoprover_env.envs.parts import (NO_TERRAIN_SEED, check_render_mode, full_info,
                         info as make_info, object_rows, task_spaces)
 from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
 from hoprover_env.tasks import torque
+from hoprover_env.tasks.common import note_info_rows
 
 THREAD_THRESHOLD = 64
 
@@ -107,6 +108,14 @@ class HopRoverVectorEnv(VectorEnv):
         self._nev = np.zeros(n, dtype=np.int64)
         self._autoreset = np.zeros(n, dtype=np.bool_)
         self._steps = np.zeros(n, dtype=np.int64)
+        self._max_steps = 0 if max_episode_steps is None else int(max_episode_steps)
+        self._ended = np.zeros(n, dtype=np.bool_)
+        # the info columns, one contiguous array each (TTRTP, reached, state code,
+        # broken), written by the step kernel for the rows it steps and by _note_info for
+        # the rows reset; the slope changes at resets only
+        self._info_columns = (np.zeros(n), np.zeros(n, dtype=np.bool_),
+                              np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.bool_))
+        self._slope = np.zeros(n)
         self._all = np.ones(n, dtype=np.bool_)
         self._log = np.zeros((0, core.EV_COLS))
         self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
@@ -121,6 +130,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._traces: list = [[] for _ in range(n)] if render_mode else []
         self._renderers: list = []
         self._ready = False
+        self._note_info(np.arange(n))       # those of the all-zero rows of a sub-env never reset
 
     # ------------------------------------------------------------------------------
     def _choose_kernel(self, rough: bool) -> None:
@@ -151,6 +161,7 @@ class HopRoverVectorEnv(VectorEnv):
                                 {k: (v[i] if k == "initial_state" else
                                      int(v[i]) if k == "terrain_seed" else float(v[i]))
                                  for k, v in options.items()})
+            self._note_info(rows)
             return
         keys = self._keys
         ep = draws.sample_episodes(self.task, self.config, keys.lo[rows], keys.hi[rows],
@@ -170,9 +181,16 @@ class HopRoverVectorEnv(VectorEnv):
         if not self._rough and (ep.P[:, P_ROUGH] > 0.0).any():   # an autoreset onto bumps
             self._choose_kernel(True)
         self._observe_rows(self.S, self.P, self._e, self.M, self._obs, rows)
+        self._note_info(rows)
         if self.render_mode:
             for i in rows:
                 self._traces[i] = [(float(self.S[i, core.S_X]), float(self.S[i, core.S_Y]))]
+
+    def _note_info(self, rows: np.ndarray) -> None:
+        """The info columns of `rows` (int64 indices) from their state and parameter
+        rows: those the step kernel does not write, of rows reset outside it."""
+        note_info_rows(self.S, rows, *self._info_columns)
+        self._slope[rows] = self.P[rows, P_SLOPE]
 
     def _reset_one(self, i: int, options=None):
         target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
@@ -261,30 +279,25 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             a = np.ascontiguousarray(check_actions(actions, shape, "actions"))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
-            done = np.flatnonzero(self._autoreset)
             active = ~self._autoreset
-            self._autoreset_rows(done)
+            self._autoreset_rows(np.flatnonzero(self._autoreset))
         else:
-            done = np.zeros(0, dtype=np.int64)
             active = self._all
+        # the kernel also counts the episodes' steps, truncates at max_episode_steps,
+        # flags the ended episodes and writes the info columns (tasks/common.py
+        # close_row), each row while it is in its thread's cache; the rows not stepped get
+        # the outputs of a reset (idle_row)
         bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
                            active, self._obs, self._rew, self._term, self._trunc, self._succ,
-                           self._nev, self._log, self._work)
+                           self._nev, self._log, self._work, self._steps, self._max_steps,
+                           self._ended, *self._info_columns)
         if bad >= 0:
             raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
                              f"{bad}")
-        if done.size:
-            self._rew[done] = 0.0
-            self._term[done] = False
-            self._trunc[done] = False
-            self._nev[done] = 0
-        self._steps[active] += 1
-        if self.max_episode_steps is not None:
-            self._trunc |= (self._steps >= self.max_episode_steps) & ~self._term
         if self.render_mode:
             for i in range(n):
                 self._traces[i].append((float(self.S[i, core.S_X]), float(self.S[i, core.S_Y])))
-        ended = self._term | self._trunc
+        ended = self._ended
         if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
             idx = np.flatnonzero(ended)
             final_info = self._infos(self._nev, mask=ended)
@@ -296,7 +309,7 @@ class HopRoverVectorEnv(VectorEnv):
             infos["final_info"], infos["_final_info"] = final_info, ended.copy()
         else:
             infos = self._infos(self._nev)
-            self._autoreset = ended.copy()
+            np.copyto(self._autoreset, ended)
         return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(),
                 infos)
 
@@ -308,12 +321,9 @@ class HopRoverVectorEnv(VectorEnv):
     def _infos(self, nev, mask=None) -> dict:
         n = self.num_envs
         mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
-        ttrtp = self.S[:, core.S_TTRTP].copy()
-        reached = ~np.isnan(ttrtp)
-        ttrtp[~reached] = TTRTP_NOT_REACHED
-        info = make_info(reached, ttrtp, self.S[:, core.S_MODE].astype(np.int64),
-                         self.targets.copy(), self.S[:, core.S_BROKEN] != 0.0,
-                         nev.astype(np.int64), self.P[:, P_SLOPE].copy(),
+        ttrtp, reached, mode, broken = self._info_columns
+        info = make_info(reached.copy(), ttrtp.copy(), mode.copy(), self.targets.copy(),
+                         broken.copy(), nev.astype(np.int64), self._slope.copy(),
                          self.terrain_seeds.copy())
         if self.config.info_level == "full":
             info.update(full_info(self.S, self.P, self._rm))

@@ -29,11 +29,13 @@ from typing import Any, Callable
 import numpy as np
 from numba import get_thread_id, prange, types as nt
 
-from hoprover_env.jit.compiler import bind_globals, kernel, BOOL, F64, VEC
+from hoprover_env.jit.compiler import bind_globals, kernel, BOOL, F64, I64, VEC
 from hoprover_env import core
-from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TTRTP
+from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, S_TTRTP
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
+
+TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 # on smooth ground (roughness 0) the event integrator without rough-terrain code
@@ -216,10 +218,60 @@ def observe_rows(S, P, E, M, obs, rows):
         _OBSERVE(S[i], P[i], E, M[i], obs[i])
 
 
+# The vector env's per-rover outputs besides the step's own, written by the loops below
+# while the rover's rows are in the cache of the thread that stepped it: reading the
+# state rows' info slots afterwards, across all the rows, cost about half of the
+# vector env's Python per step (docs/SCALING.md, "Threads on one machine").
+BOOL_COL, I64_COL = nt.boolean[::1], nt.int64[::1]
+
+
+@kernel(nt.void(VEC, I64, VEC, BOOL_COL, I64_COL, BOOL_COL), inner=True)
+def note_info(S, i, ttrtp, reached, mode, broken):
+    """Rover i's info columns from its state row S: the TTRTP (TTRTP_NOT_REACHED before
+    it is reached), whether it is reached, the contact state code, whether it broke."""
+    t = S[S_TTRTP]
+    reached[i] = not math.isnan(t)
+    ttrtp[i] = t if reached[i] else TTRTP_NOT_REACHED
+    mode[i] = np.int64(S[S_MODE])
+    broken[i] = S[S_BROKEN] != 0.0
+
+
+@kernel(nt.void(nt.float64[:, ::1], I64_COL, VEC, BOOL_COL, I64_COL, BOOL_COL))
+def note_info_rows(S, rows, ttrtp, reached, mode, broken):
+    """note_info of the rovers in `rows` (their indices): rows reset outside the loops."""
+    for j in range(rows.shape[0]):
+        note_info(S[rows[j]], rows[j], ttrtp, reached, mode, broken)
+
+
+@kernel(nt.void(I64, VEC, BOOL_COL, BOOL_COL, I64_COL, I64, BOOL_COL, VEC, BOOL_COL,
+                I64_COL, BOOL_COL), inner=True)
+def close_row(i, S, term, trunc, steps, max_steps, ended, ttrtp, reached, mode, broken):
+    """After rover i's step: its episode's step count, the truncation at max_steps steps
+    (0: no limit; a terminated episode is not truncated), whether its episode ended, and
+    its info columns (note_info)."""
+    steps[i] += 1
+    if max_steps > 0 and steps[i] >= max_steps and not term[i]:
+        trunc[i] = True
+    ended[i] = term[i] or trunc[i]
+    note_info(S, i, ttrtp, reached, mode, broken)
+
+
+@kernel(nt.void(I64, VEC, BOOL_COL, BOOL_COL, I64_COL, BOOL_COL), inner=True)
+def idle_row(i, rew, term, trunc, nev, ended):
+    """Rover i was not stepped (its reset was this step, NextStep): no reward, no end,
+    no events. Its info columns were written at its reset."""
+    rew[i] = 0.0
+    term[i] = False
+    trunc[i] = False
+    nev[i] = 0
+    ended[i] = False
+
+
 def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, succ, nev,
-                 ev, W):
-    """The step over the rows where `active` is set, one after the other. Returns the
-    index of a non-finite action (nothing stepped) or -1."""
+                 ev, W, steps, max_steps, ended, ttrtp, reached, mode, broken):
+    """The step over the rows where `active` is set, one after the other, each followed
+    by close_row (the other rows: idle_row). Returns the index of a non-finite action
+    (nothing stepped or written) or -1."""
     bad = first_bad_action(actions, active)
     if bad >= 0:
         return bad
@@ -229,13 +281,18 @@ def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, 
             rew[i], term[i], trunc[i], succ[i], nev[i] = _STEP(
                 S[i], P[i], O, E, RW, RM[i], M[i], actions[i], ev, w)
             _OBSERVE(S[i], P[i], E, M[i], obs[i])
+            close_row(i, S[i], term, trunc, steps, max_steps, ended, ttrtp, reached, mode,
+                      broken)
+        else:
+            idle_row(i, rew, term, trunc, nev, ended)
     return -1
 
 
 def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, termb,
-                   truncb, succb, nevb, evb, Wb, orderb):
-    """The step over the active rows, spread over numba's threads; each thread uses its
-    own workspace row W[thread id]. Iteration j steps row order[j] (a permutation,
+                   truncb, succb, nevb, evb, Wb, stepsb, max_stepsb, endedb, ttrtpb,
+                   reachedb, modeb, brokenb, orderb):
+    """batch_serial spread over numba's threads; each thread uses its own workspace row
+    W[thread id]. Iteration j steps row order[j] (a permutation,
     jit.spread.spread_order): numba gives each thread one contiguous range of
     iterations, and rovers of like cost sit together (those in flight, those whose
     episodes ended and wait inactive). Returns as batch_serial. (Argument names differ
@@ -250,6 +307,10 @@ def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, 
                 Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], Mb[i], actionsb[i], evb,
                 Wb[get_thread_id()])
             _OBSERVE(Sb[i], Pb[i], Eb, Mb[i], obsb[i])
+            close_row(i, Sb[i], termb, truncb, stepsb, max_stepsb, endedb, ttrtpb,
+                      reachedb, modeb, brokenb)
+        else:
+            idle_row(i, rewb, termb, truncb, nevb, endedb)
     return -1
 
 
