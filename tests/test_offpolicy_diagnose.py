@@ -3,6 +3,7 @@ for SAC and TD3 and writes finite, consistent rows."""
 from __future__ import annotations
 
 import csv
+from pathlib import Path
 
 import pytest
 import yaml
@@ -50,7 +51,7 @@ def test_the_tipping_action_follows_the_action_map():
     assert cub == pytest.approx(lin ** (1 / 3))
 
 
-@pytest.mark.parametrize("path", sorted(diagnose.Path(diagnose.__file__).parent.glob("*.yaml")),
+@pytest.mark.parametrize("path", sorted(Path(diagnose.__file__).parent.glob("*.yaml")),
                          ids=lambda p: p.stem)
 def test_every_recorded_variant_is_a_config_train_py_accepts(path):
     """The configs behind the recorded CSVs stay runnable: keys, the learner's own
