@@ -214,3 +214,17 @@ def test_interrupted_and_resumed_sweep_matches_an_uninterrupted_one(cluster, tmp
                           "--no-progress"], cwd=ROOT, capture_output=True, text=True,
                          timeout=300)
     assert run.returncode == 0, run.stderr[-3000:]
+
+
+def test_a_run_without_an_address_starts_a_ray_of_its_own_beside_a_running_one(cluster):
+    # the cluster has written Ray's address file, as `ray start` does and as a killed
+    # cluster leaves it behind: a run that asked for no address must not join it
+    code = ("from hoprover_env.training.ray_utils import init_ray\n"
+            "ray = init_ray(num_cpus=1)\n"
+            "print(ray.get_runtime_context().gcs_address)\n"
+            "ray.shutdown()\n")
+    env = {k: v for k, v in os.environ.items() if k != "RAY_ADDRESS"}
+    r = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert r.stdout.split()[-1] != cluster.address

@@ -2,7 +2,8 @@
 
 Which code the tasks run (docs/SCALING.md, "Running on a cluster"):
 
-* No address: a local Ray on this machine, whose workers import this checkout.
+* No address: a new local Ray on this machine, whose workers import this checkout; never
+  one already running here (join that one with `--address auto`).
 * An address (`host:port`, `ray://host:10001`, `auto`, or RAY_ADDRESS), by default: the
   tasks import the hoprover installed on each node (an editable install of a checkout,
   in a container image or by a setup step), and that checkout's agents/ and train.py.
@@ -66,8 +67,12 @@ def init_ray(address: str | None = None, num_cpus: int | None = None,
         check_nodes(ray)
     else:
         path = os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p])
-        ray.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False,
-                 runtime_env={"env_vars": {"PYTHONPATH": path}})
+        # "local", not None: with no address, ray.init joins whatever cluster Ray's
+        # address file (/tmp/ray/ray_current_cluster) names, without checking that it
+        # is alive, so a cluster that was killed or is still running elsewhere on the
+        # machine would capture (or hang) a run that asked for a Ray of its own
+        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False,
+                 log_to_driver=False, runtime_env={"env_vars": {"PYTHONPATH": path}})
     return ray
 
 
