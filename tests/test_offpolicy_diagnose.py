@@ -59,3 +59,21 @@ def test_every_recorded_variant_is_a_config_train_py_accepts(path):
     check are the same validation train.py applies."""
     from hoprover_env.training.sb3_agents import load_config
     assert load_config(path)["algo"] in {"sac", "td3", "tqc", "crossq"}
+
+
+def test_the_landscape_holds_still_below_the_tipping_torque_and_flies_with_the_hold(tmp_path):
+    """agents/offpolicy/landscape.py: an opening torque of zero leaves the rover at rest
+    where it started for the whole episode under either rule, and under the attitude
+    hold no opening of the three (-1, 0, 1) breaks it."""
+    from agents.offpolicy import landscape
+    out = tmp_path / "landscape.csv"
+    assert landscape.main(["--out", str(out), "--points", "3"]) == 0
+    rows = list(csv.DictReader(open(out)))
+    assert len(rows) == 2 * 2 * 3 and list(rows[0]) == landscape.FIELDS
+    for r in rows:
+        if float(r["action"]) == 0.0:
+            assert r["broken"] == "False" and r["success"] == "False"
+            assert float(r["final_offset_m"]) == pytest.approx(-0.5)     # never moved
+            assert int(r["steps"]) == 300                                 # 600 s at 2 s
+        if r["rule"] == "hold":
+            assert r["broken"] == "False"

@@ -1,0 +1,103 @@
+"""What one decision at rest is worth: the return of an episode that opens with one
+torque held for a control period and then follows a fixed rule, as a function of that
+torque. It is the landscape an off-policy actor climbs with the critic's gradient dQ/da.
+
+    python -m agents.offpolicy.landscape --out benchmarks/results/offpolicy/landscape.csv
+
+For each action map (linear, cubic) and each opening action a on a grid over [-1, 1],
+the rover starts upright at rest with the target at `--target` m, holds a for one control
+period (HopRoverRL-v0's settings: 2 s, its reward), and then follows one of two rules:
+
+- `none`: zero torque for the rest of the episode (what a policy that has learnt only
+  to keep still does after the opening);
+- `hold`: in flight, the hop task's attitude hold T = -I (kp theta + kd omega) with its
+  gains, clipped to the torque limit, held for each 2 s period; zero torque on the
+  ground. The best a learner could hope to have learnt about flying before it learns
+  to launch, with no retargeting.
+
+Each row: map, rule, a, the episode's discounted return (the learner's gamma, from the
+opening state: Q(s0, a) under that rule), its undiscounted return, whether it broke,
+succeeded, and where the rover ended relative to the target. Written atomically.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import hoprover_env  # noqa: F401  (registers the ids)
+from hoprover_env.core.params import RoverParams
+from hoprover_env.tasks.config import RL_SETTINGS
+from hoprover_env.tasks.hop import HopEnvConfig
+from hoprover_env.util.files import atomic_write
+
+T_LIMIT = RoverParams().torque_max
+HOLD_KP, HOLD_KD = HopEnvConfig.hold_kp, HopEnvConfig.hold_kd     # the hop task's defaults
+FIELDS = ["action_map", "rule", "action", "discounted_return", "return", "broken",
+          "success", "final_offset_m", "steps"]
+
+
+def follow_up(rule: str, obs: np.ndarray, inertia: float, action_map: str) -> float:
+    """The action after the opening: zero, or the attitude hold in flight (contact
+    state A, one-hot component 7) expressed in the action map's units."""
+    if rule == "none" or obs[7] < 0.5:
+        return 0.0
+    theta = math.atan2(obs[4], obs[5])
+    omega = obs[6] * 0.3                      # the observation scales omega by 0.3 rad/s
+    frac = float(np.clip(-inertia * (HOLD_KP * theta + HOLD_KD * omega) / T_LIMIT, -1, 1))
+    return frac if action_map == "linear" else math.copysign(abs(frac) ** (1 / 3), frac)
+
+
+def episode(action_map: str, rule: str, a: float, target: float) -> dict:
+    env = gym.make("HopRoverRL-v0", action_map=action_map, target_x=target)
+    obs, _ = env.reset(seed=0)
+    inertia = RoverParams().inertia
+    gamma, ret, disc = RL_SETTINGS["gamma"], 0.0, 0.0
+    for k in range(10_000):
+        act = a if k == 0 else follow_up(rule, obs, inertia, action_map)
+        obs, r, term, trunc, info = env.step(np.array([act], dtype=np.float32))
+        ret += float(r)
+        disc += gamma ** k * float(r)
+        if term or trunc:
+            break
+    env.close()
+    return {"action_map": action_map, "rule": rule, "action": round(a, 4),
+            "discounted_return": round(disc, 4), "return": round(ret, 4),
+            "broken": bool(info["broken"]), "success": bool(info["is_success"]),
+            "final_offset_m": round(float(obs[0]), 4), "steps": k + 1}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--out", type=Path, required=True, help="the CSV to write")
+    ap.add_argument("--target", type=float, default=0.5, help="target x [m]")
+    ap.add_argument("--points", type=int, default=81, help="actions on the grid over [-1, 1]")
+    args = ap.parse_args(argv)
+    if args.points < 3:
+        ap.error(f"--points must be at least 3, got {args.points}")
+    rows = [episode(m, rule, float(a), args.target)
+            for m in ("linear", "cubic") for rule in ("none", "hold")
+            for a in np.linspace(-1, 1, args.points)]
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=FIELDS)
+    writer.writeheader()
+    writer.writerows(rows)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(args.out, buf.getvalue())
+    for m in ("linear", "cubic"):
+        for rule in ("none", "hold"):
+            sel = [r for r in rows if r["action_map"] == m and r["rule"] == rule]
+            print(f"{m:6s} {rule:4s}: broken {sum(r['broken'] for r in sel)}/{len(sel)}, "
+                  f"success {sum(r['success'] for r in sel)}/{len(sel)}, best discounted "
+                  f"return {max(r['discounted_return'] for r in sel):+.2f} at a = "
+                  f"{max(sel, key=lambda r: r['discounted_return'])['action']:+.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
