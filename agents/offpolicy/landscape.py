@@ -34,6 +34,8 @@ import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.core.params import RoverParams
 from hoprover_env.tasks.config import RL_SETTINGS
 from hoprover_env.tasks.hop import HopEnvConfig
+from hoprover_env.tasks.observation import (OBS_COS, OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN,
+                                             RATE_SCALE)
 from hoprover_env.util.files import atomic_write
 
 T_LIMIT = RoverParams().torque_max
@@ -44,11 +46,11 @@ FIELDS = ["action_map", "rule", "action", "discounted_return", "return", "broken
 
 def follow_up(rule: str, obs: np.ndarray, inertia: float, action_map: str) -> float:
     """The action after the opening: zero, or the attitude hold in flight (contact
-    state A, one-hot component 7) expressed in the action map's units."""
-    if rule == "none" or obs[7] < 0.5:
+    state A, the first of the one-hot components) in the action map's units."""
+    if rule == "none" or obs[OBS_MODE] < 0.5:
         return 0.0
-    theta = math.atan2(obs[4], obs[5])
-    omega = obs[6] * 0.3                      # the observation scales omega by 0.3 rad/s
+    theta = math.atan2(obs[OBS_SIN], obs[OBS_COS])
+    omega = obs[OBS_RATE] * RATE_SCALE
     frac = float(np.clip(-inertia * (HOLD_KP * theta + HOLD_KD * omega) / T_LIMIT, -1, 1))
     return frac if action_map == "linear" else math.copysign(abs(frac) ** (1 / 3), frac)
 
@@ -69,7 +71,7 @@ def episode(action_map: str, rule: str, a: float, target: float) -> dict:
     return {"action_map": action_map, "rule": rule, "action": round(a, 4),
             "discounted_return": round(disc, 4), "return": round(ret, 4),
             "broken": bool(info["broken"]), "success": bool(info["is_success"]),
-            "final_offset_m": round(float(obs[0]), 4), "steps": k + 1}
+            "final_offset_m": round(float(obs[OBS_DX]), 4), "steps": k + 1}
 
 
 def main(argv=None) -> int:
