@@ -8,3 +8,10 @@ settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True
 settings.register_profile("thorough", max_examples=300, deadline=None,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def pytest_collection_modifyitems(config, items):
+    # pytest-xdist (the README's --dist loadfile) hands out test files in collection
+    # order: the long Ray files (marked slow) go first, so that no worker is left alone
+    # with one of them at the end while the other idles
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)

@@ -13,6 +13,9 @@ import pytest
 
 from hoprover_env.jit.compiler import MESSAGE
 
+# cold compiles in fresh interpreters: minutes in all
+pytestmark = pytest.mark.slow
+
 
 def test_one_progress_line_when_compiling_none_when_cached(tmp_path):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
