@@ -32,36 +32,36 @@ import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.core.params import RoverParams
+from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.tasks.config import RL_SETTINGS
 from hoprover_env.tasks.hop import HopEnvConfig
 from hoprover_env.tasks.observation import (OBS_COS, OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN,
                                              RATE_SCALE)
 from hoprover_env.util.files import atomic_write
 
-T_LIMIT = RoverParams().torque_max
+PARAMS = RoverParams()                  # the ids' default rover
 HOLD_KP, HOLD_KD = HopEnvConfig.hold_kp, HopEnvConfig.hold_kd     # the hop task's defaults
 FIELDS = ["action_map", "rule", "action", "discounted_return", "return", "broken",
           "success", "final_offset_m", "steps"]
 
 
-def follow_up(rule: str, obs: np.ndarray, inertia: float, action_map: str) -> float:
+def follow_up(rule: str, obs: np.ndarray, action_map: str) -> float:
     """The action after the opening: zero, or the attitude hold in flight (contact
     state A, the first of the one-hot components) in the action map's units."""
     if rule == "none" or obs[OBS_MODE] < 0.5:
         return 0.0
-    theta = math.atan2(obs[OBS_SIN], obs[OBS_COS])
-    omega = obs[OBS_RATE] * RATE_SCALE
-    frac = float(np.clip(-inertia * (HOLD_KP * theta + HOLD_KD * omega) / T_LIMIT, -1, 1))
+    torque = attitude_hold(math.atan2(obs[OBS_SIN], obs[OBS_COS]), obs[OBS_RATE] * RATE_SCALE,
+                           PARAMS.inertia, HOLD_KP, HOLD_KD)
+    frac = float(np.clip(torque / PARAMS.torque_max, -1, 1))
     return frac if action_map == "linear" else math.copysign(abs(frac) ** (1 / 3), frac)
 
 
 def episode(action_map: str, rule: str, a: float, target: float) -> dict:
     env = gym.make("HopRoverRL-v0", action_map=action_map, target_x=target)
     obs, _ = env.reset(seed=0)
-    inertia = RoverParams().inertia
     gamma, ret, disc = RL_SETTINGS["gamma"], 0.0, 0.0
     for k in range(10_000):
-        act = a if k == 0 else follow_up(rule, obs, inertia, action_map)
+        act = a if k == 0 else follow_up(rule, obs, action_map)
         obs, r, term, trunc, info = env.step(np.array([act], dtype=np.float32))
         ret += float(r)
         disc += gamma ** k * float(r)

@@ -68,9 +68,10 @@ def init_ray(address: str | None = None, num_cpus: int | None = None,
     else:
         path = os.pathsep.join([str(ROOT)] + [p for p in [os.environ.get("PYTHONPATH")] if p])
         # "local", not None: with no address, ray.init joins whatever cluster Ray's
-        # address file (/tmp/ray/ray_current_cluster) names, without checking that it
-        # is alive, so a cluster that was killed or is still running elsewhere on the
-        # machine would capture (or hang) a run that asked for a Ray of its own
+        # address file (ray_current_cluster, in Ray's temp directory) names, without
+        # checking that it is alive, so a cluster that was killed or is still running
+        # elsewhere on the machine would capture (or hang) a run that asked for a Ray
+        # of its own
         ray.init(address="local", num_cpus=num_cpus, include_dashboard=False,
                  log_to_driver=False, runtime_env={"env_vars": {"PYTHONPATH": path}})
     return ray
