@@ -179,9 +179,13 @@ def _with_the_layer(request) -> bool:
         _compile._numba_internals()
         assert _compile._layer_active()
         return True
+    # a cache of its own: a process with the layer drops the plain cache of every module
+    # it declares, and other tests (other xdist workers) are using that one
+    cache = request.getfixturevalue("tmp_path") / "numba-cache"
     out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
                           f"{__file__}::{request.node.name}"],
-                         env=dict(os.environ, HOPROVER_NUMBA_LAYER="1"),
+                         env=dict(os.environ, HOPROVER_NUMBA_LAYER="1",
+                                  NUMBA_CACHE_DIR=str(cache)),
                          capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-2000:]
     assert "1 passed" in out.stdout, out.stdout[-2000:]

@@ -142,11 +142,14 @@ print(json.dumps({"active": compiler._layer_active(),
 
 
 @pytest.mark.parametrize("switch, installed", [("1", True), ("0", False), (None, False)])
-def test_the_numba_layer_is_installed_only_when_asked_for(switch, installed):
+def test_the_numba_layer_is_installed_only_when_asked_for(switch, installed, tmp_path):
     # HOPROVER_NUMBA_LAYER=1 installs it when the first kernel is declared (at import);
-    # unset or anything else leaves numba's classes as they are
-    result = _probe({} if switch is None else {"HOPROVER_NUMBA_LAYER": switch}, LAYER,
-                    timeout=300)
+    # unset or anything else leaves numba's classes as they are. A cache of its own: with
+    # the layer on, declaring a kernel drops the plain cache that other tests are using
+    extra = {"NUMBA_CACHE_DIR": str(tmp_path)}
+    if switch is not None:
+        extra["HOPROVER_NUMBA_LAYER"] = switch
+    result = _probe(extra, LAYER, timeout=300)
     assert result["active"] is installed
     if installed:
         assert result["replaced"] == ["callbacks", "finalize", "hash", "list_vars", "set_env"]
