@@ -33,11 +33,12 @@ import io
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import torch
 
-from hoprover_env.agents.policies import SB3Policy
+from hoprover_env.agents.policies import SB3Policy, torque_to_action
 from hoprover_env.core.params import RoverParams
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.training.sb3_agents import env_kwargs, load_config, make_agent
@@ -56,8 +57,9 @@ def tipping_action(cfg: dict) -> float:
     config's action map and scale)."""
     p = RoverParams()
     kw = env_kwargs(cfg)
-    frac = p.mass * p.gravity * p.half_width / p.torque_max / kw.get("action_scale", 1.0)
-    return frac ** (1 / 3) if kw.get("action_map", "linear") == "cubic" else frac
+    amap = SimpleNamespace(action_map=kw.get("action_map", "linear"),
+                           action_scale=kw.get("action_scale", 1.0))
+    return torque_to_action(p.mass * p.gravity * p.half_width, p, amap)
 
 
 def critic_value(model, obs: torch.Tensor, act: torch.Tensor) -> np.ndarray:

@@ -26,11 +26,13 @@ import csv
 import io
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the ids)
+from hoprover_env.agents.policies import torque_to_action
 from hoprover_env.core.params import RoverParams
 from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.tasks.config import RL_SETTINGS
@@ -52,8 +54,7 @@ def follow_up(rule: str, obs: np.ndarray, action_map: str) -> float:
         return 0.0
     torque = attitude_hold(math.atan2(obs[OBS_SIN], obs[OBS_COS]), obs[OBS_RATE] * RATE_SCALE,
                            PARAMS.inertia, HOLD_KP, HOLD_KD)
-    frac = float(np.clip(torque / PARAMS.torque_max, -1, 1))
-    return frac if action_map == "linear" else math.copysign(abs(frac) ** (1 / 3), frac)
+    return torque_to_action(torque, PARAMS, SimpleNamespace(action_map=action_map))
 
 
 def episode(action_map: str, rule: str, a: float, target: float) -> dict:
