@@ -5,6 +5,7 @@ numba layer (HOPROVER_NUMBA_LAYER=1), whose own tests run in a fresh interpreter
 on; the fallback to plain numba when its internals are missing."""
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -76,8 +77,17 @@ ROUGH_TERRAIN_CODE = ("hoprover_env.core.terrain.impact_tilt",
                       "hoprover_env.core.impacts._stop_on_mean_plane")
 
 
-def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
-    seen = compiled_by_first_step(tmp_path)
+@pytest.fixture(scope="module")
+def cold_serial(tmp_path_factory):
+    """One cold first step of HopRover-v0 compiled in one process (no helper), which two
+    tests compare against: (its cache folder, what it compiled and where it ended)."""
+    cache = tmp_path_factory.mktemp("cold-serial")
+    return cache, first_steps(cache)
+
+
+def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path, cold_serial):
+    seen = cold_serial[1]["compiled"]
+    shutil.copytree(cold_serial[0], tmp_path, dirs_exist_ok=True)   # its cache, warmed
     ours = [name for name, _ in seen if name.startswith("hoprover_env.")]
     assert "hoprover_env.tasks.common.torque_event_smooth_step" in ours and len(ours) > 40
     assert not [n for n in ours if "euler" in n.lower()]
@@ -95,17 +105,17 @@ def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path):
     assert "hoprover_env.core.euler.advance_euler" in [name for name, _ in seen]
 
 
-@pytest.mark.parametrize("how", ["1", "spawn"])
 def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path,
-                                                                                how):
-    # on a cold cache a helper process (a fresh interpreter; "spawn", its old name, still
-    # means it) takes the contact phases off the queue while this process compiles the
-    # end of a phase; the env step then loads them from the cache
+                                                                                cold_serial):
+    # on a cold cache a helper process (a fresh interpreter; any value of the switch but
+    # "0" starts it, "spawn", its old name, too) takes the contact phases off the queue
+    # while this process compiles the end of a phase; the env step then loads them from
+    # the cache
     from hoprover_env.jit import compiler as pc
     if pc._cores() < 2:
         pytest.skip("the helper only starts with two or more cores")
-    serial = first_steps(tmp_path / "serial")
-    parallel = first_steps(tmp_path / "parallel", parallel=how)
+    serial = cold_serial[1]
+    parallel = first_steps(tmp_path / "parallel", parallel="1")
     main = [name for name, _ in parallel["compiled"] if name.startswith("hoprover_env.")]
     everything = [name for name, _ in serial["compiled"] if name.startswith("hoprover_env.")]
     # the first of the queue: taken by the helper while this process is at the end of a
