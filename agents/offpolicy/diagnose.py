@@ -56,10 +56,8 @@ def tipping_action(cfg: dict) -> float:
     """The smallest |action| whose torque tips a rover at rest (m g r / T_max under the
     config's action map and scale)."""
     p = RoverParams()
-    kw = env_kwargs(cfg)
-    amap = SimpleNamespace(action_map=kw.get("action_map", "linear"),
-                           action_scale=kw.get("action_scale", 1.0))
-    return torque_to_action(p.mass * p.gravity * p.half_width, p, amap)
+    return torque_to_action(p.mass * p.gravity * p.half_width, p,
+                            SimpleNamespace(**env_kwargs(cfg)))
 
 
 def critic_value(model, obs: torch.Tensor, act: torch.Tensor) -> np.ndarray:
