@@ -76,6 +76,9 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     arguments, as the env does."""
     kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
     kwargs.pop("target_x", None)
+    # a training start distribution (flight_start) is not the task: every evaluation
+    # starts where the contest does, upright at rest
+    kwargs.pop("flight_start", None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
     # terrain seeds stay integers: up to 2^63, a float64 would round them to other bumps

@@ -9,6 +9,8 @@
                    landing points the observation and the reward share
 ``reward``         the reward: its parameters, the potential it keeps, the terms it pays
 ``torque``         the torque task: action -> torque held for one control period
+``torque_rl``      the torque task's RL settings, v1: an observation that resolves the
+                   reward, a per-decision attitude cost, flight starts for training
 ``hop``            the hop-level task: action -> one hop flown by a built-in controller
 ``terrain``        the torque task on sloped, rough ground: the observation plus the slope
 ``mission``        the torque task under mission conditions: noisy sensing, position
@@ -30,6 +32,7 @@ import importlib
 # Every registered task, by module: one line each.
 TASK_MODULES = (
     "hoprover_env.tasks.torque",
+    "hoprover_env.tasks.torque_rl",
     "hoprover_env.tasks.hop",
     "hoprover_env.tasks.terrain",
     "hoprover_env.tasks.mission",

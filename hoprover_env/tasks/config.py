@@ -57,6 +57,7 @@ class EnvConfig(RewardConfig):
     action_scale: float = 1.0
     info_level: str = "basic"
     draws: str = "counter"
+    flight_start: float = 0.0
     # the arguments a task does not use, each with the reason: refused, not ignored
     unused: ClassVar[dict] = {}
 
@@ -100,6 +101,12 @@ class EnvConfig(RewardConfig):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
         if self.draws not in DRAWS:
             raise ValueError(f"draws must be one of {list(DRAWS)}, got {self.draws!r}")
+        if not (is_real(self.flight_start) and 0.0 <= self.flight_start <= 1.0):
+            raise ValueError(f"flight_start must be a share in [0, 1], got "
+                             f"{self.flight_start!r}")
+        if self.flight_start > 0.0 and self.draws != "counter":
+            raise ValueError("flight_start needs draws='counter' (the flight starts are "
+                             "drawn by tasks/draws.py)")
 
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":

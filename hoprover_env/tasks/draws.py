@@ -14,7 +14,8 @@ counter (episode, block, stream, attempt). Stream EPISODE holds, word by word,
 at fixed places whatever the config and the options say, so that the draws stay aligned;
 stream RANDOMIZE holds domain randomisation's uniforms (one per randomised field, in
 sorted order), attempt a being the a-th draw of a row whose earlier draws broke
-RoverParams' constraints (Painleve). A word u becomes a uniform (u >> 11) 2^-53 in
+RoverParams' constraints (Painleve); stream START the flight starts of `flight_start`
+(`flight_rows`). A word u becomes a uniform (u >> 11) 2^-53 in
 [0, 1) and a terrain seed u >> 1 in [0, 2^63).
 
 draws="legacy" (tasks/config.py `sample_episode`) is the per-rover numpy Generator of
@@ -31,7 +32,7 @@ from numba import types as nt
 
 from hoprover_env import core
 from hoprover_env.core.params import (FIELD_INDEX, MAX_MAGNITUDE, N_FIELDS, N_PARAMS, P_G,
-                                      P_GC, P_GS, P_H, P_MUD, P_MUS, P_ROUGH, P_SLOPE,
+                                      P_GC, P_GS, P_H, P_MUD, P_MUS, P_R, P_ROUGH, P_SLOPE,
                                       from_fields)
 from hoprover_env.core.params import invalid_rows as invalid_field_rows
 from hoprover_env.core.terrain import philox4x64
@@ -39,7 +40,7 @@ from hoprover_env.jit.compiler import MAT, VEC, kernel
 from hoprover_env.sim.randomize import RANDOMIZABLE
 from hoprover_env.sim.simulate import make_state
 
-STREAM_EPISODE, STREAM_RANDOMIZE = 0, 1
+STREAM_EPISODE, STREAM_RANDOMIZE, STREAM_START = 0, 1, 2
 W_TARGET, W_SLOPE, W_TERRAIN_SEED, W_TASK = 0, 1, 2, 3
 KEY_TAG = 0x6570697364726177           # "episdraw": keys apart from the terrain's
 MAX_ATTEMPTS = 100                     # randomisation draws per row before giving up
@@ -172,6 +173,35 @@ class Episodes:
     U: np.ndarray
 
 
+# The flight starts of `flight_start` (a training option; evaluation always starts at
+# rest): a c.m. over the target range, clear of the ground in any attitude, moving as a
+# hop of up to a few metres does, in any attitude and spinning at up to FLIGHT_SPIN.
+FLIGHT_CLEARANCE = (0.01, 0.5)    # lowest corner above the ground [m]: its range
+FLIGHT_SPEED = (0.01, 0.005)      # |vx|, |vy| up to [m/s]
+FLIGHT_SPIN = 3.0                 # |omega| up to [rad/s]
+
+
+def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
+    """The initial c.m. states (n, 6) of `flight_start`: a share cfg.flight_start of the
+    rovers (those whose first word of stream START falls below it) start in flight,
+    drawn from the next six words; the rest upright at rest at x = 0, as with no
+    initial state. Every rover draws the same words, so the streams stay aligned."""
+    u = uniforms(words(keys_lo, keys_hi, episodes, STREAM_START, 7))
+    lo, hi = cfg.target_range
+    half_diagonal = np.hypot(P[:, P_R], P[:, P_H])
+    flying = np.column_stack([
+        lo + (hi - lo) * u[:, 1],
+        half_diagonal + FLIGHT_CLEARANCE[0] + (FLIGHT_CLEARANCE[1] - FLIGHT_CLEARANCE[0])
+        * u[:, 2],
+        math.pi * (2.0 * u[:, 3] - 1.0),
+        FLIGHT_SPEED[0] * (2.0 * u[:, 4] - 1.0),
+        FLIGHT_SPEED[1] * (2.0 * u[:, 5] - 1.0),
+        FLIGHT_SPIN * (2.0 * u[:, 6] - 1.0)])
+    rest = np.zeros_like(flying)
+    rest[:, 1] = P[:, P_H]
+    return np.where((u[:, 0] < cfg.flight_start)[:, None], flying, rest)
+
+
 def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Episodes:
     """The new episodes of n rovers keyed (keys_lo[i], keys_hi[i]) at episode numbers
     episodes[i], under `options` (reset options, each one value per rover: "target_x",
@@ -222,6 +252,8 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     X = np.zeros((0, 6))
     if "initial_state" in options:
         X = np.ascontiguousarray(options["initial_state"], dtype=np.float64).reshape(n, 6)
+    elif cfg.flight_start > 0.0:
+        X = flight_rows(cfg, P, keys_lo, keys_hi, episodes)
     bad = np.abs(targets) > MAX_MAGNITUDE            # (comparisons with NaN: False, no warning)
     if X.shape[0]:
         bad |= ~np.isfinite(X).all(axis=1) | (np.abs(X) > MAX_MAGNITUDE).any(axis=1)

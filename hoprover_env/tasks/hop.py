@@ -121,7 +121,8 @@ class HopEnvConfig(EnvConfig):
 
     unused: ClassVar[dict] = {
         "action_map": "one action is a hop's launch torque, mapped by hop_torque",
-        "action_scale": "one action is a hop's launch torque, mapped by hop_torque"}
+        "action_scale": "one action is a hop's launch torque, mapped by hop_torque",
+        "flight_start": "a hop is launched from rest: every step starts at rest"}
 
     gamma: float = 0.98
     hold_kp: float = 0.15

@@ -3,6 +3,7 @@ potential it keeps, and the terms it pays.
 
     r = gamma Phi(s') - Phi(s) - time_cost dt + success_bonus [success] - break_penalty [broke]
         - energy_weight * integral over the step of |T| / T_limit dt
+        - attitude_cost * a(s') [s' in flight, not broken]
 
 Phi(s) = -w_dist min(|x_ref - x_T|, cap) / 1 m - w_att a(s) - w_band (1 - d(s)), a sum
 of three bounded potentials (so Phi >= phi_min):
@@ -15,6 +16,14 @@ of three bounded potentials (so Phi >= phi_min):
   pull back at any faster spin, bounded by ATT_MAX;
 * band: d(s) is the judge's dwell fraction (time in the band / 5 s, 0 out of it), so
   settling in the band pays before the success bonus and hovering next to it does not.
+
+The attitude potential pays only differences: once a critic has learnt Q for its
+policy, it shows no attitude credit as a difference between actions (potential shaping
+is an initialisation of Q, Wiewiora 2003), and with tens of decisions in a flight any
+torque can be corrected later, so the action gap it leaves is tiny. `attitude_cost`
+charges a(s') of every decision that ends in flight instead (0 by default): a cost, not
+a potential, so it does change which policy is optimal -- toward upright, still flights,
+which is what a landing that does not break needs.
 
 Termination values of Phi: 0 on success (the top of Phi); Phi(s) / gamma when the rover
 breaks, so that the shaping of a breaking step is exactly 0: breaking cannot release a
@@ -53,16 +62,18 @@ from hoprover_env.tasks.observation import (POS_SCALE, RATE_SCALE, dwell_fractio
 from hoprover_env.util.validate import is_real, non_negative_real
 
 RW_W_DIST, RW_W_TIME, RW_SUCCESS, RW_BREAK, RW_GAMMA, RW_SHAPING, RW_W_ATT, RW_W_BAND, \
-    RW_DIST_CAP, RW_W_ENERGY = range(10)
-N_RW = 10
+    RW_DIST_CAP, RW_W_ENERGY, RW_ATT_COST = range(11)
+N_RW = 11
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 SHAPINGS = {"contact": SHAPING_CONTACT, "landing": SHAPING_LANDING}
 
 RM_PHI, RM_PHI_DIST, RM_PHI_ATT, RM_PHI_BAND = range(4)         # potential at the state
-RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY, RM_ENERGY = range(4, 11)
-RM_EFFORT = 11          # accumulated in the current step: integral of |T| / T_limit dt [s]
-N_RM = 12
-TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty", "energy")  # RM_DISTANCE on
+RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY, RM_ENERGY, \
+    RM_ATTITUDE_COST = range(4, 12)
+RM_EFFORT = 12          # accumulated in the current step: integral of |T| / T_limit dt [s]
+N_RM = 13
+TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty", "energy",
+         "attitude_cost")                                   # RM_DISTANCE on
 
 # The spin term of a(s): quadratic up to u = U_Q (3 rad/s), logarithmic beyond, constant
 # past U_MAX (30 rad/s). A pull that weakens early lets PPO settle for spinning flights:
@@ -87,10 +98,11 @@ class RewardConfig:
     band_weight: float = 0.5
     dist_cap: float = 5.0
     energy_weight: float = 0.0
+    attitude_cost: float = 0.0
 
     def __post_init__(self):
         for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
-                     "attitude_weight", "band_weight", "energy_weight"):
+                     "attitude_weight", "band_weight", "energy_weight", "attitude_cost"):
             non_negative_real(name, getattr(self, name))
         if not (is_real(self.gamma) and 0.0 < self.gamma <= 1.0):
             raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
@@ -113,6 +125,7 @@ class RewardConfig:
         rw[RW_W_BAND] = self.band_weight
         rw[RW_DIST_CAP] = self.dist_cap
         rw[RW_W_ENERGY] = self.energy_weight
+        rw[RW_ATT_COST] = self.attitude_cost
         return rw
 
 
@@ -133,6 +146,16 @@ def terms_info(rm: np.ndarray) -> dict:
 
 
 @kernel(inner=True)
+def attitude_error(S):
+    """a(s) of a flying rover: (1 - cos theta) plus the bounded spin term (module
+    docstring); what the attitude potential and the per-decision attitude cost weigh."""
+    w = S[S_W] / RATE_SCALE
+    u = 0.5 * w * w
+    spin = U_Q * math.log1p(min(u, U_MAX) / U_Q)
+    return (1.0 - math.cos(S[S_TH])) + spin
+
+
+@kernel(inner=True)
 def potential_terms(S, P, RW, RM):
     """Write the potential's terms at state S into RM[RM_PHI..RM_PHI_BAND]."""
     flying = int(S[S_MODE]) == MODE_A
@@ -144,10 +167,7 @@ def potential_terms(S, P, RW, RM):
     phi = dist
     att = 0.0
     if flying:
-        w = S[S_W] / RATE_SCALE
-        u = 0.5 * w * w
-        spin = U_Q * math.log1p(min(u, U_MAX) / U_Q)
-        att = RW[RW_W_ATT] * ((1.0 - math.cos(S[S_TH])) + spin)
+        att = RW[RW_W_ATT] * attitude_error(S)
         phi -= att
     band = 0.0
     if RW[RW_W_BAND] != 0.0:
@@ -234,4 +254,8 @@ def pay(S, P, RW, RM, phi0, success, broken, elapsed):
     if RW[RW_W_ENERGY] != 0.0:      # a zero weight leaves the reward's bits untouched
         RM[RM_ENERGY] = -RW[RW_W_ENERGY] * RM[RM_EFFORT]
         reward += RM[RM_ENERGY]
+    RM[RM_ATTITUDE_COST] = 0.0
+    if RW[RW_ATT_COST] != 0.0 and not broken and int(S[S_MODE]) == MODE_A:
+        RM[RM_ATTITUDE_COST] = -RW[RW_ATT_COST] * attitude_error(S)
+        reward += RM[RM_ATTITUDE_COST]
     return reward
