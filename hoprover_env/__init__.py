@@ -10,7 +10,6 @@ The package has one subpackage per layer, each importing only from those below i
 (docs/ARCHITECTURE.md): `jit`, `util`, `core` (the physics kernel), `sim` (simulate,
 batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
-from hoprover_env.util import moved as _moved
 from hoprover_env.util.buildinfo import VERSION as __version__
 from hoprover_env.core.params import RoverParams
 from hoprover_env.sim.rollout import Rollout
@@ -20,7 +19,6 @@ from hoprover_env.envs.registry import (ENVS, Task, config_class, env_class, gym
                                         register_task, task, vector_env_class)
 from hoprover_env.envs import registry as _registry
 
-_moved.install()
 for _id in ENVS:
     gym_register(_id)
 
