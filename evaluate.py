@@ -1,7 +1,8 @@
 """Evaluate policies with the contest judge on a fixed, seeded set of random targets.
 
 The command `hoprover-evaluate` (installed with the package); this file runs it from a
-checkout as `python evaluate.py`. The code and its full description: hoprover_env/training/evaluate.py.
+checkout as `python evaluate.py`. The code and its full description:
+hoprover_env/training/evaluate.py.
 """
 import sys
 

@@ -17,9 +17,9 @@ import math
 import numpy as np
 
 from hoprover_env import core
+from hoprover_env.core.params import P_I
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.core.params import P_I
 
 # Slots of the result vector the driver fills (NaN until the thing happens).
 R_LIFTOFF_T = 0     # first lift-off

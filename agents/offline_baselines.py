@@ -20,11 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hoprover_env.evaluation import datasets
-from hoprover_env.evaluation import suites
-from hoprover_env.util.files import atomic_write
 from hoprover_env.agents.policies import ArrayPolicy
+from hoprover_env.evaluation import datasets, suites
 from hoprover_env.evaluation.scores import Summary, format_table, summarize
+from hoprover_env.util.files import atomic_write
 
 OUT = Path(__file__).resolve().parent.parent / "benchmarks" / "results" / "offline.json"
 

@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from hoprover_env.agents.mission_hop import MissionHopEnv
 from hoprover_env.util.buildinfo import git_commit
 from hoprover_env.util.files import atomic_write, write_json
-from hoprover_env.agents.mission_hop import MissionHopEnv
 
 ENV_ID = "HopRoverMission-v0"
 KEYS = {"trainer", "env_id", "env", "n_envs", "timesteps", "policy", "hyperparams",
@@ -43,7 +43,8 @@ def load_config(path: str) -> dict:
     cfg = yaml.safe_load(Path(path).read_text()) or {}
     unknown = set(cfg) - KEYS
     if unknown:
-        raise ValueError(f"unknown config key(s) {sorted(unknown)} in {path}; valid: {sorted(KEYS)}")
+        raise ValueError(f"unknown config key(s) {sorted(unknown)} in {path}; "
+                         f"valid: {sorted(KEYS)}")
     if cfg.get("env_id", ENV_ID) != ENV_ID:
         raise ValueError(f"{path}: this trainer trains on {ENV_ID}, not {cfg['env_id']!r}")
     return cfg

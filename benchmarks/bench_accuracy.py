@@ -45,17 +45,32 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import wasserstein_distance
 
-from agents.launch_land import (N_RESULT, R_END_T, R_FLAG, R_LAND_T, R_LAND_X, R_LIFTOFF_T,
-                                R_N_IMPACTS, R_N_SEQ, R_REST_T, R_REST_X, R_TTRTP, SEQ_LEN,
-                                TIMING_EVENTS, TIMING_GRID, IDLE_CHUNK, contest_controller,
-                                repeat_launch, run_scenario)
+from agents.launch_land import (
+    IDLE_CHUNK,
+    N_RESULT,
+    R_END_T,
+    R_FLAG,
+    R_LAND_T,
+    R_LAND_X,
+    R_LIFTOFF_T,
+    R_N_IMPACTS,
+    R_N_SEQ,
+    R_REST_T,
+    R_REST_X,
+    R_TTRTP,
+    SEQ_LEN,
+    TIMING_EVENTS,
+    TIMING_GRID,
+    contest_controller,
+    repeat_launch,
+    run_scenario,
+)
 from benchmarks import accuracy_report
 from benchmarks.report import Section, best_of
-from hoprover_env import RoverParams, RoverSim, simulate
-from hoprover_env import core
+from hoprover_env import RoverParams, RoverSim, core, simulate
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.sim.simulate import make_options, make_state
 from hoprover_env.sim.reference import Ref
+from hoprover_env.sim.simulate import make_options, make_state
 
 # ----------------------------------------------------------------------------------
 # The scenario: launch, attitude hold in flight, idle once landed
@@ -519,7 +534,7 @@ def measure(quick: bool) -> dict:
             m["n_checks"] += 2
     # What the Python controller would have cost: simulate() on the contest grid with
     # it, against the driver on the same grid.
-    m["python_wall"] = np.mean([best_of(lambda: simulate(
+    m["python_wall"] = np.mean([best_of(lambda t=t: simulate(
         contest_controller(t, params.inertia, KP, KD),
         t_end=driver.run(default, t, 0.5, TIMING_GRID).end_t, control_dt=CONTROL_DT,
         target_x=0.5, params=params, **default.kwargs()))[0] for t in torques])

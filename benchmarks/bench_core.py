@@ -18,18 +18,15 @@ import subprocess
 import sys
 import tempfile
 
+import numba
 import numpy as np
-
 from numba import njit
 
-import numba
-
-from hoprover_env.agents.compiled import hop_plan, plan_torque
 from benchmarks.report import best_of
 from benchmarks.scenarios import HopSequence, hop_schedule
-from hoprover_env import RoverParams, core, simulate_batch, simulate
+from hoprover_env import RoverParams, core, simulate, simulate_batch
+from hoprover_env.agents.compiled import hop_plan, plan_torque
 from hoprover_env.sim.simulate import make_options, make_state
-
 
 RUNS = [("event", {}), ("euler dt=1e-3", {"integrator": "euler", "euler_dt": 1e-3}),
         ("euler dt=1e-4", {"integrator": "euler", "euler_dt": 1e-4})]
@@ -77,8 +74,8 @@ def schedule_table(scheds, t_end, repeat):
         simulate(scheds[0][:10], t_end=1.0, control_dt=0.1, **kw)     # load the kernel
         walls, events = [], 0
         for sched in scheds:
-            wall, roll = best_of(lambda: simulate(sched, t_end=t_end, control_dt=0.1,
-                                                    target_x=0.0, **kw), repeat)
+            wall, roll = best_of(lambda sched=sched, kw=kw: simulate(
+                sched, t_end=t_end, control_dt=0.1, target_x=0.0, **kw), repeat)
             walls.append(wall)
             events += roll.n_events
         wall = float(np.mean(walls))
@@ -106,8 +103,8 @@ def compiled_controller_table(t_end, repeat):
     print("\ncontroller (a hop plan: launch windows, PD attitude hold in flight; event):")
     print(f"{'controller':<28}{'ms/episode':>12}{'x compiled':>12}{'TTRTP':>10}")
     for name, ctrl in (("numba-compiled, in kernel", compiled), ("Python twin", python_twin)):
-        wall, roll = best_of(lambda: simulate(ctrl, t_end=t_end, control_dt=0.1,
-                                                target_x=0.5), repeat)
+        wall, roll = best_of(lambda ctrl=ctrl: simulate(ctrl, t_end=t_end, control_dt=0.1,
+                                                         target_x=0.5), repeat)
         res[name] = (wall, roll)
     base = res["numba-compiled, in kernel"][0]
     assert np.array_equal(res["Python twin"][1].x, res["numba-compiled, in kernel"][1].x)
@@ -178,7 +175,7 @@ def main(argv=None):
     for name, kw in RUNS:
         ctrl = HopSequence()
 
-        def run():
+        def run(ctrl=ctrl, kw=kw):
             ctrl.reset()
             return simulate(ctrl, t_end=args.t_end, control_dt=0.1, target_x=0.0, **kw)
 
@@ -201,8 +198,8 @@ def main(argv=None):
     print(f"{'integrator':<16}{'wall s':>10}{'x event':>10}{'final x':>10}")
     base = None
     for name, kw in RUNS:
-        wall, s = best_of(lambda: kernel_replay(sched, 0.1, kw.get("integrator", "event"),
-                                                  kw.get("euler_dt", 1e-3)), args.repeat)
+        wall, s = best_of(lambda kw=kw: kernel_replay(sched, 0.1, kw.get("integrator", "event"),
+                                                        kw.get("euler_dt", 1e-3)), args.repeat)
         base = base or wall
         print(f"{name:<16}{wall:>10.5f}{wall / base:>10.1f}{s[core.S_X]:>10.4f}")
 

@@ -29,8 +29,8 @@ import numpy as np
 import hoprover_env  # noqa: F401  (registers the envs)
 from benchmarks.report import Section, best_of, table
 from hoprover_env import core
-from hoprover_env.tasks import torque
 from hoprover_env.envs.vector_env import HopRoverVectorEnv
+from hoprover_env.tasks import torque
 
 
 def single_step_us(env_id: str, n: int, **kw) -> float:
@@ -216,8 +216,9 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
 
     costs = {k: kernel_cost_per_sim_second(k, n=128 if quick else 1024)
              for k in ("rest", "flight", "contact")}
-    cost_md = table(["rover kept", "us per simulated second (kernel, per rover)"],
-                    [[k, v] for k, v in costs.items()], {"us per simulated second (kernel, per rover)": ".3f"})
+    cost_col = "us per simulated second (kernel, per rover)"
+    cost_md = table(["rover kept", cost_col], [[k, v] for k, v in costs.items()],
+                    {cost_col: ".3f"})
 
     task_us = task_step_costs(512 if quick else 4096, steps=20 if quick else 60)
     task_md = table(["task (native vector env)", "us per sub-env step", "x HopRover-v0"],

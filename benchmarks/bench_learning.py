@@ -109,8 +109,8 @@ def _band(runs: list[dict], col: int, ycol: int, grid: np.ndarray):
 
 def scripted_median(episodes: int = 100) -> float:
     """The scripted hopper's median TTRTP on train.py's validation targets (seed 7)."""
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
     return summarize(run_episodes(load_policy("scripted"), seeded_targets(episodes, 7)))[
         "median_ttrtp"]
 

@@ -26,9 +26,9 @@ import time
 
 import numpy as np
 
-from hoprover_env.agents.compiled import PLAN_HEAD, PLAN_HOP, hop_plan, planned_hops
 from benchmarks.report import Section, table
-from hoprover_env import RoverParams, simulate_batch, simulate
+from hoprover_env import RoverParams, simulate, simulate_batch
+from hoprover_env.agents.compiled import PLAN_HEAD, PLAN_HOP, hop_plan, planned_hops
 
 CONTROL_DT = 0.5
 T_END = 600.0
@@ -112,8 +112,8 @@ def search(target: float, quick: bool, seed: int = 0):
 
 def policy_ttrtps(targets, quick):
     """TTRTP per target of each bundled policy that loads (None: missed)."""
-    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes
     out = {}
     for name in POLICIES:
         try:

@@ -47,7 +47,8 @@ def main(argv=None):
         venv.step(acts)
         auto.append(time.perf_counter() - t0)
     us = lambda v: round(float(np.median(v)) / n * 1e6, 3)   # noqa: E731
-    print(json.dumps({"env": args.env, "n": n, "threads": args.threads, "reset_us_per_rover": us(reset),
+    print(json.dumps({"env": args.env, "n": n, "threads": args.threads,
+                      "reset_us_per_rover": us(reset),
                       "step_us_per_rover": us(step), "autoreset_step_us_per_rover": us(auto),
                       "file": hoprover_env.__file__}))
 

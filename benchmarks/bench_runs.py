@@ -160,7 +160,8 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
               [[k, v * 1e3, v / ev] for k, v in walls.items()],
               {"ms per episode": ".3f", "x event": ".1f"}),
         "A numba-compiled contest controller runs inside the same compiled loop "
-        "(hoprover_env/agents/compiled.py, a hop plan: launch window, PD attitude hold in flight); the "
+        "(hoprover_env/agents/compiled.py, a hop plan: launch window, PD attitude hold in "
+        "flight); the "
         "same plan as a Python controller runs simulate's Python loop (identical "
         "trajectories, checked):",
         table(["controller", "ms per episode", "x compiled"],

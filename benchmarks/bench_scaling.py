@@ -32,7 +32,6 @@ import time
 
 import numpy as np
 
-
 # ---- threads: fixed work at 1, 2, 4, ... threads -------------------------------------------
 BATCH_CONTROL_DT = 0.5          # s
 BATCH_KICK_RATE = 0.02          # share of control periods with a torque kick
@@ -225,6 +224,7 @@ def scaling_rows(best: dict, units: float) -> tuple[list, dict]:
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     """The report's section: simulate_batch and the vector env at 1..all threads."""
     import numba
+
     from benchmarks.report import Section, table
     threads = thread_counts()
     repeat = 2 if quick else 3
@@ -326,8 +326,8 @@ def ppo_steps_per_s(quick: bool) -> float:
 
 
 def eval_episodes_per_s(policy: str, n: int) -> float:
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
     pol = load_policy(policy, control_dt=0.5)
     targets = seeded_targets(n, 11)
     run_episodes(pol, targets[:4])                    # warm-up (compiles, loads)

@@ -48,30 +48,65 @@ random hopping (MODEL.md section 6 reports about one impact in six gaining up to
 """
 from __future__ import annotations
 
-from __future__ import annotations
-
 import dataclasses
 import sys
 import time
 
 import numpy as np
 
-from agents.stress.drivers import (B_FOUND, R_BREAKS, R_DRIFT_CORNER_VY, R_DRIFT_CORNER_Y,
-                           R_DRIFT_FG_TH, R_DRIFT_FG_VY, R_DRIFT_FG_W, R_DRIFT_FG_Y,
-                           R_DRIFT_PIVOT_VX, R_EVENTS, R_GAINS, R_IMPACT_SAMPLES, R_IMPACTS,
-                           R_KERNEL_GAINS, R_KINEMATICS_OTHER, R_MAX_EVENTS_PER_STEP,
-                           R_MIN_HEIGHT, R_PEN_AT_BREAK, R_SAMPLES_DOUBLE, R_SAMPLES_SINGLE,
-                           R_SIM_SECONDS, R_STEPS, R_VIOLATIONS, R_WRONG_TILT, RunResult,
-                           RunSpec, TARGET_X, contest_controller, execute, new_results,
-                           replay, upright)
+from agents.stress.drivers import (
+    B_FOUND,
+    R_BREAKS,
+    R_DRIFT_CORNER_VY,
+    R_DRIFT_CORNER_Y,
+    R_DRIFT_FG_TH,
+    R_DRIFT_FG_VY,
+    R_DRIFT_FG_W,
+    R_DRIFT_FG_Y,
+    R_DRIFT_PIVOT_VX,
+    R_EVENTS,
+    R_GAINS,
+    R_IMPACT_SAMPLES,
+    R_IMPACTS,
+    R_KERNEL_GAINS,
+    R_KINEMATICS_OTHER,
+    R_MAX_EVENTS_PER_STEP,
+    R_MIN_HEIGHT,
+    R_PEN_AT_BREAK,
+    R_SAMPLES_DOUBLE,
+    R_SAMPLES_SINGLE,
+    R_SIM_SECONDS,
+    R_STEPS,
+    R_VIOLATIONS,
+    R_WRONG_TILT,
+    TARGET_X,
+    RunResult,
+    RunSpec,
+    contest_controller,
+    execute,
+    new_results,
+    replay,
+    upright,
+)
 from agents.stress.families import DEFAULT, FAMILIES, family_random_params, offset
 from benchmarks import stress_report
 from benchmarks.report import Section
 from hoprover_env import RoverParams, core, simulate
 from hoprover_env.sim.simulate import make_state
-from hoprover_env.sim.testing import (ENERGY_TOL, KINEMATIC_TOL, N_RECORDS, PENETRATION_TOL,
-                                  V_BUDGET, V_KINEMATICS, V_NAN, V_PEN_EVENT, V_PEN_SAMPLE,
-                                  check_state, kinematic_violations, new_drift)
+from hoprover_env.sim.testing import (
+    ENERGY_TOL,
+    KINEMATIC_TOL,
+    N_RECORDS,
+    PENETRATION_TOL,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_NAN,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    check_state,
+    kinematic_violations,
+    new_drift,
+)
 
 
 # ----------------------------------------------------------------------------------
@@ -111,7 +146,8 @@ def checker_self_test():
            (spoil(pivot_b, S_TH=1e-8, S_Y=-offset(p, 1, 1e-8)[1]), V_KINEMATICS),  # D tilted
            (spoil(flight, S_Y=-offset(p, 0, 0.7)[1] - 2e-9), V_PEN_SAMPLE),  # under ground
            (spoil(flight, S_VX=np.nan), V_NAN)]
-    flagged = sum(bool(check_state(s, pa, KINEMATIC_TOL, new_drift()) & (1 << kind)) for s, kind in bad)
+    flagged = sum(bool(check_state(s, pa, KINEMATIC_TOL, new_drift()) & (1 << kind))
+                  for s, kind in bad)
     return passed, len(good_states), flagged, len(bad)
 
 
@@ -250,7 +286,7 @@ def measure(quick: bool) -> dict:
     t0 = time.perf_counter()
     checked, disagreements = 0, []
     max_steps = 2000 if quick else 10000
-    for fam, specs in specs_by_family:
+    for _fam, specs in specs_by_family:
         picks = {}
         for spec in specs:
             if spec.initial is not None:

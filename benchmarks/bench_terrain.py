@@ -26,11 +26,11 @@ import time
 
 import numpy as np
 
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
-from hoprover_env.util.files import write_json
-from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR, load_policy
 from benchmarks.report import Section, table
 from hoprover_env import RoverParams, RoverSim, simulate
+from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR, load_policy
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.util.files import write_json
 
 SLOPES = (-0.3, -0.2, -0.1, 0.0, 0.1, 0.2, 0.3)      # rad, at roughness SLOPE_ROUGHNESS
 SLOPE_ROUGHNESS = 0.05
@@ -212,7 +212,8 @@ def learning_curves(run_dirs, path: str) -> str:
         rows.append([name, f"{steps[-1] / 1e6:.1f} M", f"{wall[-1]:.0f}",
                      f"{100 * succ[-1]:.0f} %",
                      f"{100 * succ[best]:.0f} % at {steps[best] / 1e6:.1f} M",
-                     "-" if not hit.size else f"{steps[hit[0]] / 1e6:.1f} M / {wall[hit[0]]:.0f} s"])
+                     "-" if not hit.size
+                     else f"{steps[hit[0]] / 1e6:.1f} M / {wall[hit[0]]:.0f} s"])
     ax_s.set_ylabel("validation success [%]")
     ax_m.set_ylabel("validation median TTRTP [s]")
     for ax in (ax_s, ax_m):

@@ -86,6 +86,7 @@ def ppo_speed(torch_threads, numba_threads, n_envs, n_steps, batch, epochs, net,
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     old = torch.get_num_threads(), numba.get_num_threads()
     torch.set_num_threads(torch_threads)

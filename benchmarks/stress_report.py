@@ -8,19 +8,50 @@ import os
 
 import numpy as np
 
-from agents.stress.drivers import (B_STATE, B_STEP, B_TORQUE, B_TSTOP, HOPPER_FREE, HOPPER_HOLD,
-                           R_BREAKS, R_DRIFT_CORNER_VY, R_DRIFT_CORNER_Y, R_DRIFT_FG_TH,
-                           R_DRIFT_FG_VY, R_DRIFT_FG_W, R_DRIFT_FG_Y, R_DRIFT_PIVOT_VX,
-                           R_EVENTS, R_IMPACT_SAMPLES, R_KINEMATICS_OTHER,
-                           R_MAX_EVENTS_PER_STEP, R_MIN_HEIGHT, R_PEN_AT_BREAK,
-                           R_SAMPLES_DOUBLE, R_SAMPLES_SINGLE, R_SIM_SECONDS, R_STEPS,
-                           R_VIOLATIONS, R_WRONG_TILT, R_IMPACTS)
+from agents.stress.drivers import (
+    B_STATE,
+    B_STEP,
+    B_TORQUE,
+    B_TSTOP,
+    HOPPER_FREE,
+    HOPPER_HOLD,
+    R_BREAKS,
+    R_DRIFT_CORNER_VY,
+    R_DRIFT_CORNER_Y,
+    R_DRIFT_FG_TH,
+    R_DRIFT_FG_VY,
+    R_DRIFT_FG_W,
+    R_DRIFT_FG_Y,
+    R_DRIFT_PIVOT_VX,
+    R_EVENTS,
+    R_IMPACT_SAMPLES,
+    R_IMPACTS,
+    R_KINEMATICS_OTHER,
+    R_MAX_EVENTS_PER_STEP,
+    R_MIN_HEIGHT,
+    R_PEN_AT_BREAK,
+    R_SAMPLES_DOUBLE,
+    R_SAMPLES_SINGLE,
+    R_SIM_SECONDS,
+    R_STEPS,
+    R_VIOLATIONS,
+    R_WRONG_TILT,
+)
 from agents.stress.families import DEFAULT
 from benchmarks.report import Section, table
 from hoprover_env import RoverParams, core
-from hoprover_env.sim.testing import (KINEMATICS_OTHER, N_VIOLATION_KINDS, PEN_AT_BREAK,
-                                  RECORD_NAMES, V_BUDGET, V_KINEMATICS, V_PEN_EVENT,
-                                  V_PEN_SAMPLE, VIOLATION_NAMES, WRONG_TILT_ONLY)
+from hoprover_env.sim.testing import (
+    KINEMATICS_OTHER,
+    N_VIOLATION_KINDS,
+    PEN_AT_BREAK,
+    RECORD_NAMES,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    VIOLATION_NAMES,
+    WRONG_TILT_ONLY,
+)
 
 RUNS_HEADER = (["family", "integrator", "runs", "simulated s", "control steps", "events",
                 "impacts", "restarts after break", "max events / interval"]
@@ -74,7 +105,7 @@ The first violation of each kind in a run is recorded with the state before its 
 ### Notes
 
 {notes}
-"""
+"""  # noqa: E501 (the report's Markdown, one line a paragraph as it is written out)
 
 # The diagnosis of each mechanism seen while this section was written, printed only
 # while its violations still occur (fields filled by `notes`).

@@ -44,6 +44,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))           # agents/ of this checkout, run from anywhere
 from hoprover_env.training.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
+
 ENV_NAME = "hoprover"
 ENV_CONFIG = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0, "gamma": 0.995}
 
@@ -53,6 +54,7 @@ def build_config(env_runners: int = 2, envs_per_runner: int = 32, env_config: di
                  lr: float = 3e-4):
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.tune.registry import register_env
+
     from hoprover_env.envs.rllib import HopRoverMetrics, make_env
     register_env(ENV_NAME, make_env)
     rollout = 64                                    # steps per sub-env per iteration

@@ -31,13 +31,13 @@ from pathlib import Path
 
 import gymnasium as gym
 import torch
-from torch import nn
 from skrl.agents.torch.ppo import PPO, PPO_CFG
 from skrl.envs.wrappers.torch import wrap_env
 from skrl.memories.torch import RandomMemory
 from skrl.models.torch import DeterministicMixin, GaussianMixin, Model
 from skrl.trainers.torch import SequentialTrainer
 from skrl.utils import set_seed
+from torch import nn
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))           # agents/ (the project's evaluation code)
@@ -89,7 +89,8 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 51
     env = wrap_env(gym.make_vec(ENV_ID, num_envs=num_envs, autoreset_mode="SameStep",
                                 threads=False, **ENV_KWARGS))
     models = build(env)
-    cfg = PPO_CFG(rollouts=rollout, learning_epochs=10, mini_batches=max(1, num_envs * rollout // minibatch),
+    cfg = PPO_CFG(rollouts=rollout, learning_epochs=10,
+                  mini_batches=max(1, num_envs * rollout // minibatch),
                   discount_factor=0.98, gae_lambda=0.95, learning_rate=3e-4,
                   grad_norm_clip=0.5, ratio_clip=0.2, value_clip=0.0, entropy_loss_scale=0.0,
                   value_loss_scale=0.5)
@@ -110,10 +111,10 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 51
 
 
 def judge(policy: Policy, episodes: int, seed: int = 2015) -> dict:
-    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded targets,
-    acting with the mean action."""
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded
+    targets, acting with the mean action."""
     from hoprover_env.agents.policies import ArrayPolicy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 
     def act(obs):
         with torch.no_grad():

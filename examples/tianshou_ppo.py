@@ -33,8 +33,6 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import torch
-from torch import nn
-from torch.distributions import Independent, Normal
 from tianshou.algorithm import PPO
 from tianshou.algorithm.modelfree.reinforce import ProbabilisticActorPolicy
 from tianshou.algorithm.optim import AdamOptimizerFactory
@@ -43,6 +41,8 @@ from tianshou.env import DummyVectorEnv
 from tianshou.trainer import OnPolicyTrainerParams
 from tianshou.utils.net.common import Net
 from tianshou.utils.net.continuous import ContinuousActorProbabilistic, ContinuousCritic
+from torch import nn
+from torch.distributions import Independent, Normal
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))           # agents/ (the project's evaluation code)
@@ -99,10 +99,10 @@ def train(steps: int, num_envs: int = 64, collect: int = 2048, minibatch: int = 
 
 
 def judge(actor, episodes: int, seed: int = 2015) -> dict:
-    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded targets,
-    acting with the mean action."""
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded
+    targets, acting with the mean action."""
     from hoprover_env.agents.policies import ArrayPolicy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 
     def act(obs: np.ndarray):
         with torch.no_grad():

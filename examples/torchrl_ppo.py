@@ -10,8 +10,8 @@ What TorchRL needs from the environment:
   SAME_STEP autoreset mode; TorchRL refuses gymnasium's default NEXT_STEP mode.
 * Every info value is a number of fixed type (TTRTP -1.0 until reached, the contact
   state a code 0..6), so TorchRL's info reader builds specs from the first step: each
-  batch carries ("next", "is_success"), ("next", "ttrtp") etc. `GymEnv("HopRoverHop-v0")` (one env) and
-  `GymEnv(..., num_envs=N)` (N subprocesses) work too, but are slower.
+  batch carries ("next", "is_success"), ("next", "ttrtp") etc. `GymEnv("HopRoverHop-v0")`
+  (one env) and `GymEnv(..., num_envs=N)` (N subprocesses) work too, but are slower.
 
 The settings are those of configs/ppo_hop.yaml (SB3): 64 envs x 32 steps per batch,
 10 epochs of minibatches of 512, lr 3e-4, gamma 0.98, GAE 0.95, a state-independent
@@ -119,10 +119,10 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, epochs: int = 10,
 
 
 def judge(actor, episodes: int, seed: int = 2015) -> dict:
-    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded targets,
-    acting with the mean action."""
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+    """The contest judge (hoprover_env/evaluation/episodes.py, as evaluate.py) on the seeded
+    targets, acting with the mean action."""
     from hoprover_env.agents.policies import ArrayPolicy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
     loc_net = actor.module[0].module[0]           # the MLP giving the mean
 
     def act(obs):

@@ -51,6 +51,7 @@ def batch_on_one_and_all_threads(*args, **kw):
     """simulate_batch(*args, **kw) run on one numba thread and on all of them: the two
     BatchRollouts, to compare (the thread count must not change a bit)."""
     import numba
+
     from hoprover_env import simulate_batch
     before = numba.get_num_threads()
     try:

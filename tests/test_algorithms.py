@@ -14,8 +14,7 @@ pytest.importorskip("sb3_contrib")
 from hoprover_env.agents.policies import SB3Policy, load_sb3  # noqa: E402
 from hoprover_env.evaluation.episodes import run_episodes  # noqa: E402
 from hoprover_env.training import train  # noqa: E402
-from hoprover_env.training.sb3_agents import (ConfigError, load_config, make_agent,  # noqa: E402
-                                              validate)
+from hoprover_env.training.sb3_agents import ConfigError, load_config, make_agent, validate  # noqa: E402
 
 ENV = {"control_dt": 1.0, "episode_time": 30.0, "target_range": [-0.3, 0.3]}
 TINY = {"env_id": "HopRover-v0", "n_envs": 2, "timesteps": 300, "seed": 0, "env": ENV,
@@ -124,6 +123,7 @@ def test_bad_values_are_named(algo, section, key, value):
 
 def test_action_noise_is_a_gaussian_std_where_the_algorithm_takes_it():
     from stable_baselines3.common.noise import NormalActionNoise
+
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     for algo in ("td3", "tqc", "crossq"):
         cfg = load_config(None, {"algo": algo, "n_envs": 2})
@@ -137,6 +137,7 @@ def recurrent_policy():
     """An untrained RecurrentPPO policy with large random weights: its actions depend
     on what it remembers."""
     import torch
+
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     cfg = load_config(None, {"algo": "recurrentppo", "n_envs": 2})
     cfg["policy"] = {"net_arch": [16], "lstm_hidden_size": 8}

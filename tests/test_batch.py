@@ -5,8 +5,12 @@ import numba
 import numpy as np
 import pytest
 
-from hoprover_env import BatchRollout, RoverParams, simulate_batch, simulate
 from helpers import batch_on_one_and_all_threads
+from hoprover_env import BatchRollout, RoverParams, simulate, simulate_batch
+from hoprover_env.core.params import FIELDS, as_arrays, invalid_rows
+from hoprover_env.sim import batch as batch_module
+from hoprover_env.sim import randomize as rz
+from hoprover_env.sim.simulate import make_state
 from test_rollout import assert_identical
 
 
@@ -205,9 +209,6 @@ def test_threaded_kernels_leave_the_callers_openmp_threads_alone():
 
 
 # ---- the setup of a batch as arrays: the same numbers as the per-run path ----------------
-from hoprover_env.core.params import FIELDS, as_arrays, invalid_rows  # noqa: E402
-from hoprover_env.sim import batch as batch_module, randomize as rz  # noqa: E402
-from hoprover_env.sim.simulate import make_state  # noqa: E402
 
 NEAR_PAINLEVE = RoverParams(inertia=5e-4, mu_static=0.6, mu_dynamic=0.6)   # many redraws
 

@@ -63,6 +63,7 @@ def test_cold_compare_times_a_checkout_cold_then_cached(capsys):
     # of the same cache loads; the summary line names the checkout and its ratio
     import os
     import re
+
     from benchmarks import cold_compare
     here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     cold_compare.main([here, "--rounds", "1", "--one-process"])

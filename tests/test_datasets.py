@@ -6,9 +6,9 @@ import os
 import numpy as np
 import pytest
 
-minari = pytest.importorskip("minari", reason="pip install 'hoprover[offline]'")
-
 from hoprover_env.evaluation import datasets
+
+minari = pytest.importorskip("minari", reason="pip install 'hoprover[offline]'")
 
 
 @pytest.fixture

@@ -137,7 +137,7 @@ def test_vector_same_step_autoreset_matches_single():
 def test_vector_max_episode_steps_and_infos():
     envs = gym.make_vec("HopRover-v0", num_envs=2, max_episode_steps=5)
     envs.reset(seed=0)
-    for k in range(5):
+    for _k in range(5):
         obs, r, te, tr, info = envs.step(np.zeros((2, 1)))
     assert tr.all() and not te.any()
     for key in ("is_success", "ttrtp", "state", "target_x", "broken", "n_events"):
@@ -242,7 +242,7 @@ def test_idle_at_target_succeeds_at_five_seconds_with_bonus():
     env = HopRoverEnv(control_dt=0.5)
     env.reset(seed=0, options={"target_x": 0.0})
     total = 0.0
-    for k in range(10):
+    for _k in range(10):
         obs, r, te, tr, info = env.step(np.zeros(1, np.float32))
         total += r
     assert te and info["is_success"] and info["ttrtp"] == 5.0
@@ -280,7 +280,8 @@ def test_domain_randomisation_ranges():
         seen.append(p.gravity)
         for key, r in rel.items():
             v, v0 = getattr(p, key), getattr(base, key)
-            assert v0 * (1 - r) - 1e-15 <= v <= min(v0 * (1 + r), 1.0 if key.startswith(("mu", "rest")) else np.inf)
+            cap = 1.0 if key.startswith(("mu", "rest")) else np.inf
+            assert v0 * (1 - r) - 1e-15 <= v <= min(v0 * (1 + r), cap)
         assert p.mu_dynamic <= p.mu_static
     assert np.std(seen) > 0.05 * base.gravity       # really random
     env.reset(seed=3)
@@ -354,6 +355,7 @@ def test_sb3_adapter_contract():
 def test_sb3_ppo_trains_on_the_adapter(tmp_path):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     venv = VecNormalize(VecMonitor(HopRoverSB3VecEnv(8, seed=0, **ENV_KW)), norm_reward=False)
     model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=2, seed=0, verbose=0)

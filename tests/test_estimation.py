@@ -8,9 +8,9 @@ import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import core
-from hoprover_env.evaluation.episodes import run_episodes
-from hoprover_env.envs.registry import HopRoverMissionVectorEnv
 from hoprover_env.agents.policies import load_policy
+from hoprover_env.envs.registry import HopRoverMissionVectorEnv
+from hoprover_env.evaluation.episodes import run_episodes
 from hoprover_env.tasks import mission
 
 

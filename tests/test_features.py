@@ -6,8 +6,12 @@ import pytest
 import torch
 
 from agents.plan_clone.clone_study import _load, _model, _policy, export
-from agents.plan_clone.features import (MicroStateFeatures, micro_features, n_features,
-                                   set_statistics)
+from agents.plan_clone.features import (
+    MicroStateFeatures,
+    micro_features,
+    n_features,
+    set_statistics,
+)
 from hoprover_env.agents.policies import load_policy
 from hoprover_env.training.sb3_agents import ConfigError, load_config, validate
 

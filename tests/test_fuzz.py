@@ -18,7 +18,8 @@ import sys
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 CASE_TIMEOUT = 60.0      # s: generous for a loaded 2-core CI machine; real hangs are forever
 
@@ -36,6 +37,7 @@ def _check_rollout(r, t_end):
 
 def _run_case(case):
     import gymnasium as gym
+
     import hoprover_env  # noqa: F401 (registers the envs)
     from hoprover_env import RoverParams, RoverSim, simulate
 
@@ -149,7 +151,8 @@ def mixed(good):
 
 
 def positive(lo, hi):
-    return st.one_of(st.floats(lo, hi), st.sampled_from([np.float32(lo * 2), np.int64(max(1, hi // 2))]))
+    return st.one_of(st.floats(lo, hi),
+                     st.sampled_from([np.float32(lo * 2), np.int64(max(1, hi // 2))]))
 
 
 def names_an_argument(message, names):

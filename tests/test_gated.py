@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import torch
 
-from agents.plan_clone.clone_study import _model, _policy
 from agents.plan_clone import gated
+from agents.plan_clone.clone_study import _model, _policy
 from agents.plan_clone.features import set_statistics
 from hoprover_env.agents.policies import load_policy
 
@@ -144,8 +144,8 @@ def test_the_bundled_plan_clone_stays_still_when_it_starts_just_inside_the_band(
 def test_the_mirror_of_an_episode_is_observed_as_the_mirror_of_its_observations():
     """Fly a rover to +x with torques u and its mirror image to -x with -u: at every
     step the second observation is mirror() of the first (level ground's symmetry)."""
-    from hoprover_env.tasks.observation import mirror
     from hoprover_env.envs.vector_env import HopRoverVectorEnv
+    from hoprover_env.tasks.observation import mirror
     venv = HopRoverVectorEnv(2, control_dt=0.5)
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([0.37, -0.37])})
     rng = np.random.default_rng(3)

@@ -50,8 +50,8 @@ def test_mpc_replans_from_the_learners_flight_when_shadowing():
 
 
 def test_sample_weights_single_out_the_launch_and_the_first_decision():
-    from hoprover_env.training.imitation import sample_weights
     from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
+    from hoprover_env.training.imitation import sample_weights
     obs = np.zeros((4, OBS_DIM), dtype=np.float32)
     obs[:, OBS_TIME] = np.array([0.0, 10.0, 30.0, 10.0]) / 600.0
     obs[3, OBS_MODE] = 1.0                               # the last one in flight

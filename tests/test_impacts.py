@@ -1,7 +1,8 @@
 """The impact laws of MODEL.md section 6, called on hand-built pre-impact states."""
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hoprover_env import RoverParams, core
 
@@ -96,7 +97,8 @@ def test_slow_flat_landing_while_sliding_fast_needs_a_pull():
 
 def test_pulling_law_falls_back_to_frictionless():
     # found by search: the exact law needs a pulling normal impulse here
-    s = pre_impact(0.44186331322589567, 0.188648584799799, -0.004103067777836135, 0.004125459074536548)
+    s = pre_impact(0.44186331322589567, 0.188648584799799, -0.004103067777836135,
+                   0.004125459074536548)
     lam, _ = exact_single_impulse(s, 0)
     vp0 = point_velocity(s, 0)
     assert vp0[1] < 0 and lam[1] < 0

@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from hoprover_env import RoverParams, simulate
 from helpers import attitude_hold
+from hoprover_env import RoverParams, simulate
 
 
 def test_idle_rover_at_target_zero_is_five_seconds_exactly():

@@ -10,11 +10,10 @@ from gymnasium.vector import AutoresetMode
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env.agents.policies import ControllerPolicy, torque_to_action
 from hoprover_env.agents.scripted import ScriptedHopper
-from hoprover_env.tasks import reward
-from hoprover_env.tasks import hop, torque
+from hoprover_env.core.params import RoverParams
 from hoprover_env.envs.env import HopRoverEnv
 from hoprover_env.envs.registry import HopRoverHopEnv, HopRoverHopVectorEnv
-from hoprover_env.core.params import RoverParams
+from hoprover_env.tasks import hop, reward, torque
 
 GAMED = dict(shaping="landing", attitude_weight=1.0, gamma=0.995)   # the probe's setting
 
@@ -68,7 +67,7 @@ def test_return_ranks_success_over_staying_put_over_breaking():
         hopper = ScriptedHopper(control_dt=dt)
         params = env.config.params
 
-        def scripted(obs, rng, k, env=env):
+        def scripted(obs, rng, k, env=env, hopper=hopper, params=params):
             s = env.unwrapped._s
             t = hopper(s[0:2].copy(), s[3:5].copy(), s[2], s[5], np.array([0.5, 0.0]), s[6],
                        env.config.episode_time, "ABCDEFG"[int(s[7])])
@@ -215,6 +214,7 @@ def test_controller_policy_uses_the_envs_action_map():
 @pytest.mark.parametrize("name", ["hop", "scratch", "mission", "terrain", "terrain_base"])
 def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
     import json
+
     from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR
     path = BUNDLED_DIR / f"{BUNDLED[name]}.json"
     if name == "scratch" and not path.exists():
@@ -230,8 +230,8 @@ def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
 
 
 def test_bundled_hop_policy_runs_in_the_hop_task():
-    from hoprover_env.evaluation.episodes import run_episodes, summarize
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, summarize
     pol = load_policy("hop")
     assert pol.env_id == "HopRoverHop-v0" and pol.name == "hop"
     res = summarize(run_episodes(pol, np.linspace(-0.9, 0.9, 7)))

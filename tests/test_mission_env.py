@@ -3,7 +3,6 @@ noise (statistics over many readings), no hidden state in the observation, the
 actuator's scale error and the unknown ground, bad arguments."""
 import math
 
-import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
@@ -158,7 +157,7 @@ def test_no_hidden_state_leaks_into_one_observation():
 
 def test_without_noise_the_readings_are_the_true_state():
     rows = _readings(noise_scale=0.0, episodes=2)
-    for o, s, tx, b, p, _ in rows:
+    for o, s, _tx, b, p, _ in rows:
         assert b == 0.0
         assert o[mission.OBS_SIN] == np.float32(math.sin(s[2]))
         assert o[mission.OBS_SLOPE] == np.float32(p.slope / 0.5)

@@ -7,10 +7,17 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from hoprover_env.envs.registry import HopRoverMissionVectorEnv
-from hoprover_env.agents.mission_hop import (F_HOPS, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO,
-                                      F_TO_GO, LearnedHopper, MissionHopEnv)
+from hoprover_env.agents.mission_hop import (
+    F_HOPS,
+    F_LAST_ACTION,
+    F_LAST_MOVED,
+    F_LAST_TO_GO,
+    F_TO_GO,
+    LearnedHopper,
+    MissionHopEnv,
+)
 from hoprover_env.agents.policies import ControllerPolicy
+from hoprover_env.envs.registry import HopRoverMissionVectorEnv
 
 
 def toward(f):
@@ -71,9 +78,11 @@ def test_a_non_finite_hop_action_is_refused_by_name(bad):
 
 
 def _tiny_config(tmp_path, **extra):
-    import yaml
     from pathlib import Path
-    cfg = yaml.safe_load(open(Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"))
+
+    import yaml
+    config = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
+    cfg = yaml.safe_load(open(config))
     cfg.update(n_envs=2, timesteps=32, evaluation={"freq": 16, "episodes": 2})
     cfg["hyperparams"].update(n_steps=16, batch_size=16, n_epochs=1)
     cfg.update(extra)
@@ -84,6 +93,7 @@ def _tiny_config(tmp_path, **extra):
 
 def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
     import csv
+
     from agents import train_mission
     from hoprover_env.agents.policies import load_policy
     cfg, out = _tiny_config(tmp_path), tmp_path / "run"
@@ -115,8 +125,9 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     """The bar of 90 % on the suite, on the suite's first 40 episodes; the whole
     suite's 97.5 % is in docs/studies/mission.md."""
     import dataclasses
-    from hoprover_env.evaluation import suites
+
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation import suites
     policy = load_policy("mission")
     assert policy.env_id == "HopRoverMission-v0"
     suite = suites.load("HopRoverMission-v0")
@@ -127,6 +138,7 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
 
 def test_train_py_points_a_hop_config_to_its_own_trainer():
     from pathlib import Path
+
     from hoprover_env.training.sb3_agents import ConfigError, load_config
     path = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="agents.train_mission"):
@@ -134,8 +146,9 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
 
 
 def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
-    from agents import baselines
     import json
+
+    from agents import baselines
     out = tmp_path / "runs"
     out.mkdir()
     baselines.train(_tiny_config(tmp_path), [0], out, timesteps=16)

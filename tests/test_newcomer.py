@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hoprover_env.agents.policies import BUNDLED_DIR
 from hoprover_env.training import evaluate
 from hoprover_env.util.files import atomic_write, write_json
-from hoprover_env.agents.policies import BUNDLED_DIR
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -152,6 +152,7 @@ TINY_CFG = {
 ])
 def test_config_values_are_type_checked(tmp_path, section, key, value, expected):
     import yaml
+
     from hoprover_env.training.sb3_agents import ConfigError, load_config
     cfg = copy.deepcopy(TINY_CFG)
     cfg.setdefault(section, {})[key] = value
@@ -208,6 +209,7 @@ def _check_run_files(run):
 
 def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, monkeypatch):
     import yaml
+
     from hoprover_env.training import train
     cfg = dict(TINY_CFG)
     path = tmp_path / "c.yaml"
@@ -251,8 +253,8 @@ def test_torque_overlay_text():
 
 
 def test_recording_of_a_success_has_its_ttrtp(tmp_path):
-    from hoprover_env.evaluation.plots import nine_figures
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.plots import nine_figures
     from hoprover_env.evaluation.replay import record_episode
     rec = record_episode(load_policy("scripted"), 0.5)
     assert rec.ttrtp is not None and rec.ttrtp > 0
@@ -262,8 +264,8 @@ def test_recording_of_a_success_has_its_ttrtp(tmp_path):
 def test_recording_of_a_hop_level_policy_flies_its_hops():
     # the hop policy acts once per hop in HopRoverHop-v0; recorded in HopRover-v0 (as it
     # was) its actions became torques and the episode failed
-    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.evaluation.replay import record_episode
     policy = load_policy("hop")
     rec = record_episode(policy, 0.7)

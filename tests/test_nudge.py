@@ -4,8 +4,15 @@ import pytest
 
 from agents.plan_clone import nudge
 from agents.plan_clone.plan_table import PlanTableTeacher, load_table
-from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, OBS_VX,
-                                            RATE_SCALE, mirror)
+from hoprover_env.tasks.observation import (
+    OBS_DX,
+    OBS_MODE,
+    OBS_RATE,
+    OBS_SIN,
+    OBS_VX,
+    RATE_SCALE,
+    mirror,
+)
 
 TABLE = "benchmarks/results/plan_clone_retry/table.npz"
 

@@ -98,6 +98,7 @@ def test_the_teacher_flies_the_table_plans(table):
 
 def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
     import yaml
+
     import agents.plan_clone.clone_study as cs
     from hoprover_env.agents.policies import load_policy
     judged = []
@@ -160,6 +161,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     assert gated.net.symmetric and gated.net.flight and gated.net.hold and gated.net.rest
     assert gated.net.deadzone == 0.0
     import torch
+
     from agents.plan_clone.gated import Branch
     refit = Branch.from_sb3(load_policy(str(out / "main_edge_1")))   # what it was made of
     obs = torch.as_tensor(np.random.default_rng(0).normal(size=(8, 19)), dtype=torch.float32)

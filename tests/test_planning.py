@@ -4,10 +4,19 @@ import math
 import numpy as np
 import pytest
 
-from hoprover_env import RoverParams, simulate_batch, simulate
+from hoprover_env import RoverParams, simulate, simulate_batch
+from hoprover_env.agents.planning import (
+    CONTROL_DT,
+    HEAD,
+    PLAN_SIZE,
+    Problem,
+    evaluate,
+    plan_controller,
+    plan_end,
+    plan_torque,
+    search,
+)
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.agents.planning import (CONTROL_DT, HEAD, PLAN_SIZE, Problem, evaluate,
-                                   plan_controller, plan_end, plan_torque, search)
 
 P = RoverParams()
 REST = np.array([0.0, P.half_height, 0.0, 0.0, 0.0, 0.0])
@@ -84,8 +93,8 @@ def test_mpc_rejects_bad_budgets():
 def test_mpc_plays_an_episode_alike_alone_and_in_any_batch():
     # the agent's random streams (its CMA-ES seeds, its own terrain samples) are keyed by
     # the state it plans from, not by the episodes planned beside it or before it
-    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.agents.mpc import MPCPolicy
+    from hoprover_env.evaluation.episodes import run_episodes
     targets = np.array([0.35, -0.3, 0.6])
     ground = {"slope": np.array([0.1, -0.05, 0.0]), "roughness": np.full(3, 0.05),
               "terrain_seed": np.array([11, 22, 33])}

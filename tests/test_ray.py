@@ -35,6 +35,7 @@ def local_ray():
 def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
     sys.path.insert(0, str(ROOT / "examples"))
     import rllib_ppo
+
     from hoprover_env import HopRoverVectorEnv
     from hoprover_env.envs.rllib import make_env
     # what the EnvRunners build in vector_entry_point mode: the native vector env
@@ -60,9 +61,10 @@ def test_rllib_ppo_trains_an_iteration_on_the_native_vector_env(local_ray):
 
 def _fresh_worker_evaluates():
     """In a Ray worker: evaluate every kind of policy, then count numba's compiles."""
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
-    from hoprover_env.agents.policies import load_policy
     import numba
+
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
     from hoprover_env.training.warm_cache import compile_counts
     for name in ("scratch", "hop", "scripted", "random"):
         run_episodes(load_policy(name, control_dt=0.5), seeded_targets(3, 5), batch=2)
@@ -118,8 +120,8 @@ def test_evaluate_on_ray_equals_the_local_run_episode_for_episode(tmp_path):
 
 def test_evaluate_chunks_follow_the_local_batches(local_ray):
     # the split itself: chunks of one batch each, merged in target order
-    from hoprover_env.training.ray_eval import evaluate_on_ray
     from hoprover_env.evaluation.episodes import seeded_targets
+    from hoprover_env.training.ray_eval import evaluate_on_ray
     targets = seeded_targets(10, 3)
     seen = []
     res = evaluate_on_ray([("policy", "random", "random")], targets, 0.5, 0, batch=4,
@@ -163,7 +165,7 @@ def test_asha_stops_no_trial_on_its_untrained_evaluation():
 
 def test_policy_files_travel_with_the_tasks(tmp_path):
     # a run directory on the driver only: its model files are read here, rebuilt there
-    from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED
+    from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR
     from hoprover_env.training.ray_eval import _materialize, policy_files
     run = tmp_path / "myrun"
     run.mkdir()
@@ -188,6 +190,7 @@ def test_policy_files_travel_with_the_tasks(tmp_path):
 
 def test_rllib_creator_builds_every_registered_task():
     import gymnasium as gym
+
     from hoprover_env import ENVS, env_class, vector_env_class
     from hoprover_env.envs.rllib import make_env
     for env_id, spec in ENVS.items():

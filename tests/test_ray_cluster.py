@@ -64,8 +64,8 @@ def _ensure_workers(c, n):
 
 
 def test_evaluation_that_loses_a_node_gives_the_local_table(cluster):
-    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
     from hoprover_env.training.ray_eval import evaluate_on_ray
     _ensure_workers(cluster, 2)
     targets = seeded_targets(24, 11)

@@ -116,6 +116,7 @@ def test_position_figure_shows_the_contact_point_in_the_band_beside_the_cm():
     # at rest with the target 0.09 m ahead: the c.m. (x = 0) never enters the band
     # [0.04, 0.14], corner A (x = 0.05) is in it from the start, so TTRTP = 5 s
     import matplotlib.pyplot as plt
+
     from hoprover_env.evaluation.plots import position_figure
     roll = simulate([0.0], t_end=8.0, control_dt=0.5, target_x=0.09,
                     params=RoverParams(slope=0.2), sample_dt=0.25)
@@ -189,8 +190,8 @@ def test_record_episode_flies_the_ground_it_is_given():
     # evaluate.py's per-episode ground (run_episodes' `terrain`) reaches the recording:
     # the replay is on that slope and its contact point holds the band for the judge's
     # last 5 s before the env's TTRTP
-    from hoprover_env.evaluation.plots import contact_point_x
     from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.plots import contact_point_x
     from hoprover_env.evaluation.replay import record_episode
     rec = record_episode(load_policy("scripted"), 0.6,
                          terrain={"slope": -0.15, "roughness": 0.05})

@@ -3,7 +3,7 @@ import numba
 import numpy as np
 import pytest
 
-from hoprover_env import RoverParams, simulate_batch, simulate
+from hoprover_env import RoverParams, simulate, simulate_batch
 from hoprover_env.agents.planning import PLAN_SIZE, plan_controller
 
 ROUGH = RoverParams(slope=0.1, roughness=0.15)

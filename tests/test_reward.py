@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hoprover_env import ENVS
-from hoprover_env.tasks import reward
 from hoprover_env.core.params import RoverParams
+from hoprover_env.tasks import reward
 
 TERMS = [f"reward_{name}" for name in reward.TERMS]
 STEPS = 60

@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 import yaml
 
-from hoprover_env.training import evaluate
-from hoprover_env.training import train
 from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED_NAME
+from hoprover_env.training import evaluate, train
 
 TINY = {
     "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
@@ -73,8 +72,8 @@ def test_terrain_yaml_sets_its_ground_and_trains(tmp_path):
     saved = yaml.safe_load((out / "config.yaml").read_text())
     assert saved["env_id"] == "HopRoverTerrain-v0"
     assert saved["env"]["slope_range"] == [-0.3, 0.3] and saved["env"]["roughness"] == 0.1
-    from hoprover_env.training.sb3_agents import env_kwargs
     from hoprover_env import vector_env_class
+    from hoprover_env.training.sb3_agents import env_kwargs
     venv = vector_env_class(saved["env_id"])(4, **env_kwargs(saved))
     assert venv.config.slope_range == (-0.3, 0.3) and venv.config.roughness == 0.1
 
@@ -272,7 +271,8 @@ def test_evaluate_every_policy_kind(tmp_path, capsys):
                        "--out", str(run), "--no-progress"]) == 0
     ctrl = tmp_path / "entry.py"
     ctrl.write_text(CONTROLLER)
-    js, cs, figs, vid = tmp_path / "r.json", tmp_path / "r.csv", tmp_path / "figs", tmp_path / "v.gif"
+    js, cs = tmp_path / "r.json", tmp_path / "r.csv"
+    figs, vid = tmp_path / "figs", tmp_path / "v.gif"
     code = evaluate.main(["--policy", "bundled", "--policy", "scripted", "--policy", "random",
                           "--policy", str(run), "--controller", f"{ctrl}:Control",
                           "--episodes", "3", "--json", str(js), "--csv", str(cs),
@@ -336,6 +336,7 @@ def test_init_from_starts_a_fresh_run_from_a_models_weights_and_statistics(tmp_p
     statistics, with this config's hyperparameters (here a falling learning rate), which
     --resume cannot change (SB3 restores them from the .zip)."""
     import pickle
+
     import torch
     from stable_baselines3 import PPO
     base = {**TINY, "pretrain": None}
@@ -385,6 +386,7 @@ def test_init_from_and_pretrain_exclude_each_other(tmp_path, capsys):
 
 def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_path):
     import torch
+
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.training.sb3_agents import load_config
     cfg = load_config("ppo_terrain_fine", {"n_envs": 16})
@@ -398,8 +400,8 @@ def test_the_terrain_fine_tuning_config_starts_from_the_bundled_base_policy(tmp_
 def test_learning_rate_end_falls_from_the_algorithms_own_default(tmp_path):
     """Without `learning_rate` the schedule starts at the algorithm's default (TD3's is
     1e-3, PPO's 3e-4), not at one number for all."""
-    from hoprover_env.training.sb3_agents import load_config, make_agent
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+    from hoprover_env.training.sb3_agents import load_config, make_agent
     for algo, start in (("ppo", 3e-4), ("td3", 1e-3)):
         cfg = load_config(None, {"algo": algo, "n_envs": 2})
         cfg["hyperparams"] = {"learning_rate_end": 1e-6}

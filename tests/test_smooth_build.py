@@ -74,6 +74,7 @@ def test_the_smooth_kernels_are_found_by_the_name_they_pickle_under():
     # cache) pickles by reference, module and qualified name: deepcopying an env that
     # holds the smooth build must find each of them again
     import pickle
+
     from hoprover_env.core import smooth
     from hoprover_env.jit.compiler import _module_attribute
     kernels = [v for k, v in vars(smooth).items() if k.endswith("_smooth")]

@@ -2,11 +2,12 @@
 import math
 
 import numpy as np
-from hypothesis import assume, given, strategies as st
+from hypothesis import assume, given
+from hypothesis import strategies as st
 
+from helpers import attitude_hold
 from hoprover_env import RoverParams, simulate
 from hoprover_env.sim.testing import kinematic_violations
-from helpers import attitude_hold
 
 
 @st.composite

@@ -78,6 +78,7 @@ def test_a_modified_file_fails_its_checksum(tmp_path):
 
 def test_evaluate_suite_prints_scores_and_writes_the_fields(tmp_path, capsys):
     import json
+
     from hoprover_env.training import evaluate
     out = tmp_path / "rows.json"
     assert evaluate.main(["--suite", "--env", "HopRoverContest-v0", "--policy", "scripted",
@@ -106,9 +107,9 @@ def test_agents_play_the_references_ground(env_id):
     """An agent run on a suite (suites.run's path: run_episodes with the suite's ground)
     meets the bumps its reference was searched on: a policy that plays the reference
     schedule as actions reaches the reference TTRTP."""
-    from hoprover_env.evaluation.episodes import run_episodes
-    from hoprover_env.agents.policies import torque_to_action
     from hoprover_env import RoverParams
+    from hoprover_env.agents.policies import torque_to_action
+    from hoprover_env.evaluation.episodes import run_episodes
 
     suite = suites.load(env_id)
     pick = [0, 1, 2]

@@ -11,9 +11,9 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import RoverParams, simulate
+from hoprover_env.envs.registry import HopRoverTerrainVectorEnv
 from hoprover_env.tasks.observation import OBS_LANDING
 from hoprover_env.tasks.terrain import OBS_SLOPE
-from hoprover_env.envs.registry import HopRoverTerrainVectorEnv
 
 
 def test_checkers_pass_and_the_observation_carries_the_slope():
@@ -101,9 +101,9 @@ def test_the_landing_point_is_computed_on_the_slope():
 
 @pytest.mark.parametrize("phi", [-0.2, 0.2])
 def test_the_scripted_hopper_plans_on_the_slope_it_is_given(phi):
-    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.agents.policies import ControllerPolicy, load_policy
     from hoprover_env.agents.scripted import ScriptedHopper
+    from hoprover_env.evaluation.episodes import run_episodes
 
     class FlatPlanner(ScriptedHopper):       # keeps planning for the level ground
         def use_params(self, params):

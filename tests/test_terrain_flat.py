@@ -6,8 +6,8 @@ import os
 import numpy as np
 import pytest
 
-from hoprover_env import simulate
 from flat_cases import cases, record
+from hoprover_env import simulate
 
 BASELINE = np.load(os.path.join(os.path.dirname(__file__), "data", "flat_baseline.npz"))
 CASES = cases()

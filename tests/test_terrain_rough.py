@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from hoprover_env import RoverParams, RoverSim, core, simulate_batch, simulate
-from hoprover_env.sim.simulate import make_state
 from flat_cases import HopSequence
 from helpers import batch_on_one_and_all_threads
+from hoprover_env import RoverParams, RoverSim, core, simulate, simulate_batch
+from hoprover_env.sim.simulate import make_state
 
 U = np.uint64
 ROUGH = RoverParams(roughness=0.1, slope=0.15)

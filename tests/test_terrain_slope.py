@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from hoprover_env import RoverParams, RoverSim, core, simulate
 from helpers import first_landing
+from hoprover_env import RoverParams, RoverSim, core, simulate
 from hoprover_env.sim.reference import Ref
 
 SLOPES = [-0.3, -0.1, 0.1, 0.3]
@@ -126,8 +126,9 @@ def test_flight_on_a_slope_sample_by_sample(slope, omega0, torque):
 def test_euler_converges_to_event_at_first_order_on_a_slope(slope):
     t_ref, x_ref = first_landing("event", params=RoverParams(slope=slope))
     dts = [1e-2, 1e-3, 1e-4]
-    errs = np.array([[abs(v - r) for v, r in zip(first_landing("euler", dt, params=RoverParams(slope=slope)),
-                                                 (t_ref, x_ref))] for dt in dts])
+    errs = np.array([[abs(v - r) for v, r in zip(
+        first_landing("euler", dt, params=RoverParams(slope=slope)), (t_ref, x_ref))]
+        for dt in dts])
     assert np.all(np.diff(errs[:, 0]) < 0) and np.all(np.diff(errs[:, 1]) < 0)
     overall = np.log(errs[0] / errs[-1]) / np.log(dts[0] / dts[-1])
     assert np.all((overall > 0.8) & (overall < 1.3)), overall

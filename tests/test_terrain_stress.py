@@ -4,7 +4,8 @@ seed, and no energy gain at an impact under the dissipative law."""
 import dataclasses
 
 import numpy as np
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hoprover_env.sim.testing import kinematic_violations
 from test_stress import run, scenario

@@ -4,11 +4,18 @@ import dataclasses
 
 import numpy as np
 
-from hoprover_env import simulate
-from hoprover_env.sim.testing import (V_KINEMATICS, V_NAN, V_PEN_SAMPLE, check_state,
-                                  gained_energy, kinematic_violations, new_drift,
-                                  rollout_states)
 from helpers import launch_then_hold
+from hoprover_env import simulate
+from hoprover_env.sim.testing import (
+    V_KINEMATICS,
+    V_NAN,
+    V_PEN_SAMPLE,
+    check_state,
+    gained_energy,
+    kinematic_violations,
+    new_drift,
+    rollout_states,
+)
 
 
 def hop():

@@ -138,6 +138,7 @@ def test_cleanrl_wrapper_stack_runs_on_gymnasium_1():
 def _zoo_entry_as_config(algo: str, env_id: str, hp: dict) -> dict:
     """A zoo entry in train.py's terms: what the two must agree on."""
     from torch import nn
+
     from hoprover_env.training.sb3_agents import ACTIVATIONS
     hp = dict(hp)
     norm = ast.literal_eval(hp.pop("normalize", "{}"))
@@ -149,7 +150,8 @@ def _zoo_entry_as_config(algo: str, env_id: str, hp: dict) -> dict:
         assert hp.pop("noise_type") == "normal"
         hp["action_noise"] = hp.pop("noise_std")
     return {"algo": algo, "n_envs": hp.pop("n_envs"), "timesteps": int(hp.pop("n_timesteps")),
-            "policy": pk, "obs": norm.get("norm_obs", True), "reward": norm.get("norm_reward", True),
+            "policy": pk, "obs": norm.get("norm_obs", True),
+            "reward": norm.get("norm_reward", True),
             "hyperparams": {k: v for k, v in hp.items() if k != "policy"}}
 
 

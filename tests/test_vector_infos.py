@@ -10,7 +10,8 @@ import pytest
 
 from hoprover_env import HopRoverVectorEnv, core
 from hoprover_env.core.params import P_SLOPE
-from hoprover_env.envs.parts import full_info, info as make_info
+from hoprover_env.envs.parts import full_info
+from hoprover_env.envs.parts import info as make_info
 
 N = 12
 STEPS = 40

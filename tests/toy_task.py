@@ -49,7 +49,7 @@ from typing import ClassVar
 import numpy as np
 
 from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TH, S_W
-from hoprover_env.jit.compiler import F64, NONE, VEC, VEC32, kernel
+from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration, torque
 from hoprover_env.tasks.common import ADVANCE, TaskSpec
 from hoprover_env.tasks.config import EnvConfig

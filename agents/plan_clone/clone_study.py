@@ -1,9 +1,10 @@
 """Cloning studies toward a learned policy within 5 % of the best-known plans: collect
 expert data once, then fit and judge clones of it in seconds to minutes.
 
-    python -m agents.plan_clone.clone_study collect --out runs/clone/demo_a.npz --seed 11 --episodes 200
-    python -m agents.plan_clone.clone_study collect --out runs/clone/short.npz --seed 23 --episodes 200 \\
-        --target-range -0.35 0.35                      # short hops only
+    python -m agents.plan_clone.clone_study collect --out runs/clone/demo_a.npz --seed 11 \\
+        --episodes 200
+    python -m agents.plan_clone.clone_study collect --out runs/clone/short.npz --seed 23 \\
+        --episodes 200 --target-range -0.35 0.35                      # short hops only
     python -m agents.plan_clone.clone_study fit --data runs/clone/demo_a.npz --epochs 100 \\
         --ground-weight 10 --save runs/clone/clone_a.pkl
 
@@ -34,8 +35,8 @@ BINS = ((0.0, 0.1), (0.1, 0.32), (0.32, 1.01))
 
 def _model(action_map: str, arch=None, activation: str | None = None,
            features: str | None = None):
-    from hoprover_env.training.train import build_env
     from hoprover_env.training.sb3_agents import load_config, make_agent
+    from hoprover_env.training.train import build_env
     cfg = load_config(CONFIG)
     cfg["n_envs"] = 4
     cfg["env"]["action_map"] = action_map
@@ -62,6 +63,7 @@ def _load(path, venv, model, log=None):
     `--features` loads into one with them: its first layers' weights on the new inputs
     are zero (the same function to start from), and the features get the statistics."""
     import torch
+
     from agents.plan_clone.features import set_statistics
     with open(path, "rb") as f:
         saved = pickle.load(f)
@@ -103,16 +105,17 @@ def export(cfg, venv, model, out) -> None:
     """The clone as a run directory `load_policy` reads (best_model.zip, its metadata
     and VecNormalize statistics), written as train.py writes its models."""
     from pathlib import Path
-    from hoprover_env.training.train import save_model
+
     from hoprover_env.training.sb3_agents import env_kwargs
+    from hoprover_env.training.train import save_model
     save_model(model, venv, Path(out) / "best_model",
                {"algo": cfg["algo"], "env_id": cfg["env_id"], "env_kwargs": env_kwargs(cfg),
                 "config": cfg})
 
 
 def collect_cmd(args) -> None:
+    from agents.plan_clone.gated import load_any as load_policy  # a research .pt too
     from hoprover_env.training.imitation import collect
-    from agents.plan_clone.gated import load_any as load_policy   # a research .pt too
     from hoprover_env.training.sb3_agents import env_kwargs
     cfg, venv, model = _model(args.action_map, args.arch, args.activation, args.features)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
@@ -158,6 +161,7 @@ def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weigh
     """Fit a clone to the collections `data` (paths), save it (`save`: weights and
     statistics; `export_dir`: a run directory), and return `judge`'s results."""
     import torch
+
     from hoprover_env.training.imitation import clone
     torch.set_num_threads(1)
     cfg, venv, model = _model(action_map, arch, activation, features)

@@ -55,8 +55,16 @@ from torch import nn
 
 from hoprover_env.core.layout import MODE_A, MODE_F, MODE_LETTERS
 from hoprover_env.core.params import RoverParams
-from hoprover_env.tasks.observation import (OBS_DX, OBS_MODE, OBS_REF, OBS_SIN, OBS_VX,
-                                            POS_SCALE, VEL_SCALE, mirror)
+from hoprover_env.tasks.observation import (
+    OBS_DX,
+    OBS_MODE,
+    OBS_REF,
+    OBS_SIN,
+    OBS_VX,
+    POS_SCALE,
+    VEL_SCALE,
+    mirror,
+)
 
 NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
 STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
@@ -134,7 +142,7 @@ class Branch(nn.Module):
         return self.head(self.mlp(self.features(z)))
 
     @classmethod
-    def from_sb3(cls, policy) -> "Branch":
+    def from_sb3(cls, policy) -> Branch:
         """The deterministic actor of an SB3Policy (hoprover_env.agents.policies)."""
         p = policy.model.policy
         rms = policy.obs_rms
@@ -182,6 +190,7 @@ def _spec(branch: Branch) -> dict:
 def _branch(spec: dict, obs_dim: int = 19) -> Branch:
     from gymnasium import spaces
     from stable_baselines3.common.torch_layers import FlattenExtractor
+
     from agents.plan_clone.features import MicroStateFeatures
     space = spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
     features = MicroStateFeatures(space) if spec["micro"] else FlattenExtractor(space)
@@ -197,6 +206,7 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     """The weights (.pt) and, beside them (.json), the branches' sizes and `meta` (how
     it was made), each written atomically."""
     import io
+
     from hoprover_env.util.files import atomic_write, write_json
     path = Path(path)
     buf = io.BytesIO()

@@ -48,9 +48,9 @@ import time
 
 import numpy as np
 
+from agents.plan_clone.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
 from agents.plan_clone.plan_table import BAND_EDGE
 from hoprover_env.core.layout import MODE_B, MODE_E, MODE_F
-from agents.plan_clone.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
 from hoprover_env.tasks.observation import OBS_DX, OBS_RATE, OBS_SIN, POS_SCALE, RATE_SCALE
 
 PIVOTS = tuple(range(MODE_B, MODE_E + 1))    # B-E: on one corner
@@ -216,9 +216,10 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     (docs/studies/plan-clone.md, sections 9 and 10).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
+
     from agents.plan_clone.clone_study import fit, judge, report
-    from hoprover_env.util.files import write_npz
     from agents.plan_clone.gated import load_any as load_policy
+    from hoprover_env.util.files import write_npz
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
     hold, rest = bool(cfg.get("hold", False)), bool(cfg.get("rest", False))
     deadzone = float(cfg.get("deadzone", 0.01))
@@ -269,8 +270,8 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
     from agents.plan_clone.clone_study import _model, _policy, save_clone
-    from hoprover_env.training.imitation import clone
     from hoprover_env.tasks.observation import mirror as mirrored
+    from hoprover_env.training.imitation import clone
     parts = []
     for p in data:
         with np.load(p) as d:
@@ -307,8 +308,8 @@ def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
     """The gated network (agents.plan_clone.gated) of a main clone (a run directory) and a
     nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`,
     `flight`, `hold`, `rest`: GatedNet's."""
-    from agents.plan_clone.clone_study import load_clone
     from agents.plan_clone import gated
+    from agents.plan_clone.clone_study import load_clone
     from hoprover_env.agents.policies import load_policy
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
@@ -351,6 +352,7 @@ def main(argv=None) -> int:
                    help="gate on the ground by the rest offset (the corner stood on)")
     args = ap.parse_args(argv)
     from pathlib import Path
+
     from agents.plan_clone.plan_table import load_table
     from hoprover_env.util.files import write_npz
     log = lambda m: print(m, flush=True)       # noqa: E731

@@ -51,11 +51,17 @@ import numpy as np
 
 from agents.plan_clone.clone_study import BINS
 from hoprover_env import core
-from hoprover_env.util.files import write_npz
 from hoprover_env.agents.mpc import MPCPolicy
+from hoprover_env.agents.planning import (
+    CONTROL_DT,
+    Problem,
+    evaluate,
+    normal_sampler,
+    plans_from_points,
+    search,
+)
 from hoprover_env.core.params import RoverParams
-from hoprover_env.agents.planning import (CONTROL_DT, Problem, evaluate, normal_sampler,
-                                   plans_from_points, search)
+from hoprover_env.util.files import write_npz
 
 # m: a target nearer than this to the start (the rover's half-width plus the band's) is
 # in the band at t = 0
@@ -173,9 +179,11 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float,
         ok = np.isfinite(tv) & (tv <= ttrtp * (1 + tol))
         u[ok], ttrtp[ok] = v[ok], tv[ok]
         log(f"{label}: kept for {ok.sum()}/{n} targets")
-    simplify("launch held until liftoff", lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
+    simplify("launch held until liftoff",
+             lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
     for k in CORRECTION_LENGTHS:
-        simplify(f"no correction window (coordinate {k})", lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
+        simplify(f"no correction window (coordinate {k})",
+                 lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
     out = mirror_short_hops({**table, "u": u, "ttrtp": ttrtp}, mirror_tol, log, probs)
     r = out["ttrtp"] / t0
     log(f"TTRTP against step 1's plans: median {np.median(r):.4f}, worst {r.max():.4f}")
@@ -415,7 +423,9 @@ def pipeline(config_path, out, log=print) -> dict:
     a killed run starts again from its last finished one (the last nudge branch is
     fitted again)."""
     from pathlib import Path
+
     import yaml
+
     from agents.plan_clone.clone_study import fit, load_clone, report
     from hoprover_env.util.files import write_json
     cfg = yaml.safe_load(Path(config_path).read_text())
@@ -438,7 +448,7 @@ def pipeline(config_path, out, log=print) -> dict:
         if not epath.exists():
             write_npz(epath, **refine_edge(load_table(tpath), cfg["edge"], log=log))
         tpath = epath
-    if cfg.get("nudge"):             # the edge's nudges as state feedback (agents/plan_clone/nudge.py)
+    if cfg.get("nudge"):       # the edge's nudges as state feedback (agents/plan_clone/nudge.py)
         from agents.plan_clone.nudge import choose, search, with_family
         npath = out / "table_nudge.npz"
         if not npath.exists():
@@ -537,6 +547,7 @@ def main(argv=None) -> int:
         write_npz(args.out, **table)
     elif args.cmd == "judge":
         import json
+
         from agents.plan_clone.clone_study import judge
         teacher = PlanTableTeacher(load_table(args.table), interpolate=args.interpolate)
         log(json.dumps(judge(teacher), indent=1))

@@ -23,17 +23,40 @@ import time
 import numpy as np
 
 from hoprover_env import RoverParams, core
-from hoprover_env.jit.compiler import kernel
-from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.core import MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G
 from hoprover_env.core.params import P_H, P_I, P_TMAX
+from hoprover_env.jit.compiler import kernel
+from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.sim.simulate import make_options, make_state
 from hoprover_env.sim.testing import (
-    D_CORNER_VY, D_CORNER_Y, D_FG_TH, D_FG_VY, D_FG_W, D_FG_Y, D_MIN_HEIGHT, D_PIVOT_VX,
-    D_SAMPLES_DOUBLE, D_SAMPLES_SINGLE, KINEMATIC_TOL, KINEMATICS_OTHER, N_DRIFT, N_RECORDS,
-    N_VIOLATION_KINDS, PEN_AT_BREAK, PENETRATION_TOL, V_BUDGET, V_ENERGY, V_NAN,
-    V_PEN_EVENT, V_TIME, WRONG_TILT_ONLY, check_state, finite_state, gained_energy,
-    new_drift)
+    D_CORNER_VY,
+    D_CORNER_Y,
+    D_FG_TH,
+    D_FG_VY,
+    D_FG_W,
+    D_FG_Y,
+    D_MIN_HEIGHT,
+    D_PIVOT_VX,
+    D_SAMPLES_DOUBLE,
+    D_SAMPLES_SINGLE,
+    KINEMATIC_TOL,
+    KINEMATICS_OTHER,
+    N_DRIFT,
+    N_RECORDS,
+    N_VIOLATION_KINDS,
+    PEN_AT_BREAK,
+    PENETRATION_TOL,
+    V_BUDGET,
+    V_ENERGY,
+    V_NAN,
+    V_PEN_EVENT,
+    V_TIME,
+    WRONG_TILT_ONLY,
+    check_state,
+    finite_state,
+    gained_energy,
+    new_drift,
+)
 
 # Result slots of one driver call (R_*), a flat float vector: counters, then the drift
 # record of hoprover_env.sim.testing (D_* slots, from R_DRIFT on), then more counters and

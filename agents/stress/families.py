@@ -10,8 +10,18 @@ import math
 
 import numpy as np
 
-from agents.stress.drivers import (CTRL_HOPPER, CTRL_SCHEDULE, HOPPER_FREE, HOPPER_HOLD, TARGET_X,
-                           RunSpec, controller_params, flight_state_at, state_from, upright)
+from agents.stress.drivers import (
+    CTRL_HOPPER,
+    CTRL_SCHEDULE,
+    HOPPER_FREE,
+    HOPPER_HOLD,
+    TARGET_X,
+    RunSpec,
+    controller_params,
+    flight_state_at,
+    state_from,
+    upright,
+)
 from hoprover_env import RoverParams
 from hoprover_env.sim.simulate import make_state
 
@@ -85,7 +95,7 @@ def family_press_bounces(rng, quick):
                           label=f"pressing hopper, control dt {dt:g} s",
                           initial=upright(DEFAULT))
     n_drop = 8 if quick else 60
-    for rep in range(n_drop):
+    for _rep in range(n_drop):
         p = DEFAULT
         th = rng.choice([-1, 1]) * rng.uniform(0.005, 0.6)
         k = 0 if th > 0 else 1          # the lower corner at this attitude
@@ -163,7 +173,7 @@ def family_near_flat(rng, quick):
     one simultaneous and two sequential impacts."""
     n = 40 if quick else 400
     specs, p, (dt, t_end) = [], DEFAULT, LANDING_TIMES
-    for rep in range(n):
+    for _rep in range(n):
         th = rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -6)
         w = rng.choice([0.0, 1.0]) * rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -8)
         vx = rng.choice([0.0, 1.0]) * rng.uniform(-3e-3, 3e-3)

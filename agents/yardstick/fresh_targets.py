@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bound", type=float, default=1.30)
     ap.add_argument("--out", default=None, help="write the per-target times (JSON)")
     args = ap.parse_args(argv)
-    from agents.plan_clone.gated import load_any as load_policy   # a research .pt too
+    from agents.plan_clone.gated import load_any as load_policy  # a research .pt too
     if args.edge is None:
         args.edge = 100 if args.task == "level" else 0
     if args.task == "terrain" and args.edge:

@@ -31,9 +31,9 @@ from pathlib import Path
 
 import numpy as np
 
-from hoprover_env.util.files import atomic_write
 from hoprover_env.evaluation import suites
 from hoprover_env.evaluation.scores import format_table, summarize
+from hoprover_env.util.files import atomic_write
 
 ROOT = Path(__file__).resolve().parents[2]     # the repository
 SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}

@@ -21,10 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
-from hoprover_env.evaluation import suites
-from hoprover_env.util.files import atomic_write
 from hoprover_env.agents.policies import load_policy
+from hoprover_env.evaluation import suites
 from hoprover_env.evaluation.scores import summarize
+from hoprover_env.util.files import atomic_write
 
 ENV_ID = "HopRoverMission-v0"
 SCALES = (0.0, 0.5, 1.0, 2.0, 4.0)

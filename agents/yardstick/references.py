@@ -31,9 +31,9 @@ from pathlib import Path
 import numpy as np
 
 import hoprover_env
-from hoprover_env import RoverParams, simulate_batch, simulate
-from hoprover_env.evaluation import suites
+from hoprover_env import RoverParams, simulate_batch
 from hoprover_env.agents.planning import CONTROL_DT, Problem, plan_controller, search
+from hoprover_env.evaluation import suites
 
 T_END = suites.EPISODE_TIME
 
@@ -101,6 +101,7 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
     """An agent's applied torque per 0.5 s interval on each episode, recorded in the
     vector env (an agent acting every 2 s holds its torque over four intervals)."""
     from gymnasium.vector import AutoresetMode
+
     from hoprover_env import vector_env_class
     if name == "mpc":
         from hoprover_env.agents.mpc import MPCPolicy

@@ -25,9 +25,9 @@ import yaml
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.agents.policies import SB3Policy, load_policy
 from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.training.sb3_agents import config_path
 
 torch.set_num_threads(1)
@@ -84,8 +84,8 @@ fig.tight_layout()
 # %%
 # Score it with the contest judge
 # -------------------------------
-# :func:`hoprover_env.evaluation.episodes.run_episodes` runs one episode per target, all side by side in
-# one vector env, deterministic actions, and the judge's TTRTP. The trained model and its
+# :func:`hoprover_env.evaluation.episodes.run_episodes` runs one episode per target, all side
+# by side in one vector env, deterministic actions, and the judge's TTRTP. The trained model and its
 # observation statistics become an :class:`hoprover_env.agents.policies.SB3Policy`; the bundled
 # ``hop`` policy (200 k hops of the same config) is the reference.
 venv.training = False

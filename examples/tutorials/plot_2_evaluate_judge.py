@@ -22,9 +22,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from hoprover_env.agents.policies import load_policy
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.evaluation.plots import nine_figures
-from hoprover_env.agents.policies import load_policy
 from hoprover_env.evaluation.replay import record_episode
 from hoprover_env.training.evaluate import format_table
 

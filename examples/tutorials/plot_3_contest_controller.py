@@ -30,9 +30,9 @@ import matplotlib.pyplot as plt
 import numba
 import numpy as np
 
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env import RoverParams, simulate, simulate_batch
 from hoprover_env.agents.policies import ControllerPolicy
-from hoprover_env import RoverParams, simulate_batch, simulate
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.sim.controllers import attitude_hold
 
 P = RoverParams()                      # the contest's rover

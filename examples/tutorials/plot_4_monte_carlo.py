@@ -23,8 +23,8 @@ import time
 import matplotlib.pyplot as plt
 import numpy as np
 
+from hoprover_env import RoverParams, simulate, simulate_batch
 from hoprover_env.agents.compiled import hop_plan, planned_hops
-from hoprover_env import RoverParams, simulate_batch, simulate
 
 N = 2000
 base = RoverParams()

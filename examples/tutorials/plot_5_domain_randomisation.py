@@ -16,11 +16,10 @@ success and TTRTP of two bundled policies and the scripted hopper as the spread 
 # :class:`~hoprover_env.RoverParams`):
 import gymnasium as gym
 import matplotlib.pyplot as plt
-import numpy as np
 
 import hoprover_env  # noqa: F401  (registers the env ids)
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.agents.policies import load_policy
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 
 env = gym.make("HopRover-v0", randomize={"gravity": 0.3, "mu_static": 0.2})
 for seed in range(3):

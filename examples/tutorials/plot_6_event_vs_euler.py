@@ -23,8 +23,8 @@ import time
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hoprover_env.agents.compiled import hop_plan
 from hoprover_env import RoverParams, simulate
+from hoprover_env.agents.compiled import hop_plan
 
 p = RoverParams()
 control = hop_plan([p.inertia, 0.15, 0.9, 0.0, 20.0, 2e-4])

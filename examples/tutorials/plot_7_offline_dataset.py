@@ -37,9 +37,8 @@ import numpy as np
 import torch
 
 import hoprover_env  # noqa: F401  (registers the env ids Minari recovers)
-from hoprover_env.evaluation import datasets
-from hoprover_env.evaluation import suites
 from hoprover_env.agents.policies import ArrayPolicy, load_policy
+from hoprover_env.evaluation import datasets, suites
 from hoprover_env.evaluation.scores import summarize
 
 torch.set_num_threads(1)
@@ -94,7 +93,7 @@ net = torch.nn.Sequential(torch.nn.Linear(x.shape[1], 128), torch.nn.Tanh(),
                           torch.nn.Linear(128, y.shape[1]), torch.nn.Tanh())
 opt = torch.optim.Adam(net.parameters(), lr=1e-3)
 losses = []
-for epoch in range(30):
+for _epoch in range(30):
     perm = torch.randperm(len(x))
     for i in range(0, len(x), 256):
         idx = perm[i:i + 256]

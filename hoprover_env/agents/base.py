@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
 from hoprover_env import core
 from hoprover_env.core.params import RoverParams
+
 
 class SB3Policy:
     """A trained SB3 model plus its observation normalisation, acting deterministically.
@@ -220,7 +221,7 @@ class TorchPolicy:
         self.env_kwargs = dict(self.meta.get("env_kwargs", {}))
 
     @classmethod
-    def load(cls, path, name: str | None = None) -> "TorchPolicy":
+    def load(cls, path, name: str | None = None) -> TorchPolicy:
         """The policy in a .pt2 file. FileNotFoundError if it is missing, ValueError if
         it is not an exported module with hoprover's metadata."""
         import torch
@@ -243,7 +244,9 @@ class TorchPolicy:
         """Export `module` (raw observations -> actions) for any batch size, with `meta`
         (at least env_id and env_kwargs), to `path` (.pt2), written atomically."""
         import io
+
         import torch
+
         from hoprover_env.util.files import atomic_write
         for key in ("env_id", "env_kwargs"):
             if key not in meta:

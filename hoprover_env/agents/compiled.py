@@ -16,6 +16,8 @@ d, torque T): while not in flight and s <= t < s + d, the torque is T.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
@@ -47,7 +49,7 @@ def planned_hops(pos, vel, the, omg, posT, t, smt, state_code):
     return plan_torque(posT[2:], the, omg, t, state_code)
 
 
-def hop_plan(args) -> "njit function":
+def hop_plan(args) -> Callable[..., float]:
     """A compiled contest controller with the plan `args` built in (for `simulate`):
     (inertia [kg m^2], kp [1/s^2], kd [1/s]) then (start [s], duration [s], torque
     [N m]) per hop. Raises ValueError for a plan of the wrong length or with

@@ -36,8 +36,8 @@ import math
 import numpy as np
 
 from hoprover_env import core
-from hoprover_env.core.params import RoverParams
 from hoprover_env.agents.scripted import in_band
+from hoprover_env.core.params import RoverParams
 from hoprover_env.tasks import mission
 
 FLIGHT_MATCH = 0.6     # rate change / (T / I) above this reads as flight

@@ -29,11 +29,10 @@ import math
 import gymnasium as gym
 import numpy as np
 
-from hoprover_env.tasks.hop import HopEnvConfig
 from hoprover_env.agents.estimation import MissionEstimator
-from hoprover_env.envs.registry import HopRoverMissionEnv
 from hoprover_env.agents.scripted import ScriptedHopper
-from hoprover_env.tasks.hop import hop_torque
+from hoprover_env.envs.registry import HopRoverMissionEnv
+from hoprover_env.tasks.hop import HopEnvConfig, hop_torque
 
 # the decision's features (module docstring), each scaled to about [-1, 1]
 F_TO_GO, F_SLOPE, F_TIME, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO, F_HOPS = range(7)
@@ -183,6 +182,7 @@ def load_mission_policy(path, name: str = "mission", control_dt: float | None = 
     from pathlib import Path
 
     from stable_baselines3 import PPO
+
     from hoprover_env.agents.base import ControllerPolicy
     path = Path(path)
     if not path.exists():

@@ -26,9 +26,9 @@ import time
 import numpy as np
 
 from hoprover_env import core
+from hoprover_env.agents.base import torque_to_action
 from hoprover_env.agents.estimation import EstimatorBank, hides_state
 from hoprover_env.agents.planning import CONTROL_DT, Problem, plan_end, plan_torque, search
-from hoprover_env.agents.base import torque_to_action
 
 DEFAULT_BUDGET = 3000        # candidates per decision on smooth ground (docs/studies/references.md)
 DEFAULT_ROUGH_BUDGET = 1500  # on rough ground, each candidate flown over the samples
@@ -45,8 +45,8 @@ class MPCPolicy:
     `run_episodes` (and so the suites and evaluate.py) spreads this agent's episodes
     over (None: one per core, at most one per 8 episodes; 1: all in the calling
     process). An episode plays the same in any batch (`decision_rng`, per-problem search
-    seeds), so the spread changes no result. Statistics: `decisions` (plans made) and `planning_seconds` (time spent
-    searching, summed over the workers).
+    seeds), so the spread changes no result. Statistics: `decisions` (plans made) and
+    `planning_seconds` (time spent searching, summed over the workers).
     """
 
     def __init__(self, budget: int = DEFAULT_BUDGET, rough_budget: int = DEFAULT_ROUGH_BUDGET,

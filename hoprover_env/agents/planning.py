@@ -37,9 +37,9 @@ import math
 
 import numpy as np
 
+from hoprover_env.core.params import RoverParams
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.core.params import RoverParams
 
 FLIGHT = 0                      # state code of state A
 HEAD = 5                        # t0, inertia, kp, kd, theta*

@@ -5,18 +5,76 @@ import math
 
 import numpy as np
 
-from hoprover_env.core._dop853_tableau import A as _RK_A, B as _RK_B, E3 as _RK_E3, E5 as _RK_E5
-from hoprover_env.jit.compiler import kernel, BOOL, F64, I64, VEC
-from hoprover_env.core.params import P_M, P_R, P_G, P_GC, P_GS, P_MUS, P_MUD, P_BAND
-from hoprover_env.core.layout import (ERR_STEP, ERR_WORK, F_TOL, H_TOL, MAX_RK_STEPS, MAX_WORK, MODE_C,
-                     MODE_E, O_RTOL, PH_BAND, PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP,
-                     PH_STICK, PH_STOP, PH_TOUCH, RK_MAX_FACTOR, RK_MIN_FACTOR, RK_SAFETY,
-                     S_ERROR, S_HSTEP, S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY,
-                     S_W, S_X, S_XT, S_Y, V_TOL, W_WORK, N_U, N_GUARDS, RK_STAGES, W_U,
-                     W_ATOL, W_GV, W_GNEW, W_LEVEL, W_GTOL, W_ARMED, W_F0, W_KST, W_YTMP,
-                     W_UNEW, W_UTRY, W_F1, W_RATE0, W_RATE1, W_GTRY, W_GTMP, GUARD_LIFTOFF,
-                     GUARD_FRICTION, GUARD_TOUCH, GUARD_TOP_R, GUARD_TOP_L, GUARD_BAND)
+from hoprover_env.core._dop853_tableau import E3 as _RK_E3
+from hoprover_env.core._dop853_tableau import E5 as _RK_E5
+from hoprover_env.core._dop853_tableau import A as _RK_A
+from hoprover_env.core._dop853_tableau import B as _RK_B
 from hoprover_env.core.forces import contact_corner, corner_offset, pivot_dynamics, slide_dynamics
+from hoprover_env.core.layout import (
+    ERR_STEP,
+    ERR_WORK,
+    F_TOL,
+    GUARD_BAND,
+    GUARD_FRICTION,
+    GUARD_LIFTOFF,
+    GUARD_TOP_L,
+    GUARD_TOP_R,
+    GUARD_TOUCH,
+    H_TOL,
+    MAX_RK_STEPS,
+    MAX_WORK,
+    MODE_C,
+    MODE_E,
+    N_GUARDS,
+    N_U,
+    O_RTOL,
+    PH_BAND,
+    PH_BROKEN,
+    PH_LIFTOFF,
+    PH_NONE,
+    PH_SLIP,
+    PH_STICK,
+    PH_STOP,
+    PH_TOUCH,
+    RK_MAX_FACTOR,
+    RK_MIN_FACTOR,
+    RK_SAFETY,
+    RK_STAGES,
+    S_ERROR,
+    S_HSTEP,
+    S_MODE,
+    S_SIGMA,
+    S_T,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_XT,
+    S_Y,
+    V_TOL,
+    W_ARMED,
+    W_ATOL,
+    W_F0,
+    W_F1,
+    W_GNEW,
+    W_GTMP,
+    W_GTOL,
+    W_GTRY,
+    W_GV,
+    W_KST,
+    W_LEVEL,
+    W_RATE0,
+    W_RATE1,
+    W_U,
+    W_UNEW,
+    W_UTRY,
+    W_WORK,
+    W_YTMP,
+)
+from hoprover_env.core.params import P_BAND, P_G, P_GC, P_GS, P_M, P_MUD, P_MUS, P_R
+from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, kernel
 
 
 # ----------------------------------------------------------------------------------

@@ -2,17 +2,52 @@
 section 10), over the same forces, transitions and impact law."""
 
 
-from hoprover_env.jit.compiler import kernel
-from hoprover_env.core.params import P_M, P_I, P_GC, P_GS, P_MUD
-from hoprover_env.core.layout import (ERR_BUDGET, H_TOL, INTEGRATOR_EULER, MAX_EVENTS, MODE_A, MODE_B, MODE_C, MODE_D,
-                     MODE_E, MODE_F, MODE_G, O_EULER_DT, O_INTEGRATOR, PH_BROKEN, PH_NONE,
-                     PH_STICK, PH_STOP, PH_TOUCH, S_BROKEN, S_ERROR, S_MODE, S_SIGMA,
-                     S_STOPPED, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL)
-from hoprover_env.core.forces import (turn_flat_about, contact_corner, corner_offset, pivot_dynamics,
-                     slide_dynamics)
+from hoprover_env.core.forces import (
+    contact_corner,
+    corner_offset,
+    pivot_dynamics,
+    slide_dynamics,
+    turn_flat_about,
+)
 from hoprover_env.core.judge import judge_update
-from hoprover_env.core.transitions import settle
+from hoprover_env.core.layout import (
+    ERR_BUDGET,
+    H_TOL,
+    INTEGRATOR_EULER,
+    MAX_EVENTS,
+    MODE_A,
+    MODE_B,
+    MODE_C,
+    MODE_D,
+    MODE_E,
+    MODE_F,
+    MODE_G,
+    O_EULER_DT,
+    O_INTEGRATOR,
+    PH_BROKEN,
+    PH_NONE,
+    PH_STICK,
+    PH_STOP,
+    PH_TOUCH,
+    S_BROKEN,
+    S_ERROR,
+    S_MODE,
+    S_SIGMA,
+    S_STOPPED,
+    S_T,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_Y,
+    V_TOL,
+)
+from hoprover_env.core.params import P_GC, P_GS, P_I, P_M, P_MUD
 from hoprover_env.core.phase_end import after_phase
+from hoprover_env.core.transitions import settle
+from hoprover_env.jit.compiler import kernel
 
 
 # ----------------------------------------------------------------------------------

@@ -5,12 +5,35 @@ import math
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, F64, I64, BOOL, VEC, I64x2
-from hoprover_env.core.params import P_I, P_R, P_H, P_GC, P_GS
-from hoprover_env.core.layout import (A_TOL, CA_TOL, ERR_STEP, ERR_WORK, FLIGHT_WINDOW_MAX, H_IMPACT, H_TOL,
-                     MAX_CA_ITER, MAX_WORK, PH_BROKEN, PH_NONE, PH_TOUCH, S_ERROR, S_T,
-                     S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, V_TOL, W_FLT, W_WORK)
 from hoprover_env.core.forces import corner_body, corner_offset, corner_offset_cs
+from hoprover_env.core.layout import (
+    A_TOL,
+    CA_TOL,
+    ERR_STEP,
+    ERR_WORK,
+    FLIGHT_WINDOW_MAX,
+    H_IMPACT,
+    H_TOL,
+    MAX_CA_ITER,
+    MAX_WORK,
+    PH_BROKEN,
+    PH_NONE,
+    PH_TOUCH,
+    S_ERROR,
+    S_T,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_Y,
+    V_TOL,
+    W_FLT,
+    W_WORK,
+)
+from hoprover_env.core.params import P_GC, P_GS, P_H, P_I, P_R
+from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, I64x2, kernel
 
 
 # ----------------------------------------------------------------------------------

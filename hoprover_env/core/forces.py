@@ -6,10 +6,27 @@ import math
 
 from numba import types as nt
 
-from hoprover_env.jit.compiler import kernel, F64, I64, VEC, F64x2, F64x5
-from hoprover_env.core.params import P_M, P_I, P_R, P_H, P_GC, P_GS, P_MUD, P_VXMIN
-from hoprover_env.core.layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G, S_MODE,
-                     S_SIGMA, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_X, S_Y, TWO_PI)
+from hoprover_env.core.layout import (
+    MODE_A,
+    MODE_B,
+    MODE_C,
+    MODE_D,
+    MODE_E,
+    MODE_F,
+    MODE_G,
+    S_MODE,
+    S_SIGMA,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_Y,
+    TWO_PI,
+)
+from hoprover_env.core.params import P_GC, P_GS, P_H, P_I, P_M, P_MUD, P_R, P_VXMIN
+from hoprover_env.jit.compiler import F64, I64, VEC, F64x2, F64x5, kernel
 
 
 # ----------------------------------------------------------------------------------

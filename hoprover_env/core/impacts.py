@@ -5,17 +5,50 @@ import math
 
 import numpy as np
 
-
-from hoprover_env.jit.compiler import kernel, I64, VEC, MAT
-from hoprover_env.core.params import P_M, P_I, P_MUS, P_EX, P_EY, P_VXMIN, P_VYMIN
-from hoprover_env.core.layout import (EV_IMPACT, H_IMPACT, LAW_DISSIPATIVE, MODE_A, O_LAW, S_MAXGAIN, S_MODE,
-                     S_NGAIN, S_NIMPACT, S_SIGMA, S_T, S_TH, S_VX, S_VY, S_W, S_Y, V_TOL,
-                     W_IMP, W_IMP_DX, W_IMP_DY, W_IMP_VPX, W_IMP_VPY, W_IMP_ON, W_IMP_PART,
-                     W_IMP_DV, W_IMP_TGT_Y, W_IMP_LX, W_IMP_LY, W_IMP_END)
-from hoprover_env.core.forces import (pin_or_slide, set_double_contact, set_single_contact, turn_flat_about,
-                     corner_offset, kinetic_energy, wrap_angle)
+from hoprover_env.core.forces import (
+    corner_offset,
+    kinetic_energy,
+    pin_or_slide,
+    set_double_contact,
+    set_single_contact,
+    turn_flat_about,
+    wrap_angle,
+)
 from hoprover_env.core.judge import log_event
+from hoprover_env.core.layout import (
+    EV_IMPACT,
+    H_IMPACT,
+    LAW_DISSIPATIVE,
+    MODE_A,
+    O_LAW,
+    S_MAXGAIN,
+    S_MODE,
+    S_NGAIN,
+    S_NIMPACT,
+    S_SIGMA,
+    S_T,
+    S_TH,
+    S_VX,
+    S_VY,
+    S_W,
+    S_Y,
+    V_TOL,
+    W_IMP,
+    W_IMP_DV,
+    W_IMP_DX,
+    W_IMP_DY,
+    W_IMP_END,
+    W_IMP_LX,
+    W_IMP_LY,
+    W_IMP_ON,
+    W_IMP_PART,
+    W_IMP_TGT_Y,
+    W_IMP_VPX,
+    W_IMP_VPY,
+)
+from hoprover_env.core.params import P_EX, P_EY, P_I, P_M, P_MUS, P_VXMIN, P_VYMIN
 from hoprover_env.core.terrain import impact_tilt
+from hoprover_env.jit.compiler import I64, MAT, VEC, kernel
 
 
 # ----------------------------------------------------------------------------------

@@ -5,20 +5,54 @@ import math
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, F64, I64, VEC
-from hoprover_env.core.params import P_TMIN, P_TMAX, P_DWELL
-from hoprover_env.core.layout import (ERR_BUDGET, ERR_STEP, ERR_TORQUE, INTEGRATOR_EULER, MAX_EVENTS, MAX_PHASES,
-                     MODE_A, MODE_F, MODE_G, N_STATE, N_WORK, O_INTEGRATOR, PH_NONE, S_BROKEN,
-                     S_ERROR, S_INBAND, S_MIN_HEIGHT, S_MODE, S_STOPPED, S_STOP_ON, S_T, S_TH,
-                     S_TIN, S_TORQUE, S_TTRTP, S_VX, S_VY, S_W, S_X, S_XT, S_Y, W_WORK)
-from hoprover_env.core.forces import (pin_or_slide, set_double_contact, set_single_contact, corner_offset,
-                     wrap_angle)
-from hoprover_env.core.flight import flight_phase
-from hoprover_env.core.judge import judge_check, judge_update, in_band
-from hoprover_env.core.transitions import settle
 from hoprover_env.core.contact_phases import contact_phase, g_phase
 from hoprover_env.core.euler import advance_euler
+from hoprover_env.core.flight import flight_phase
+from hoprover_env.core.forces import (
+    corner_offset,
+    pin_or_slide,
+    set_double_contact,
+    set_single_contact,
+    wrap_angle,
+)
+from hoprover_env.core.judge import in_band, judge_check, judge_update
+from hoprover_env.core.layout import (
+    ERR_BUDGET,
+    ERR_STEP,
+    ERR_TORQUE,
+    INTEGRATOR_EULER,
+    MAX_EVENTS,
+    MAX_PHASES,
+    MODE_A,
+    MODE_F,
+    MODE_G,
+    N_STATE,
+    O_INTEGRATOR,
+    PH_NONE,
+    S_BROKEN,
+    S_ERROR,
+    S_INBAND,
+    S_MIN_HEIGHT,
+    S_MODE,
+    S_STOP_ON,
+    S_STOPPED,
+    S_T,
+    S_TH,
+    S_TIN,
+    S_TORQUE,
+    S_TTRTP,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_XT,
+    S_Y,
+    W_WORK,
+)
+from hoprover_env.core.params import P_DWELL, P_TMAX, P_TMIN
 from hoprover_env.core.phase_end import after_phase, track_min_height
+from hoprover_env.core.transitions import settle
+from hoprover_env.jit.compiler import F64, I64, VEC, kernel
 
 
 @kernel(inner=True, inline=True)

@@ -2,13 +2,28 @@
 
 import math
 
-
-from hoprover_env.jit.compiler import kernel, F64, I64, BOOL, VEC, MAT
-from hoprover_env.core.params import P_R, P_BAND, P_DWELL
-from hoprover_env.core.layout import (EV_BAND_IN, EV_BAND_OUT, EV_TTRTP, MODE_A, MODE_F, MODE_G, S_INBAND,
-                     S_MODE, S_NEVENTS, S_STOPPED, S_STOP_ON, S_T, S_TH, S_TIN, S_TTRTP,
-                     S_X, S_XT)
 from hoprover_env.core.forces import contact_corner, corner_offset
+from hoprover_env.core.layout import (
+    EV_BAND_IN,
+    EV_BAND_OUT,
+    EV_TTRTP,
+    MODE_A,
+    MODE_F,
+    MODE_G,
+    S_INBAND,
+    S_MODE,
+    S_NEVENTS,
+    S_STOP_ON,
+    S_STOPPED,
+    S_T,
+    S_TH,
+    S_TIN,
+    S_TTRTP,
+    S_X,
+    S_XT,
+)
+from hoprover_env.core.params import P_BAND, P_DWELL, P_R
+from hoprover_env.jit.compiler import BOOL, F64, I64, MAT, VEC, kernel
 
 
 # ----------------------------------------------------------------------------------

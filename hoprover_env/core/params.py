@@ -84,7 +84,8 @@ class RoverParams:
         for name in ("mass", "inertia", "half_width", "half_height", "gravity",
                      "band_half_width", "dwell_time"):
             if getattr(self, name) <= 0.0:
-                raise ValueError(f"RoverParams.{name} must be positive, got {getattr(self, name)!r}")
+                raise ValueError(f"RoverParams.{name} must be positive, "
+                                 f"got {getattr(self, name)!r}")
         for name in ("mu_static", "mu_dynamic", "restitution_x", "restitution_y"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -232,7 +233,7 @@ def as_arrays(params) -> np.ndarray:
     return rows[inv.reshape(-1)]
 
 
-def from_fields(row) -> "RoverParams":
+def from_fields(row) -> RoverParams:
     """The RoverParams of one row of field values (validated by the constructor)."""
     return RoverParams(**dict(zip(FIELDS, map(float, row[:N_FIELDS]))))
 

@@ -3,18 +3,47 @@ ended on is applied and logged, and the judge and diagnostics are updated."""
 
 import math
 
-
-from hoprover_env.jit.compiler import kernel, I64, VEC, MAT
-from hoprover_env.core.params import P_R, P_BAND
-from hoprover_env.core.layout import (EV_BROKEN, EV_LIFTOFF, EV_SLIP, EV_STOP, MODE_A, MODE_F, MODE_G, PH_BAND,
-                     PH_BROKEN, PH_LIFTOFF, PH_NONE, PH_SLIP, PH_STICK, PH_STOP, PH_TOUCH,
-                     S_BROKEN, S_MIN_HEIGHT, S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_W, S_X,
-                     S_XT, S_Y)
-from hoprover_env.core.forces import (contact_corner, corner_offset, corner_offset_cs, pivot_dynamics,
-                     sliding_mode)
-from hoprover_env.core.judge import judge_set, judge_update, log_event
-from hoprover_env.core.transitions import settle
+from hoprover_env.core.forces import (
+    contact_corner,
+    corner_offset,
+    corner_offset_cs,
+    pivot_dynamics,
+    sliding_mode,
+)
 from hoprover_env.core.impacts import impact_event
+from hoprover_env.core.judge import judge_set, judge_update, log_event
+from hoprover_env.core.layout import (
+    EV_BROKEN,
+    EV_LIFTOFF,
+    EV_SLIP,
+    EV_STOP,
+    MODE_A,
+    MODE_F,
+    MODE_G,
+    PH_BAND,
+    PH_BROKEN,
+    PH_LIFTOFF,
+    PH_NONE,
+    PH_SLIP,
+    PH_STICK,
+    PH_STOP,
+    PH_TOUCH,
+    S_BROKEN,
+    S_MIN_HEIGHT,
+    S_MODE,
+    S_SIGMA,
+    S_T,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_W,
+    S_X,
+    S_XT,
+    S_Y,
+)
+from hoprover_env.core.params import P_BAND, P_R
+from hoprover_env.core.transitions import settle
+from hoprover_env.jit.compiler import I64, MAT, VEC, kernel
 
 
 # ----------------------------------------------------------------------------------

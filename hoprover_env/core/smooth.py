@@ -16,8 +16,8 @@ trajectory is the same bit for bit (tests/test_smooth_build.py). The envs use th
 every rover of theirs is on smooth ground (`tasks.common.TaskSpec.kernels`); slopes are
 smooth ground too (a slope turns gravity, docs/MODEL.md section 11).
 """
-from hoprover_env.jit.compiler import rebind
 from hoprover_env.core import impacts, integrator, phase_end
+from hoprover_env.jit.compiler import rebind
 
 # each stored under the name it is compiled and cached as (a kernel pickles by reference)
 resolve_impact_tilted_smooth = rebind(impacts.resolve_impact_tilted,

@@ -14,10 +14,9 @@ import math
 import numpy as np
 from numba import types as nt
 
-from hoprover_env.jit.compiler import kernel, F64, VEC
+from hoprover_env.core.layout import S_NDRAW, S_NIMPACT, S_ROVER, S_SEED_HI, S_SEED_LO
 from hoprover_env.core.params import P_ROUGH
-from hoprover_env.core.layout import (S_NDRAW, S_NIMPACT, S_ROVER, S_SEED_HI, S_SEED_LO)
-
+from hoprover_env.jit.compiler import F64, VEC, kernel
 
 _U = nt.uint64
 _M0 = np.uint64(0xD2E7470EE14C6C93)      # Philox4x64 multipliers

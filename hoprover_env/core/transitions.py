@@ -2,16 +2,52 @@
 
 import math
 
-from hoprover_env.jit.compiler import kernel, F64, I64, VEC, MAT
-from hoprover_env.core.params import P_M, P_G, P_GC, P_GS, P_MUS
-from hoprover_env.core.layout import (A_TOL, EV_LIFTOFF, EV_RESUME, EV_REVERSE, EV_SLIP, EV_STICK, EV_TIP,
-                     F_TOL, H_TOL, MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
-                     S_MODE, S_SIGMA, S_T, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_Y, V_TOL)
-from hoprover_env.core.forces import (pin_corner, pin_or_slide, pinned_mode, sliding_mode, set_double_contact,
-                     set_single_contact, contact_corner, corner_offset_cs, double_contact_forces,
-                     pivot_dynamics, slide_dynamics, wrap_angle)
 from hoprover_env.core.flight import resting_corner_driven_down
+from hoprover_env.core.forces import (
+    contact_corner,
+    corner_offset_cs,
+    double_contact_forces,
+    pin_corner,
+    pin_or_slide,
+    pinned_mode,
+    pivot_dynamics,
+    set_double_contact,
+    set_single_contact,
+    slide_dynamics,
+    sliding_mode,
+    wrap_angle,
+)
 from hoprover_env.core.judge import log_event
+from hoprover_env.core.layout import (
+    A_TOL,
+    EV_LIFTOFF,
+    EV_RESUME,
+    EV_REVERSE,
+    EV_SLIP,
+    EV_STICK,
+    EV_TIP,
+    F_TOL,
+    H_TOL,
+    MODE_A,
+    MODE_B,
+    MODE_C,
+    MODE_D,
+    MODE_E,
+    MODE_F,
+    MODE_G,
+    S_MODE,
+    S_SIGMA,
+    S_T,
+    S_TH,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_Y,
+    V_TOL,
+)
+from hoprover_env.core.params import P_G, P_GC, P_GS, P_M, P_MUS
+from hoprover_env.jit.compiler import F64, I64, MAT, VEC, kernel
 
 
 # ----------------------------------------------------------------------------------

@@ -3,9 +3,10 @@
 A task module (hoprover_env/tasks/*.py, listed in hoprover_env.tasks.TASK_MODULES) says
 what the env does; this module makes its two classes from it: a subclass of HopRoverEnv
 and one of HopRoverVectorEnv with ``task = TASK`` (their docstrings point to the
-module's, which has the env's tables), named after its first id ("HopRoverHop-v0" -> HopRoverHopEnv, HopRoverHopVectorEnv). The torque task's
-classes are HopRoverEnv and HopRoverVectorEnv themselves. `ENVS` maps every id to its
-`Task` entry; hoprover_env/__init__.py registers them with gymnasium.
+module's, which has the env's tables), named after its first id ("HopRoverHop-v0" ->
+HopRoverHopEnv, HopRoverHopVectorEnv). The torque task's classes are HopRoverEnv and
+HopRoverVectorEnv themselves. `ENVS` maps every id to its `Task` entry;
+hoprover_env/__init__.py registers them with gymnasium.
 
 `register_task("package.module")` does the same for a task module outside hoprover_env
 (an experiment's own task): its classes and ids, registered with gymnasium.
@@ -141,3 +142,10 @@ def config_class(env_id: str):
 for _name in TASK_MODULES:
     add_task(_name)
 
+
+# The goal-conditioned variant of HopRoverRL-v1 for hindsight replay (a Dict observation,
+# so an env of its own rather than a task module's: hoprover_env/envs/goal.py)
+GOAL_ENVS = {"HopRoverGoal-v1": "hoprover_env.envs.goal:HopRoverGoalEnv"}
+for _goal_id, _entry in GOAL_ENVS.items():
+    if _goal_id not in gym.registry:
+        gym.register(id=_goal_id, entry_point=_entry)

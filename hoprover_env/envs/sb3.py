@@ -16,9 +16,9 @@ are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.see
 """
 from __future__ import annotations
 
-from typing import Any, Sequence
-
 import time
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode

@@ -29,16 +29,21 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hoprover_env import core
+from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
+from hoprover_env.envs.env import check_actions
+from hoprover_env.envs.parts import (
+    NO_TERRAIN_SEED,
+    check_render_mode,
+    full_info,
+    object_rows,
+    task_spaces,
+)
+from hoprover_env.envs.parts import info as make_info
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.spread import spread_order
-from hoprover_env.tasks import draws, reward
-from hoprover_env.envs.env import check_actions
-from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
-from hoprover_env.envs.parts import (NO_TERRAIN_SEED, check_render_mode, full_info,
-                        info as make_info, object_rows, task_spaces)
-from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
-from hoprover_env.tasks import torque
+from hoprover_env.tasks import draws, reward, torque
 from hoprover_env.tasks.common import note_info_rows
+from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
 
 THREAD_THRESHOLD = 64
 

@@ -1,6 +1,7 @@
 """Offline-RL datasets of hoprover's tasks, in Minari.
 
-    python -m hoprover_env.evaluation.datasets --task HopRover-v0 --level expert --steps 1000000 --out DIR
+    python -m hoprover_env.evaluation.datasets --task HopRover-v0 --level expert \\
+        --steps 1000000 --out DIR
     hoprover-datasets --task HopRover-v0 --level random --steps 100000 --out DIR
 
 Each dataset is written with Minari's own API (`minari.create_dataset_from_buffers`),
@@ -79,6 +80,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     (seed, options) to run, each once). Returns the buffers in episode order."""
     from gymnasium.vector import AutoresetMode
     from minari.data_collector.episode_buffer import EpisodeBuffer
+
     from hoprover_env.envs import registry as _registry
     venv = _registry.vector_env_class(task)(num_envs, autoreset_mode=AutoresetMode.NEXT_STEP,
                                                **kwargs)
@@ -98,7 +100,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
 
     for p in policies:
         p.reset(num_envs)
-    slots: list = [None] * num_envs              # (k, seed, options, obs, acts, rews, terms, truncs)
+    slots: list = [None] * num_envs    # (k, seed, options, obs, acts, rews, terms, truncs)
     buffers: dict = {}
     recorded = 0
     obs = np.zeros((num_envs, venv.single_observation_space.shape[0]), np.float32)
@@ -184,8 +186,8 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
     if steps < 1:
         raise ValueError(f"--steps must be a positive integer, got {steps}")
     os.environ["MINARI_DATASETS_PATH"] = str(out)
-    from hoprover_env.evaluation import suites
     from hoprover_env.agents.policies import RandomPolicy, load_policy
+    from hoprover_env.evaluation import suites
     # every level is collected in the expert's MDP: its env arguments
     expert = pols[-1] if level in ("expert", "mixed") else load_policy(EXPERT[task])
     kwargs = dict(expert.env_kwargs)
@@ -196,6 +198,7 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
     lo = suite_return(task, RandomPolicy(seed), kwargs, suite)
     hi = suite_return(task, expert, kwargs, suite)
     import gymnasium as gym
+
     import hoprover_env  # noqa: F401  (registers the ids)
     env = gym.make(task, **kwargs)
     names = {"random": "uniform random actions", "medium": f"PPO checkpoint {MEDIUM.get(task)}",

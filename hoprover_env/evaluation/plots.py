@@ -145,8 +145,8 @@ def position_figure(rec):
 
 def nine_figures(rec, out_dir: str) -> list[str]:
     """The contest sample program's nine figures of the recording `rec`
-    (`hoprover_env.evaluation.replay.record_episode`) as PNG files in `out_dir` (created if missing):
-    position, attitude, velocity, rate, corner A, corner B, state, forces, torque.
+    (`hoprover_env.evaluation.replay.record_episode`) as PNG files in `out_dir` (created if
+    missing): position, attitude, velocity, rate, corner A, corner B, state, forces, torque.
     Returns the nine paths, in that order (file names 1_position.png ... 9_torque.png).
     On a slope, titles give it and positions are along / normal to the ground."""
     os.makedirs(out_dir, exist_ok=True)
@@ -161,8 +161,10 @@ def nine_figures(rec, out_dir: str) -> list[str]:
         ("2_attitude", [("theta [rad]", r.theta)]),
         ("3_velocity", [("vx [m/s]", r.vx), ("vy [m/s]", r.vy)]),
         ("4_rate", [("omega [rad/s]", r.omega)]),
-        ("5_corner_A", [("x_A [m]", xa), ("y_A [m]", ya), ("vx_A [m/s]", vxa), ("vy_A [m/s]", vya)]),
-        ("6_corner_B", [("x_B [m]", xb), ("y_B [m]", yb), ("vx_B [m/s]", vxb), ("vy_B [m/s]", vyb)]),
+        ("5_corner_A", [("x_A [m]", xa), ("y_A [m]", ya),
+                        ("vx_A [m/s]", vxa), ("vy_A [m/s]", vya)]),
+        ("6_corner_B", [("x_B [m]", xb), ("y_B [m]", yb),
+                        ("vx_B [m/s]", vxb), ("vy_B [m/s]", vyb)]),
         ("7_state", None),
         ("8_contact_forces", [("f_Ax [N]", forces[:, 0]), ("f_Ay [N]", forces[:, 1]),
                               ("f_Bx [N]", forces[:, 2]), ("f_By [N]", forces[:, 3])]),

@@ -14,9 +14,9 @@ import dataclasses
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
+from hoprover_env import Rollout, core, simulate
 from hoprover_env.agents.scripted import ScriptedHopper
 from hoprover_env.envs import registry as _registry
-from hoprover_env import Rollout, core, simulate
 from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.tasks.hop import hop_torque
 
@@ -42,14 +42,14 @@ class Recording:
 
 def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
                    sample_dt: float = 0.1, terrain: dict | None = None) -> Recording:
-    """Run `policy` (see `hoprover_env.agents.policies`) for one episode towards `target_x` [m] in the
-    vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
+    """Run `policy` (see `hoprover_env.agents.policies`) for one episode towards `target_x` [m]
+    in the vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
     samples every `sample_dt` [s] (at most one control period).
 
     `env_kwargs` configure the env; the policy's own `env_kwargs` take precedence.
     `terrain` fixes this episode's ground, {"slope": rad, "roughness": rad} (either may
-    be left out), as `hoprover_env.evaluation.episodes.run_episodes` does per episode; the replay flies
-    the same slope and, on rough ground, the same bumps (the env's seed of the draws).
+    be left out), as `hoprover_env.evaluation.episodes.run_episodes` does per episode; the
+    replay flies the same slope and, on rough ground, the same bumps (the env's seed of the draws).
     Returns a `Recording`; its TTRTP is the judge's of the env that ran the episode.
     Raises ValueError for bad env arguments (as the env does).
     """

@@ -81,7 +81,7 @@ class Summary:
         return out
 
     @classmethod
-    def from_row(cls, row: dict) -> "Summary":
+    def from_row(cls, row: dict) -> Summary:
         """The summary a `row()` was made from (read back from a results file)."""
         return cls(row["agent"], row["runs"], row["episodes"],
                    {m: row[m] for m in METRICS}, {m: row[m + "_low"] for m in METRICS},

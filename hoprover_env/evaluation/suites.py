@@ -32,7 +32,8 @@ torque after the schedule's end. It is *best-known*, not optimal.
 `simulate(ep.reference_schedule, t_end=600, control_dt=ep.control_dt,
 target_x=ep.target_x, params=RoverParams(slope=ep.slope, roughness=ep.roughness),
 seed=ep.terrain_seed)` reproduces `ep.reference_ttrtp` bit for bit (`ep.replay()`).
-`python -m agents.yardstick.references` regenerates them (docs/studies/references.md gives its budget).
+`python -m agents.yardstick.references` regenerates them (docs/studies/references.md gives
+its budget).
 
 Each suite file carries its version and a SHA-256 checksum of its episodes, checked on
 load: a file that was changed by hand fails to load.
@@ -46,9 +47,9 @@ from pathlib import Path
 
 import numpy as np
 
+from hoprover_env.core.params import RoverParams
 from hoprover_env.envs.registry import ENVS
 from hoprover_env.tasks.terrain import TerrainEnvConfig
-from hoprover_env.core.params import RoverParams
 
 DATA_DIR = Path(__file__).resolve().parent / "suite_data"
 EPISODE_TIME = 600.0

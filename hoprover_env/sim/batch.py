@@ -41,23 +41,33 @@ the run index.
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numba
 import numpy as np
 
 from hoprover_env import core
-from hoprover_env.sim import rollout
+from hoprover_env.core.params import (
+    N_PARAMS,
+    P_ROUGH,
+    RoverParams,
+    as_arrays,
+    from_fields,
+    kernel_rows,
+)
 from hoprover_env.jit.compiler import run_threaded
 from hoprover_env.jit.spread import spread_order
+from hoprover_env.sim import rollout
 from hoprover_env.sim.randomize import check_randomize, draw_fields, rng_for_seeds
-from hoprover_env.core.params import (N_PARAMS, P_ROUGH, RoverParams, as_arrays, from_fields,
-                                      kernel_rows)
 from hoprover_env.sim.rollout import SampledStates
-from hoprover_env.sim.simulate import (DEFAULT_RTOL, control_grid, make_options, make_states,
-                                       simulate)
+from hoprover_env.sim.simulate import (
+    DEFAULT_RTOL,
+    control_grid,
+    make_options,
+    make_states,
+    simulate,
+)
 from hoprover_env.util.validate import check_seed, positive_real, real_array, run_rows, seed_array
-
 
 MAX_STEPS = 10**9                 # control intervals x samples per run
 MAX_RECORD_BYTES = 4 * 10**9      # sample arrays of a recorded batch

@@ -1,10 +1,10 @@
 """Control laws shared by every controller that flies the rover.
 
 One home for each law: the hop-level task's built-in flight controller, the scripted
-hopper (hoprover_env/agents/scripted.py), the compiled contest controllers (hoprover_env/agents/compiled.py) and
-the benchmark drivers all call these functions, so their torques agree to the bit.
-Compiled with `kernel` (hoprover_env/jit/compiler.py) and callable from Python and from
-jitted code alike.
+hopper (hoprover_env/agents/scripted.py), the compiled contest controllers
+(hoprover_env/agents/compiled.py) and the benchmark drivers all call these functions, so
+their torques agree to the bit. Compiled with `kernel` (hoprover_env/jit/compiler.py) and
+callable from Python and from jitted code alike.
 """
 import math
 

@@ -101,14 +101,14 @@ class Ref:
             else:
                 sg = sigma
 
-                def rhs(_t, y):
+                def rhs(_t, y, sg=sg):
                     thdd, fx, _ = self.slide(T, y[0], y[1], sg)
                     return [y[1], thdd, y[3], fx / m - self.gs]
 
-                def liftoff(_t, y):
+                def liftoff(_t, y, sg=sg):
                     return self.slide(T, y[0], y[1], sg)[2]
 
-                def stick(_t, y):
+                def stick(_t, y, sg=sg):
                     # sigma * (xdot_A): the sliding speed of corner A
                     return sg * (y[3] - self.l * y[1] * math.sin(y[0] + self.alpha))
 
@@ -175,7 +175,7 @@ class Ref:
                 if start < 1e-9:
                     # a corner starting on the ground: its touchdown is where it returns
                     # to the ground, found from the 1e-9 m crossing on the way down
-                    f = lambda tt: self.corners(sol.sol(tt))[k][1]   # noqa: E731
+                    f = lambda tt, k=k: self.corners(sol.sol(tt))[k][1]   # noqa: E731
                     a, b = t, t + 1.0
                     while f(b) > 0.0:
                         b += 1.0

@@ -46,13 +46,14 @@ import math
 import warnings
 
 import numpy as np
-from numba import get_thread_id, prange, types as nt
+from numba import get_thread_id, prange
+from numba import types as nt
 from numba.experimental.function_type import WrapperAddressProtocol
 from numba.extending import is_jitted
 
 from hoprover_env import core
+from hoprover_env.core.params import P_TMAX, P_TMIN, RoverParams
 from hoprover_env.jit.compiler import compile_now, kernel
-from hoprover_env.core.params import P_TMIN, P_TMAX, RoverParams
 from hoprover_env.util.validate import check_torque
 
 ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma

@@ -20,18 +20,24 @@ bit for bit. For many runs at once see `hoprover_env.simulate_batch`.
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numba import types as nt
 
 from hoprover_env import core
+from hoprover_env.core.params import MAX_MAGNITUDE, P_H, P_ROUGH, RoverParams, from_fields
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.compiler import MAT, VEC, kernel
-from hoprover_env.core.params import MAX_MAGNITUDE, P_H, P_ROUGH, RoverParams, from_fields
 from hoprover_env.sim.rollout import Rollout, budget_error, is_compiled, run_rollout
-from hoprover_env.util.validate import (check_rover, check_seed, check_torque, finite_real, positive_real,
-                       real_array)
+from hoprover_env.util.validate import (
+    check_rover,
+    check_seed,
+    check_torque,
+    finite_real,
+    positive_real,
+    real_array,
+)
 
 __all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "make_states",
            "control_grid", "DEFAULT_RTOL"]
@@ -196,7 +202,7 @@ class RoverSim:
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
         self._w = np.zeros(core.N_WORK)
 
-    def copy(self) -> "RoverSim":
+    def copy(self) -> RoverSim:
         """An independent copy of the simulator's state (for look-ahead planning)."""
         new = object.__new__(RoverSim)
         new.params, new.p, new.o, new.seed = self.params, self.p, self.o, self.seed

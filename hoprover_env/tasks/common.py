@@ -24,14 +24,16 @@ from __future__ import annotations
 import dataclasses
 import math
 import types
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-from numba import get_thread_id, prange, types as nt
+from numba import get_thread_id, prange
+from numba import types as nt
 
-from hoprover_env.jit.compiler import bind_globals, kernel, BOOL, F64, I64, VEC
 from hoprover_env import core
 from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, S_TTRTP
+from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, bind, kernel
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
 
@@ -104,7 +106,7 @@ class TaskSpec:
     obs_bounds: Callable | None = None
     compile_extra: tuple = ()
 
-    def kernels(self, integrator: str, rough: bool = True) -> "TaskKernels":
+    def kernels(self, integrator: str, rough: bool = True) -> TaskKernels:
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
         built once per task, integrator and ground: `rough` False gives the build that
         compiles no rough-terrain code (core/smooth.py), for rovers on smooth ground
@@ -153,8 +155,8 @@ class TaskSpec:
         ``f(S, P, E, M, obs, rows)``, built once per task."""
         cache = _BUILT.setdefault(id(self), {})
         if "observe_rows" not in cache:
-            cache["observe_rows"] = kernel(bind_globals(observe_rows, f"{self.name}_observe_rows",
-                                                        _OBSERVE=self.observe))
+            cache["observe_rows"] = bind(observe_rows, f"{self.name}_observe_rows",
+                                         _OBSERVE=self.observe)
         return cache["observe_rows"]
 
 
@@ -330,11 +332,12 @@ def build(task: TaskSpec, integrator: str, rough: bool = True) -> TaskKernels:
     advance = INTEGRATORS[integrator] if rough else SMOOTH_INTEGRATORS[integrator]
     # inlined into its three callers: numba then optimises one module per caller instead
     # of emitting the step's own library too (a shorter cold compile, the same bits)
-    inner = kernel(inner=True, inline=True)(bind_globals(task.step, f"{name}_inner",
-                                                         ADVANCE=advance, **task.holes))
+    inner = bind(task.step, f"{name}_inner", dict(inner=True, inline=True), ADVANCE=advance,
+                 **task.holes)
     bound = dict(_STEP=inner, _OBSERVE=task.observe)
+    # each named for what it embeds (jit.compiler.bind): an edited task module compiles
     return TaskKernels(
-        step=kernel(bind_globals(step_and_observe, f"{name}_step", **bound)),
-        batch=kernel(bind_globals(batch_serial, f"{name}_batch", **bound)),
-        batch_threaded=kernel(parallel=True)(
-            bind_globals(batch_threaded, f"{name}_batch_threaded", **bound)))
+        step=bind(step_and_observe, f"{name}_step", **bound),
+        batch=bind(batch_serial, f"{name}_batch", **bound),
+        batch_threaded=bind(batch_threaded, f"{name}_batch_threaded", dict(parallel=True),
+                            **bound))

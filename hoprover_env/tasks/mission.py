@@ -118,20 +118,19 @@ is `observe` below (the sensors, drawn by `core.terrain.truncated_normal`).
 """
 import dataclasses
 import math
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
 from hoprover_env.core.layout import MODE_F, S_MODE, S_T, S_TH, S_W, S_X, S_XT
-from hoprover_env.core.terrain import truncated_normal
-from hoprover_env.tasks import Registration
-from hoprover_env.util.validate import non_negative_real, positive_real
 from hoprover_env.core.params import P_SLOPE, P_TMAX, P_TMIN
-from hoprover_env.tasks import torque
+from hoprover_env.core.terrain import truncated_normal
+from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
+from hoprover_env.tasks import Registration, torque
 from hoprover_env.tasks.layout import E_T_TOTAL, E_TASK
 from hoprover_env.tasks.observation import POS_SCALE, RATE_SCALE, clip
 from hoprover_env.tasks.terrain import SLOPE_SCALE, TerrainEnvConfig
+from hoprover_env.util.validate import non_negative_real, positive_real
 
 # this task's slots of E (tasks/layout.py): its sensors
 E_ATT_NOISE = E_TASK        # attitude sensor noise, 1 sigma [rad]

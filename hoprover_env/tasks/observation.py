@@ -9,12 +9,30 @@ import math
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
 from hoprover_env.core import corner_offset_cs
-from hoprover_env.core.layout import (MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MODE_G,
-                           S_INBAND, S_MODE, S_T, S_TH, S_TIN, S_TORQUE, S_VX, S_VY, S_W,
-                           S_X, S_XT, S_Y)
+from hoprover_env.core.layout import (
+    MODE_A,
+    MODE_B,
+    MODE_C,
+    MODE_D,
+    MODE_E,
+    MODE_F,
+    MODE_G,
+    S_INBAND,
+    S_MODE,
+    S_T,
+    S_TH,
+    S_TIN,
+    S_TORQUE,
+    S_VX,
+    S_VY,
+    S_W,
+    S_X,
+    S_XT,
+    S_Y,
+)
 from hoprover_env.core.params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TMAX, P_TMIN
+from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks.layout import E_T_TOTAL
 
 OBS_DX = 0           # (x - x_T) / POS_SCALE

@@ -71,14 +71,16 @@ import math
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, NONE, VEC, VEC32
 from hoprover_env.core.params import MAX_SLOPE, P_SLOPE
-from hoprover_env.tasks import torque
+from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
+from hoprover_env.tasks import Registration, torque
 from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
-from hoprover_env.tasks import Registration
+from hoprover_env.tasks.observation import OBS_DIM
+from hoprover_env.tasks.observation import OBS_HIGH as FLAT_HIGH
+from hoprover_env.tasks.observation import OBS_LOW as FLAT_LOW
+from hoprover_env.tasks.observation import observe as flat_observe
 from hoprover_env.util.validate import is_real
-from hoprover_env.tasks.observation import OBS_DIM, OBS_HIGH as FLAT_HIGH, OBS_LOW as FLAT_LOW, observe as \
-    flat_observe
+
 
 @dataclasses.dataclass(frozen=True)
 class TerrainEnvConfig(EnvConfig):

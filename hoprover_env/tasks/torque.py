@@ -64,8 +64,8 @@ a(s) = (1 - cos theta) + 50 ln(1 + min(u, 5000) / 50), u = (omega / 0.3 rad/s)^2
 in flight only (0 in contact): an upright, still flight pays at once, long before a bad
 landing would be penalised. It is the quadratic cost u up to about 2 rad/s, grows
 logarithmically beyond (PPO settled for spinning flights under terms that weakened
-earlier) and is constant past 30 rad/s. d(s) is the judge's clock (time in the band / 5 s, 0 out of it), so
-settling in the band pays before the bonus and hovering next to it does not.
+earlier) and is constant past 30 rad/s. d(s) is the judge's clock (time in the band / 5 s,
+0 out of it), so settling in the band pays before the bonus and hovering next to it does not.
 
 Every term is bounded, so Phi >= phi_min = -(dist_weight dist_cap + 232.8 attitude_weight
 + band_weight). At termination Phi is 0 on success; when the rover breaks it is set so
@@ -109,7 +109,8 @@ store it (TorchRL's info reader wants a `.dtype`; TorchRL and Tianshou refuse No
 `info_level="full"` adds `t` (s), `rover_state` (x, y, theta, vx, vy, omega),
 `contact_forces` (fAx, fAy, fBx, fBy; single env) and the reward's terms
 `reward_distance`, `reward_attitude`, `reward_band`, `reward_time`, `reward_bonus`,
-`reward_penalty`, `reward_energy`, which sum to the reward (up to rounding; hoprover_env/tasks/reward.py).
+`reward_penalty`, `reward_energy`, which sum to the reward (up to rounding;
+hoprover_env/tasks/reward.py).
 
 ## Arguments
 
@@ -162,15 +163,20 @@ Its step calls these jitted functions: `common.open_step`, `ACTUATE` (bound to
 `commanded_torque`, i.e. `action_to_torque`), `ADVANCE` (bound by `common.build` to
 `core.advance_event`, or `core.advance` for `integrator="euler"`), `reward.charge` and
 `common.close_step`; then `observation.observe`.
-"""
-from hoprover_env.jit.compiler import kernel, F64, VEC
+"""  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
 from hoprover_env.core.layout import S_T
-from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
 from hoprover_env.core.params import P_TMAX, P_TMIN
-from hoprover_env.tasks import reward
-from hoprover_env.tasks import Registration
+from hoprover_env.jit.compiler import F64, VEC, kernel
+from hoprover_env.tasks import Registration, reward
 from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, open_step
-from hoprover_env.tasks.layout import ACTION_CUBIC, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT, E_T_TOTAL
+from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
+from hoprover_env.tasks.layout import (
+    ACTION_CUBIC,
+    E_ACTION_MAP,
+    E_ACTION_SCALE,
+    E_CONTROL_DT,
+    E_T_TOTAL,
+)
 from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
 
 

@@ -30,11 +30,11 @@ import time
 
 import numpy as np
 
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
-from hoprover_env.util.files import atomic_write, write_json
 from hoprover_env.agents.policies import load_controller, load_policy
 from hoprover_env.envs.registry import ENVS, config_class
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.tasks.terrain import TerrainEnvConfig
+from hoprover_env.util.files import atomic_write, write_json
 
 # the ground a terrain task draws by default: its config's slope range and roughness [rad]
 TERRAIN_SLOPES = TerrainEnvConfig.slope_range
@@ -271,7 +271,8 @@ def _main(argv=None) -> int:
               f"{where}); TTRTP over the successful episodes\n")
     print(format_table(rows))
     if suite:
-        from hoprover_env.evaluation.scores import format_table as score_table, summarize as score
+        from hoprover_env.evaluation.scores import format_table as score_table
+        from hoprover_env.evaluation.scores import summarize as score
         print("\nagainst the best-known references (score = reference / TTRTP, 0 on "
               "failure; 95 % bootstrap intervals over the episodes):\n")
         print(score_table([score(name, [r["score"] for r in all_results

@@ -19,9 +19,8 @@ import torch
 from gymnasium.vector import AutoresetMode
 
 from hoprover_env.agents.planning import UPPER
-from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
 from hoprover_env.envs.vector_env import HopRoverVectorEnv
-
+from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
 
 
 def share_statistics(policy, vecnorm) -> None:

@@ -69,8 +69,8 @@ def _run_chunk(kind: str, spec: str, shipped, targets, first: int, control_dt: f
                seed: int, batch: int, expected: dict):
     from hoprover_env.util.buildinfo import require
     require(expected)
-    from hoprover_env.evaluation.episodes import run_episodes
     from hoprover_env.agents.policies import load_controller, load_policy
+    from hoprover_env.evaluation.episodes import run_episodes
     if shipped is not None:
         spec = _materialize(shipped)
     policy = load_controller(spec, control_dt) if kind == "controller" else \

@@ -82,6 +82,7 @@ def check_nodes(ray, expected: dict | None = None) -> dict:
     the nodes whose hoprover differs from `expected` (the driver's build_info()).
     Returns node id -> probe."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
     from hoprover_env.util.buildinfo import build_info, mismatch, probe
     expected = expected or build_info()
     task = ray.remote(num_cpus=0, max_retries=0)(probe)

@@ -107,7 +107,8 @@ def policy_keys(algo: str) -> set:
 
 def _check_keys(section: str, given: dict, valid: set):
     if not isinstance(given, dict):
-        raise ConfigError(f"config section '{section}' must be a mapping, got {type(given).__name__}")
+        raise ConfigError(f"config section '{section}' must be a mapping, "
+                          f"got {type(given).__name__}")
     bad = sorted(set(given) - valid)
     if bad:
         raise ConfigError(f"unknown config key '{section}.{bad[0]}' (valid: {sorted(valid)})")
@@ -348,6 +349,7 @@ def features_extractor(spec):
     a BaseFeaturesExtractor. An extractor with `frozen_statistics = True` reads the
     observation statistics through `use_statistics(mean, std)` (training.imitation)."""
     import importlib
+
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
     key = "config key 'policy.features_extractor'"
     if not isinstance(spec, str) or spec.count(":") != 1:

@@ -8,9 +8,9 @@ Each trial is train.py's Trainer (the same config, checks, evaluations and files
 the sampled values applied. Optuna proposes the values (Tune's OptunaSearch); ASHA stops
 trials whose judged success rate lags at an evaluation (each `evaluation.freq` steps is
 one ASHA time unit; --grace counts those after training has started, as the evaluation
-at step 0 tells the trials' seeds apart, not their settings). Trial k (Tune's k-th trial, from 0) trains with seed
-SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never searched over (picking
-a lucky seed is not tuning). One CPU per trial by default.
+at step 0 tells the trials' seeds apart, not their settings). Trial k (Tune's k-th trial,
+from 0) trains with seed SEEDS[k mod len(SEEDS)]: seeds are spread over the trials, never
+searched over (picking a lucky seed is not tuning). One CPU per trial by default.
 
 Search terms, repeatable: NAME=uniform(a,b) | loguniform(a,b) | randint(a,b) |
 choice(a|b|...). NAME is a config key: a bare `learning_rate` is looked up in
@@ -41,7 +41,6 @@ from pathlib import Path
 import yaml
 
 from hoprover_env.training.sb3_agents import ConfigError, load_config
-
 
 DISTRIBUTIONS = ("uniform", "loguniform", "randint", "choice")
 METRIC = "score"     # success rate, ties broken by a faster median TTRTP
@@ -102,8 +101,10 @@ SECTIONS = ("hyperparams", "env", "policy")
 
 
 def section_keys(cfg: dict, section: str) -> set:
-    """The keys a config section accepts (those hoprover_env.training.sb3_agents.validate checks)."""
+    """The keys a config section accepts (those hoprover_env.training.sb3_agents.validate
+    checks)."""
     import dataclasses
+
     from hoprover_env.training.sb3_agents import hyper_keys, policy_keys
     if section == "hyperparams":
         return hyper_keys(cfg["algo"])
@@ -197,6 +198,7 @@ def _snapshot(run: Path, reported: list[int]):
     checkpoint (Tune copies it to the sweep's storage and deletes nothing of ours)."""
     import shutil
     import tempfile
+
     from ray import tune
     tmp = Path(tempfile.mkdtemp(prefix="hoprover-ckpt-"))
     shutil.copytree(run, tmp / "run", ignore=shutil.ignore_patterns(".tmp-*"))
@@ -207,9 +209,11 @@ def _snapshot(run: Path, reported: list[int]):
 def make_trainable(base: dict, paths: dict, seeds: list[int], first: int, expected: dict):
     def trainable(config: dict):
         import shutil
+
         import ray
         import torch
         from ray import tune
+
         from hoprover_env.util.buildinfo import require
         require(expected)
         from hoprover_env.training.train import Trainer
@@ -310,6 +314,7 @@ def _watch(flag, done) -> None:
     """In Tune's driver: turn the client's Ctrl-C into this process's (Tune then stops
     as it does on a node: saving its state)."""
     import _thread
+
     import ray
     while not done.wait(1.0):
         try:
@@ -341,6 +346,7 @@ def _run_sweep(args, base: dict, searched: list, expected: dict) -> dict:
     from ray.tune import CheckpointConfig, FailureConfig, RunConfig
     from ray.tune.schedulers import ASHAScheduler
     from ray.tune.search.optuna import OptunaSearch
+
     from hoprover_env.training.ray_utils import check_storage
     name = args.name or Path(args.config).stem
     storage = storage_root(args.out)
@@ -419,16 +425,22 @@ def main(argv=None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     try:
+        import optuna  # noqa: F401
         import ray  # noqa: F401
         from ray import tune  # noqa: F401
         from ray.tune.search.optuna import OptunaSearch  # noqa: F401
-        import optuna  # noqa: F401
     except ImportError as exc:
         print(f"error: sweeps need Ray Tune and Optuna: pip install 'hoprover[ray]' ({exc})",
               file=sys.stderr)
         return 2
-    from hoprover_env.training.ray_utils import (ClusterCodeError, StorageError, cluster_address,
-                                  head_node_strategy, init_ray, is_client)
+    from hoprover_env.training.ray_utils import (
+        ClusterCodeError,
+        StorageError,
+        cluster_address,
+        head_node_strategy,
+        init_ray,
+        is_client,
+    )
     from hoprover_env.util.buildinfo import build_info
     address = cluster_address(args.address)
     again = resume_command(argv, address)

@@ -30,12 +30,19 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
-from hoprover_env.util.files import atomic_write, write_json, write_npz
 from hoprover_env.agents.policies import SB3Policy
-from hoprover_env.training.sb3_agents import (ALGOS, ConfigError, algo_class, env_kwargs,
-                                              load_config, make_agent, pretrain_settings)
+from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.training.sb3_agents import (
+    ALGOS,
+    ConfigError,
+    algo_class,
+    env_kwargs,
+    load_config,
+    make_agent,
+    pretrain_settings,
+)
 from hoprover_env.util.buildinfo import git_commit
+from hoprover_env.util.files import atomic_write, write_json, write_npz
 
 EVAL_FIELDS = ["timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken"]
 
@@ -142,6 +149,7 @@ def collection_key(cfg: dict, name: str) -> dict:
 # ---- the training loop ---------------------------------------------------------------
 def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
     base = VecMonitor(HopRoverSB3VecEnv(cfg["n_envs"], seed=cfg["seed"], env_id=cfg["env_id"],
                                         **env_kwargs(cfg)),
@@ -155,8 +163,8 @@ def build_env(cfg: dict, stats_path: Path | None = None):
     norm = cfg["normalize"]
     gamma = cfg["hyperparams"].get("gamma", 0.99)
     return VecNormalize(base, norm_obs=norm.get("obs", True), norm_reward=norm.get("reward", True),
-                        clip_obs=norm.get("clip_obs", 10.0), clip_reward=norm.get("clip_reward", 10.0),
-                        gamma=gamma)
+                        clip_obs=norm.get("clip_obs", 10.0),
+                        clip_reward=norm.get("clip_reward", 10.0), gamma=gamma)
 
 
 
@@ -254,8 +262,9 @@ class Trainer:
     def _pretrain(self):
         """Behaviour cloning of the expert: noisy demonstrations, then DAgger rounds."""
         import copy
-        from hoprover_env.training.imitation import clone, collect
+
         from hoprover_env.agents.policies import load_policy
+        from hoprover_env.training.imitation import clone, collect
         pt = pretrain_settings(self.cfg)
         ekw = env_kwargs(self.cfg)
         expert = load_policy(pt["expert"], control_dt=ekw.get("control_dt", 0.5))
@@ -286,11 +295,12 @@ class Trainer:
             norm = self.venv
             learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
                                 epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
-            new = self._collected(f"dagger_{k + 1}", lambda: timed(
+            new = self._collected(f"dagger_{k + 1}", lambda k=k, learner=learner: timed(
                 "collect", collect, expert, ekw, pt["dagger_episodes"],
                 seed + 1 + k, gamma, executor=learner, log=log))
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
-            log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps labelled by the expert")
+            log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps "
+                "labelled by the expert")
             timed("fit", clone, self.model, self.venv, *data, **fit)
             best = self._score_clone(f"after DAgger round {k + 1}", best)
         # the rounds' scores scatter: keep the best clone (weights and the statistics its

@@ -44,8 +44,8 @@ def warm(log=None) -> None:
     import gymnasium as gym
     import numpy as np
 
+    from hoprover_env import simulate, simulate_batch
     from hoprover_env.envs import registry as _registry
-    from hoprover_env import simulate_batch, simulate
     say = log or (lambda msg: None)
     for env_id in _registry.ENVS:
         t0 = time.perf_counter()
@@ -66,8 +66,8 @@ def warm(log=None) -> None:
                        integrator=integrator)
         say(f"  simulate, simulate_batch ({integrator}): {time.perf_counter() - t0:.1f} s")
     try:        # a checkout: its agents/ run the scripted hopper and the learned policies
-        from hoprover_env.evaluation.episodes import run_episodes
         from hoprover_env.agents.policies import load_policy
+        from hoprover_env.evaluation.episodes import run_episodes
     except ImportError:
         return
     for name in ("scripted", "scratch"):
@@ -82,6 +82,7 @@ def main(argv=None) -> int:
                                  epilog=__doc__.split("\n", 2)[2])
     ap.parse_args(argv)
     from numba.core.config import CACHE_DIR
+
     from hoprover_env.util.buildinfo import build_info
     info = build_info()
     print(f"hoprover {info['version']} (source {info['source']}, commit {info['commit']}) "

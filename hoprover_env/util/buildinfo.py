@@ -1,8 +1,8 @@
 """Which hoprover this process runs: version, git commit and a hash of the code itself.
 
 A Ray cluster runs tasks on other machines, each with its own hoprover installed.
-`build_info()` says what this process imports; hoprover_env/training/ray_utils.py compares the driver's
-with every node's and refuses to start when they differ. The comparison is on the
+`build_info()` says what this process imports; hoprover_env/training/ray_utils.py compares
+the driver's with every node's and refuses to start when they differ. The comparison is on the
 version and the source hash, not the commit: a hash of the files works the same for a
 git checkout, an editable install, a wheel in a container image or a copy Ray shipped,
 and it catches uncommitted edits that a commit id would not. The commit is reported for

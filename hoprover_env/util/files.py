@@ -44,6 +44,7 @@ def _nan_to_none(obj):
 def write_npz(path: str | os.PathLike, **arrays) -> None:
     """numpy arrays as one .npz, atomically (a killed writer leaves no half archive)."""
     import io
+
     import numpy as np
     buf = io.BytesIO()
     np.savez(buf, **arrays)

@@ -2,7 +2,8 @@
 the code before terrain (commit 6fc532c) gives them.
 
     git worktree add --detach /tmp/base 6fc532c
-    cd /tmp/base && PYTHONPATH=.:<this repo>/tests python <this repo>/tests/data/make_flat_baseline.py
+    cd /tmp/base && PYTHONPATH=.:<this repo>/tests \\
+        python <this repo>/tests/data/make_flat_baseline.py
 
 It refuses to run on code that already knows about terrain (RoverParams.slope)."""
 import os
@@ -11,8 +12,8 @@ import sys
 import numpy as np
 
 import hoprover_env
-from hoprover_env import RoverParams, simulate
 from flat_cases import cases, record
+from hoprover_env import RoverParams, simulate
 
 if hasattr(RoverParams(), "slope"):
     sys.exit("run this on the baseline commit (6fc532c), not on code with terrain")

@@ -16,9 +16,14 @@ import os
 import pickle
 from pathlib import Path
 
-
-from hoprover_env.agents.base import (ArrayPolicy, ControllerPolicy, RandomPolicy, SB3Policy,
-                                      TorchPolicy, torque_to_action)
+from hoprover_env.agents.base import (
+    ArrayPolicy,
+    ControllerPolicy,
+    RandomPolicy,
+    SB3Policy,
+    TorchPolicy,
+    torque_to_action,
+)
 
 __all__ = ["ArrayPolicy", "ControllerPolicy", "RandomPolicy", "SB3Policy", "TorchPolicy",
            "torque_to_action", "BUNDLED", "BUNDLED_NETS", "BUNDLED_DIR", "ALGOS", "SB3_ALGOS",
@@ -203,5 +208,6 @@ def load_policy(spec: str, control_dt: float = 0.5, seed: int = 0):
         return load_controller(spec, control_dt)
     if os.path.exists(spec) or spec.endswith(".zip") or os.sep in spec:
         return load_sb3(spec)
-    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, terrain_base, mission, plan_clone, scripted, mpc, random, a model "
+    raise ValueError(f"unknown policy {spec!r}: use bundled, scratch, hop, terrain, "
+                     "terrain_base, mission, plan_clone, scripted, mpc, random, a model "
                      ".zip or run directory, a .pt2, or module.py:Control")
