@@ -22,6 +22,7 @@ from hoprover_env.tasks.config import sample_episode
 from hoprover_env.sim.simulate import make_state
 from hoprover_env.util.validate import finite_real
 from hoprover_env.core.params import P_ROUGH, P_SLOPE
+from hoprover_env.tasks.layout import E_T_TOTAL
 from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
                         info as make_info, task_spaces)
 from hoprover_env.tasks import torque
@@ -186,6 +187,20 @@ class HopRoverEnv(gym.Env):
         self._done = bool(terminated or truncated)
         return self._obs.copy(), float(reward), bool(terminated), bool(truncated), \
             self._info(n_ev)
+
+    def continue_episode(self) -> None:
+        """Let an episode that ended in success go on: the rover keeps its state and the
+        judge its TTRTP, so the next step pays no second bonus (a goal-conditioned
+        learner that keeps going after success, hoprover_env/envs/goal.py). A rover that
+        broke or ran out of time stays ended (ResetNeeded)."""
+        if self._s is None or not self._done:
+            raise gym.error.ResetNeeded("continue_episode() follows a step that ended the "
+                                        "episode in success")
+        if self._s[core.S_BROKEN] != 0.0 or self._s[core.S_ERROR] != 0.0 \
+                or self._s[core.S_T] >= self._e[E_T_TOTAL]:
+            raise gym.error.ResetNeeded("the episode ended in a break or at the time limit: "
+                                        "call reset()")
+        self._done = False
 
     def _info(self, n_events: int) -> dict:
         # numpy scalars of fixed dtype from the first step: TorchRL's info reader wants a
