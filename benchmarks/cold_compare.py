@@ -5,7 +5,7 @@ alternating fresh interpreters.
     python -m benchmarks.cold_compare ../hoprover-old . --rounds 5
     python -m benchmarks.cold_compare ../hoprover-old . --rounds 4 --one-process
     python -m benchmarks.cold_compare ../hoprover-old . --rounds 3 --what step simulate
-    python -m benchmarks.cold_compare .:HOPROVER_NUMBA_LAYER=1 . --rounds 3
+    python -m benchmarks.cold_compare .:HOPROVER_PARALLEL_COMPILE=0 . --rounds 3
 
 Each argument is a checkout, optionally followed by ``:VAR=VALUE,VAR=VALUE`` settings
 for its runs (every other HOPROVER_* variable of this shell is left out, so a checkout

@@ -7,7 +7,7 @@
 
 Every kernel is cached on disk (numba's ``cache=True``), uses numpy's error model (a
 division by zero gives inf/nan, which callers check, instead of raising) and no
-reference counting (nothing allocates). On top of plain numba it adds four things, each
+reference counting (nothing allocates). On top of plain numba it adds these, mostly
 for the cold start (the first use after installing or editing), none of which changes
 numba for anyone else in the process (docs/COMPILING.md):
 
@@ -20,20 +20,19 @@ numba for anyone else in the process (docs/COMPILING.md):
 * stale caches are dropped: numba keys a cached function on its own file only, so a
   caller would keep an old callee's code linked in. One fingerprint over the kernel
   sources guards every module's cache.
+* kernels built from templates (`bind`: a task's step and observation bound into the
+  loops of tasks/common.py) carry in their names a digest of the source files of every
+  function they embed, so that an edit to a task module, inside the package or outside
+  it, compiles them afresh instead of loading the old code from numba's cache.
 * `prepare()`: on a cold cache it prints one line (MESSAGE) and, with two or more cores,
   a helper process (a fresh interpreter, never a fork) and this one compile the
   simulator's parts into the cache, each taking the next part the other has not taken,
   like ``make -j2``. ``HOPROVER_PARALLEL_COMPILE=0`` turns the helper off.
 
-``HOPROVER_NUMBA_LAYER=1`` (opt-in) also installs `numba_layer`, changes to numba's own
-compiler classes that shorten a cold compile: they apply to the whole process, the
-user's own numba code included, and rest on numba internals that may move.
-
 `kernel` leans on numba internals (`_numba_internals`): the CPUDispatcher class, its
 `get_call_template` hook, a dispatcher's `_cache` and the wrapper options. Should a numba
 release move one of them, everything falls back to plain ``numba.njit(cache=True)`` with
-a warning: correct results, a slower cold start (tests/test_compile.py hides them);
-should one the opt-in layer uses move, only the layer is left out, with a warning.
+a warning: correct results, a slower cold start (tests/test_compile.py hides them).
 `run_threaded` restores the OpenMP settings numba's OpenMP layer changes.
 """
 from __future__ import annotations
@@ -44,6 +43,7 @@ import hashlib
 import importlib
 import inspect
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -70,9 +70,6 @@ KERNEL_SOURCES = sorted(glob.glob(os.path.join(_PACKAGE, "core", "*.py"))
                             "controllers.py", "rollout.py")])
 
 
-LAYER_SWITCH = "HOPROVER_NUMBA_LAYER"        # "1": install numba_layer (opt-in; see there)
-
-
 @functools.lru_cache(maxsize=None)
 def _numba_internals():
     """The numba internals used here, or None (with one warning) if any has moved."""
@@ -90,22 +87,7 @@ def _numba_internals():
                       "results are the same, the first run compiles more slowly",
                       RuntimeWarning, stacklevel=3)
         return None
-    if layer_requested():
-        try:
-            from hoprover_env.jit import numba_layer as _numba_layer
-            _numba_layer.install()
-        except AttributeError as exc:
-            warnings.warn(f"hoprover_env: this numba ({exc} is missing) is not one "
-                          "hoprover's changes to numba's compiler know (_numba_layer); "
-                          "compiling without them: the same results, a slower first run",
-                          RuntimeWarning, stacklevel=3)
     return CPUDispatcher
-
-
-def layer_requested() -> bool:
-    """Whether this process asked for `numba_layer` (``HOPROVER_NUMBA_LAYER=1``). Off by
-    default: it changes numba's classes for the whole process (docs/COMPILING.md)."""
-    return os.environ.get(LAYER_SWITCH, "0").strip() == "1"
 
 
 class _JitOnly:
@@ -208,15 +190,120 @@ def rebind(dispatcher, name: str, module: str, inner: bool | None = None, **name
     return kernel(**options)(bind_globals(dispatcher.py_func, name, module, **names))
 
 
+def bind(func, name: str, options: dict | None = None, **names):
+    """A kernel (``kernel(**options)``) built from the template `func` with some global
+    names bound to other objects (`bind_globals`): a task's step template with its
+    integrator, or the loops of tasks/common.py with a task's step and observation.
+
+    numba keys a cached function on its own file and bytecode only, not on the code of
+    what it calls, so a cached loop would keep an edited task module's old step linked
+    in. The kernel is therefore called ``f"{name}_{digest}"``, `digest` being
+    `source_digest` of the bound template: a hash of the source files of `func`, of the
+    objects bound and of every kernel they reach. An edit to any of those files, inside
+    the package or outside it, gives a new name, which numba compiles afresh; the
+    cache files of the same kernel under other digests are deleted then."""
+    digest = source_digest(bind_globals(func, name, **names))
+    dispatcher = kernel(**(options or {}))(bind_globals(func, f"{name}_{digest}", **names))
+    _drop_other_versions(dispatcher, name, digest)
+    return dispatcher
+
+
+DIGEST_LENGTH = 16          # hex digits of `source_digest`
+
+
+def source_digest(*objects) -> str:
+    """DIGEST_LENGTH hex digits of a hash over the source files (their paths and
+    contents, each read once per process) of `objects` (functions or kernels) and of
+    every kernel they reach through their global names, the attributes of modules they
+    name, and their closures (`_source_files`)."""
+    h = hashlib.sha256()
+    for path in sorted(_source_files(objects)):
+        h.update(path.encode("utf-8", "surrogateescape") + b"\0" + _file_hash(path))
+    return h.hexdigest()[:DIGEST_LENGTH]
+
+
+@functools.lru_cache(maxsize=None)
+def _file_hash(path: str) -> bytes:
+    try:
+        with open(path, "rb") as fh:
+            return hashlib.sha256(fh.read()).digest()
+    except OSError:             # no file (code made by exec): numba cannot cache it anyway
+        return b"-"
+
+
+def _is_kernel(obj) -> bool:
+    return inspect.isfunction(getattr(obj, "py_func", None)) and hasattr(obj, "overloads")
+
+
+def _code_names(code) -> set:
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            names |= _code_names(const)
+    return names
+
+
+def _source_files(objects) -> set:
+    """The files defining `objects` (functions or kernels) and every kernel reachable
+    from them, and the files of the modules they are stored in: jitted code calls
+    kernels only, named as globals (``f(x)``), as module attributes (``module.f(x)``)
+    or held in a closure."""
+    files, seen, todo = set(), set(), list(objects)
+    while todo:
+        func = todo.pop()
+        func = getattr(func, "py_func", func)
+        if not inspect.isfunction(func) or id(func) in seen:
+            continue
+        seen.add(id(func))
+        files.add(func.__code__.co_filename)
+        # and the module it is stored in, where that is another (a rebind of a callee)
+        stored = getattr(sys.modules.get(func.__module__), "__file__", None)
+        if stored:
+            files.add(stored)
+        names = _code_names(func.__code__)
+        reached = []
+        for name in names:
+            value = func.__globals__.get(name)
+            if isinstance(value, types.ModuleType):
+                reached.extend(vars(value).get(attr) for attr in names)
+            else:
+                reached.append(value)
+        for cell in func.__closure__ or ():
+            try:
+                reached.append(cell.cell_contents)
+            except ValueError:          # an empty cell
+                pass
+        todo.extend(obj for obj in reached if _is_kernel(obj))
+    return files
+
+
+def _drop_other_versions(dispatcher, name: str, digest: str) -> None:
+    """Delete the cache files of the kernels called ``f"{name}_{other digest}"`` of the
+    dispatcher's module (`bind`): code for sources that are no more. Another process
+    still running the old sources then recompiles what it finds missing."""
+    path = _cache_path(dispatcher)
+    if path is None:
+        return
+    stem = os.path.splitext(os.path.basename(dispatcher.py_func.__code__.co_filename))[0]
+    pattern = re.compile(re.escape(f"{stem}.{name}_") + f"([0-9a-f]{{{DIGEST_LENGTH}}})-"
+                         + r".*\.nb[ic]$")
+    try:
+        entries = os.listdir(path)
+    except OSError:
+        return
+    for entry in entries:
+        match = pattern.match(entry)
+        if match and match.group(1) != digest:
+            try:
+                os.remove(os.path.join(path, entry))
+            except OSError:
+                pass
+
+
 def compile_now(dispatcher) -> None:
     """Compile a declared-signature kernel now (nothing if it already is)."""
     if isinstance(dispatcher, _Declared):
         dispatcher.compile_declared()
-
-
-def _layer_active() -> bool:
-    from numba.core import codegen
-    return bool(getattr(codegen.JITCodeLibrary, "_hoprover_link_only", False))
 
 
 def _cache_path(dispatcher):
@@ -229,10 +316,6 @@ def _cache_path(dispatcher):
 @functools.lru_cache(maxsize=None)
 def _fingerprint() -> str:
     h = hashlib.sha256()
-    # a cache of link-only libraries is unreadable without them, and the reverse. What was
-    # asked for, not what is installed now: the fingerprint may be taken before the layer
-    # is, and a cache written with the layer must never be marked as plain numba's
-    h.update(b"link-only" if layer_requested() else b"numba")
     for path in KERNEL_SOURCES:
         with open(path, "rb") as fh:
             h.update(fh.read())
@@ -403,10 +486,9 @@ def compile_queue(queue) -> None:
 def _start_helper(queue):
     """The helper process working through `queue` (`compile_queue`): a fresh interpreter,
     which shares nothing with this process but the cache directory and the directory of
-    marks; None if it cannot start. (It was a fork of this process on Linux until
-    2026-11-27, which spared it the start of an interpreter, but a fork is only safe
+    marks; None if it cannot start. Never a fork of this process: a fork is only safe
     where no other thread holds a lock the child needs, and hoprover cannot see threads
-    that never run Python, such as numpy's BLAS pool: docs/COMPILING.md.)"""
+    that never run Python, such as numpy's BLAS pool (docs/COMPILING.md)."""
     # the helper must compile this very package, wherever it was imported from
     parent = os.path.dirname(_PACKAGE)
     path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
@@ -474,8 +556,8 @@ def run_threaded(fn, *args):
     thread count when it starts and at every launch, and the runtime's nesting level
     when it starts; every later OpenMP user in the process inherits that: after one
     threaded step, torch.set_num_threads(1) read 2 and torch's small ops ran on two
-    threads that spun against the env's (PPO's updates 5x slower here, on 2 cores).
-    numba's own thread count (numba.set_num_threads) is neither read nor changed."""
+    threads that spun against the env's. numba's own thread count
+    (numba.set_num_threads) is neither read nor changed."""
     lib = _openmp()
     before = _openmp_settings(lib) if lib is not None else None
     try:

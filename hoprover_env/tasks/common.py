@@ -24,16 +24,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import types
-from collections.abc import Callable
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
-from numba import get_thread_id, prange
-from numba import types as nt
+from numba import get_thread_id, prange, types as nt
 
+from hoprover_env.jit.compiler import bind, kernel, BOOL, F64, I64, VEC
 from hoprover_env import core
 from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, S_TTRTP
-from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, bind, kernel
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
 
@@ -106,7 +104,7 @@ class TaskSpec:
     obs_bounds: Callable | None = None
     compile_extra: tuple = ()
 
-    def kernels(self, integrator: str, rough: bool = True) -> TaskKernels:
+    def kernels(self, integrator: str, rough: bool = True) -> "TaskKernels":
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
         built once per task, integrator and ground: `rough` False gives the build that
         compiles no rough-terrain code (core/smooth.py), for rovers on smooth ground
@@ -335,7 +333,7 @@ def build(task: TaskSpec, integrator: str, rough: bool = True) -> TaskKernels:
     inner = bind(task.step, f"{name}_inner", dict(inner=True, inline=True), ADVANCE=advance,
                  **task.holes)
     bound = dict(_STEP=inner, _OBSERVE=task.observe)
-    # each named for what it embeds (jit.compiler.bind): an edited task module compiles
+    # each named for what it embeds (jit.compiler.bind): an edited task compiles afresh
     return TaskKernels(
         step=bind(step_and_observe, f"{name}_step", **bound),
         batch=bind(batch_serial, f"{name}_batch", **bound),
