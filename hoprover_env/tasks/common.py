@@ -24,14 +24,16 @@ from __future__ import annotations
 import dataclasses
 import math
 import types
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
-from numba import get_thread_id, prange, types as nt
+from numba import get_thread_id, prange
+from numba import types as nt
 
-from hoprover_env.jit.compiler import bind, kernel, BOOL, F64, I64, VEC
 from hoprover_env import core
 from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, S_TTRTP
+from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, bind, kernel
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
 
@@ -104,7 +106,7 @@ class TaskSpec:
     obs_bounds: Callable | None = None
     compile_extra: tuple = ()
 
-    def kernels(self, integrator: str, rough: bool = True) -> "TaskKernels":
+    def kernels(self, integrator: str, rough: bool = True) -> TaskKernels:
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
         built once per task, integrator and ground: `rough` False gives the build that
         compiles no rough-terrain code (core/smooth.py), for rovers on smooth ground
