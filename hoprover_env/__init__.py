@@ -10,14 +10,22 @@ The package has one subpackage per layer, each importing only from those below i
 (docs/ARCHITECTURE.md): `jit`, `util`, `core` (the physics kernel), `sim` (simulate,
 batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
-from hoprover_env.util.buildinfo import VERSION as __version__
 from hoprover_env.core.params import RoverParams
+from hoprover_env.envs import registry as _registry
+from hoprover_env.envs.registry import (
+    ENVS,
+    Task,
+    config_class,
+    env_class,
+    gym_register,
+    register_task,
+    task,
+    vector_env_class,
+)
+from hoprover_env.sim.batch import BatchRollout, simulate_batch
 from hoprover_env.sim.rollout import Rollout
 from hoprover_env.sim.simulate import RoverSim, simulate
-from hoprover_env.sim.batch import BatchRollout, simulate_batch
-from hoprover_env.envs.registry import (ENVS, Task, config_class, env_class, gym_register,
-                                        register_task, task, vector_env_class)
-from hoprover_env.envs import registry as _registry
+from hoprover_env.util.buildinfo import VERSION as __version__  # noqa: F401 (the version)
 
 for _id in ENVS:
     gym_register(_id)

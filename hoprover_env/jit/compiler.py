@@ -53,7 +53,8 @@ import time
 import types
 import warnings
 
-from numba import njit, types as nt
+from numba import njit
+from numba import types as nt
 
 F64, I64, BOOL, NONE = nt.float64, nt.int64, nt.boolean, nt.none
 VEC, VEC32, MAT = nt.float64[::1], nt.float32[::1], nt.float64[:, ::1]
@@ -70,7 +71,7 @@ KERNEL_SOURCES = sorted(glob.glob(os.path.join(_PACKAGE, "core", "*.py"))
                             "controllers.py", "rollout.py")])
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _numba_internals():
     """The numba internals used here, or None (with one warning) if any has moved."""
     try:
@@ -129,7 +130,7 @@ def _module_attribute(module: str, name: str):
     return getattr(importlib.import_module(module), name)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _subclass(*mixins):
     base = _numba_internals()
     return type("".join(m.__name__.strip("_") for m in mixins) + "Dispatcher",
@@ -222,7 +223,7 @@ def source_digest(*objects) -> str:
     return h.hexdigest()[:DIGEST_LENGTH]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _file_hash(path: str) -> bytes:
     try:
         with open(path, "rb") as fh:
@@ -313,7 +314,7 @@ def _cache_path(dispatcher):
         return None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _fingerprint() -> str:
     h = hashlib.sha256()
     for path in KERNEL_SOURCES:
@@ -322,7 +323,7 @@ def _fingerprint() -> str:
     return h.hexdigest()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _checked(cache_dir: str, stem: str) -> None:
     marker = os.path.join(cache_dir, f"{stem}.kernel-sources")
     try:
