@@ -58,7 +58,7 @@ class HopRoverSB3VecEnv(VecEnv):
                          self.venv.single_action_space)
         if seed is not None:
             self.seed(seed)
-        self._actions = None
+        self._actions: np.ndarray | None = None
         self.step_seconds = 0.0          # wall time spent inside step_wait (the env's share)
 
     # ---- the VecEnv contract ------------------------------------------------------

@@ -20,6 +20,7 @@ info values and their types are those of HopRoverEnv (the table in env.py), as a
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from typing import Any
 
 import numba
@@ -29,7 +30,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hoprover_env import core
-from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
+from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE, RoverParams
 from hoprover_env.envs.env import check_actions
 from hoprover_env.envs.parts import (
     NO_TERRAIN_SEED,
@@ -72,6 +73,7 @@ class HopRoverVectorEnv(VectorEnv):
         # cold cache: compile on 2 cores, for the ground the config's episodes are on
         _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
         self.num_envs = int(num_envs)
+        mode: AutoresetMode | None
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -89,8 +91,9 @@ class HopRoverVectorEnv(VectorEnv):
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.threads = (self.num_envs >= THREAD_THRESHOLD) if threads is None else bool(threads)
-        self._rough = None
-        self._kernel = None                 # chosen at reset, by the ground (_choose_kernel)
+        self._rough: bool | None = None
+        # chosen at reset, by the ground (_choose_kernel)
+        self._kernel: Callable[..., Any] | None = None
 
         self.single_action_space, self.single_observation_space = task_spaces(self.task,
                                                                               self.config)
@@ -128,7 +131,8 @@ class HopRoverVectorEnv(VectorEnv):
         self.targets = np.zeros(n)
         self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
         self._legacy = self.config.draws == "legacy"
-        self._params = [self.config.params] * n if self._legacy else draws.ParamsView(self.P)
+        self._params: list[RoverParams] | draws.ParamsView = (
+            [self.config.params] * n if self._legacy else draws.ParamsView(self.P))
         self._keys = draws.RoverKeys(n)
         self._observe_rows = self.task.observer()
         self._rngs: list = [None] * n
@@ -138,7 +142,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._note_info(np.arange(n))       # those of the all-zero rows of a sub-env never reset
 
     # ------------------------------------------------------------------------------
-    def _choose_kernel(self, rough: bool) -> None:
+    def _choose_kernel(self, rough: bool | np.bool_) -> None:
         """The batch kernel for the ground: without rough-terrain code while every rover
         is on smooth ground (core/smooth.py), the general one once any has bumps."""
         rough = bool(rough)
@@ -175,6 +179,7 @@ class HopRoverVectorEnv(VectorEnv):
                                    {k: v[rows] for k, v in options.items()})
         self.S[rows] = ep.S
         self.P[rows] = ep.P
+        assert isinstance(self._params, draws.ParamsView)     # counter draws: a view of P
         self._params.forget(rows)
         self.targets[rows] = ep.targets
         self.terrain_seeds[rows] = ep.terrain_seeds
@@ -222,8 +227,10 @@ class HopRoverVectorEnv(VectorEnv):
         "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
+        first: int | None = None         # an int seed: sub-env i's is first + i
         if seed is None or isinstance(seed, (int, np.integer)):
             seeds = None
+            first = None if seed is None else int(seed)
         else:
             seeds = list(seed)
             if len(seeds) != n:
@@ -250,14 +257,14 @@ class HopRoverVectorEnv(VectorEnv):
         rows = np.flatnonzero(mask)
         if self._legacy:
             if seeds is None:
-                seeds = [None if seed is None else int(seed) + i for i in range(n)]
+                seeds = [None if first is None else first + i for i in range(n)]
             for i in rows:
                 if seeds[i] is not None or self._rngs[i] is None:
                     self._rngs[i], _ = seeding.np_random(seeds[i])
         else:
             keys = self._keys
-            if seed is not None and seeds is None:
-                keys.seed_consecutive(int(seed), rows)
+            if first is not None:
+                keys.seed_consecutive(first, rows)
             elif seeds is not None:
                 given = np.array([seeds[i] is not None for i in rows], dtype=np.bool_)
                 keys.seed_rows(rows[given], [seeds[i] for i in rows[given]])

@@ -82,6 +82,8 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     from minari.data_collector.episode_buffer import EpisodeBuffer
 
     from hoprover_env.envs import registry as _registry
+    if n_steps is None and episodes is None:
+        raise ValueError("collect: give n_steps or episodes")
     venv = _registry.vector_env_class(task)(num_envs, autoreset_mode=AutoresetMode.NEXT_STEP,
                                                **kwargs)
     queue = list(episodes) if episodes is not None else None
@@ -137,7 +139,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
         act = np.clip(act, -1.0, 1.0).astype(np.float32).astype(np.float64)
         o, r, te, tr, _ = venv.step(act)
         obs[:] = o
-        for i in np.flatnonzero(live):
+        for i in np.flatnonzero(live).tolist():
             k, s, opt, ob, ac, rw, tm, tc = slots[i]
             ob.append(o[i].copy())
             ac.append(act[i].astype(np.float32))
@@ -150,7 +152,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
                                            observations=np.array(ob),
                                            actions=np.array(ac), rewards=rw,
                                            terminations=tm, truncations=tc)
-                if queue is None and recorded >= n_steps:
+                if queue is None and n_steps is not None and recorded >= n_steps:
                     slots[i] = None              # enough: let the others finish theirs
                     queue = []
                 else:

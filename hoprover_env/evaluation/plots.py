@@ -192,6 +192,7 @@ def nine_figures(rec, out_dir: str) -> list[str]:
             ax.legend()
             axes = [ax]
         else:
+            assert panels is not None       # every figure without panels is drawn above
             fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True)
             axes = np.atleast_1d(axes)
             for ax, (label, data) in zip(axes, panels):

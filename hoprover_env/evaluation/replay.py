@@ -80,6 +80,7 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
             t_end = ttrtp if success else len(torques) * venv.config.control_dt
             break
     dt = venv.config.control_dt
+    controller: _HopReplay | np.ndarray
     if hops:
         controller = _HopReplay(torques, params, dt, venv.config)
         t_end = ttrtp if ttrtp is not None else venv.config.episode_time

@@ -57,7 +57,7 @@ CONTROL_DT = 0.5
 NO_TERRAIN_SEED = -1
 # env id -> suite name (the registry's), and suite -> the torque task that runs it
 SUITE_OF = {env_id: spec.suite for env_id, spec in ENVS.items()}
-TASK_OF = {}
+TASK_OF: dict[str, str] = {}
 for _env_id, _spec in ENVS.items():
     if not _spec.hops:
         TASK_OF.setdefault(_spec.suite, _env_id)
@@ -170,7 +170,8 @@ def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> d
     n = SIZES[name] if n is None else n
     targets = rng.uniform(-1.0, 1.0, n)
     if name == "terrain":
-        slopes = rng.uniform(*TERRAIN_SLOPES, n)
+        low, high = TERRAIN_SLOPES
+        slopes = rng.uniform(low, high, n)
         seeds = rng.integers(0, 2**63, n, dtype=np.int64)
         rough = np.full(n, TERRAIN_ROUGHNESS)
     else:

@@ -22,6 +22,7 @@ import subprocess
 import sys
 import threading
 import traceback
+from typing import Any
 
 _HEAD = struct.Struct("<Q")
 # the worker's own module, run with -m: importable from the directory above the package
@@ -140,6 +141,7 @@ def _serve() -> None:
         if call is None:
             return
         fn, args = call
+        result: tuple[Any, ...]
         try:
             result = ("ok", fn(*args))
         except BaseException as exc:           # noqa: BLE001 - handed back to the caller

@@ -101,22 +101,22 @@ class Ref:
             else:
                 sg = sigma
 
-                def rhs(_t, y, sg=sg):
+                def slide_rhs(_t, y, sg=sg):
                     thdd, fx, _ = self.slide(T, y[0], y[1], sg)
                     return [y[1], thdd, y[3], fx / m - self.gs]
 
-                def liftoff(_t, y, sg=sg):
+                def slide_liftoff(_t, y, sg=sg):
                     return self.slide(T, y[0], y[1], sg)[2]
 
                 def stick(_t, y, sg=sg):
                     # sigma * (xdot_A): the sliding speed of corner A
                     return sg * (y[3] - self.l * y[1] * math.sin(y[0] + self.alpha))
 
-                liftoff.terminal, liftoff.direction = True, -1
+                slide_liftoff.terminal, slide_liftoff.direction = True, -1
                 stick.terminal, stick.direction = True, -1
                 # the slide starts from rest: integrate a hair before arming 'stick'
-                sol = solve_ivp(rhs, (t, t_max), [th, w, x, vx], method="DOP853",
-                                rtol=RTOL, atol=ATOL, events=(liftoff, stick))
+                sol = solve_ivp(slide_rhs, (t, t_max), [th, w, x, vx], method="DOP853",
+                                rtol=RTOL, atol=ATOL, events=(slide_liftoff, stick))
                 th, w, x, vx = sol.y[:, -1]
                 t = sol.t[-1]
                 if sol.t_events[0].size:

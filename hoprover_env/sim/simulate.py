@@ -149,7 +149,8 @@ def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None =
         bad = ~np.isfinite(targets) | (np.abs(targets) > MAX_MAGNITUDE) \
             | (rovers < 0) | (rovers >= 2**53)
         if X.shape[0]:
-            xbad = ~np.isfinite(X).all(axis=1) | (np.abs(X) > MAX_MAGNITUDE).any(axis=1)
+            xbad = np.asarray(~np.isfinite(X).all(axis=1)
+                              | (np.abs(X) > MAX_MAGNITUDE).any(axis=1))
             bad |= xbad if X.shape[0] == n else xbad[0]
     S = np.zeros((n, core.N_STATE))
     codes = np.zeros(n, np.int64)

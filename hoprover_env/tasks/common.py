@@ -25,7 +25,7 @@ import dataclasses
 import math
 import types
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numba import get_thread_id, prange
@@ -36,6 +36,9 @@ from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, 
 from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, bind, kernel
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
+
+if TYPE_CHECKING:
+    from hoprover_env.tasks.config import EnvConfig
 
 TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
 
@@ -91,7 +94,7 @@ class TaskSpec:
     ==================  ==============================================================
     """
     name: str
-    config: type
+    config: type[EnvConfig]
     step: Callable
     observe: Any
     obs_low: np.ndarray
