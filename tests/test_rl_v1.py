@@ -27,7 +27,8 @@ def test_the_spin_slot_resolves_every_spin_the_attitude_term_tells_apart():
         seen.append(obs[v1.OBS_SPIN])
         u = 0.5 * (omega / 0.3) ** 2
         potentials.append(rw.U_Q * math.log1p(min(u, rw.U_MAX) / rw.U_Q))
-        assert obs[v1.OBS_RATE] == pytest.approx(min(omega / 0.3, 10.0))  # the fine slot saturates...
+        # the fine slot saturates...
+        assert obs[v1.OBS_RATE] == pytest.approx(min(omega / 0.3, 10.0))
     assert np.all(np.diff(seen) > 0.1)                  # ...the whole-range one does not
     assert np.all(np.diff(potentials) > 0)
     assert max(seen) < v1.SPIN_BOUND

@@ -54,7 +54,7 @@ state of the episode stays reachable from the states before it.
 
 `keep_going` (False) and HopRoverRL-v1's arguments, but `band_weight` (refused) and
 `info_level` (always "full" underneath).
-"""
+"""  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
 from __future__ import annotations
 
 from typing import Any

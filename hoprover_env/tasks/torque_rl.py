@@ -79,7 +79,7 @@ HopRover-v0's, with the defaults above, and `flight_start` (a share in [0, 1]);
 
 * v1: this observation (unclipped spin and distances, no time), the per-decision
   attitude cost, and `flight_start`.
-"""
+"""  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
 import dataclasses
 import math
 
@@ -91,8 +91,16 @@ from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration
 from hoprover_env.tasks.common import TaskSpec
 from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
-from hoprover_env.tasks.observation import (HEIGHT_SCALE, POS_SCALE, RATE_SCALE, VEL_SCALE, clip,
-                                            dwell_fraction, landing_x, reference_point)
+from hoprover_env.tasks.observation import (
+    HEIGHT_SCALE,
+    POS_SCALE,
+    RATE_SCALE,
+    VEL_SCALE,
+    clip,
+    dwell_fraction,
+    landing_x,
+    reference_point,
+)
 from hoprover_env.tasks.torque import commanded_torque, step
 
 OBS_DX, OBS_HEIGHT, OBS_VX, OBS_VY, OBS_SIN, OBS_COS, OBS_RATE, OBS_SPIN = range(8)
