@@ -37,7 +37,10 @@ def test_diagnose_writes_a_row_per_checkpoint(tmp_path, algo, extra):
     for r in rows:
         for key in ("q_pred", "q_mc", "reward_min", "reward_max", "return_mean"):
             assert abs(float(r[key])) < 1e6
-        assert 0.0 <= float(r["tip_frac"]) <= 1.0
+        assert 0.0 <= float(r["tip_frac_rest"]) <= 1.0
+        # every exploring episode opens at rest: at least one decision there each
+        split = [int(r[f"decisions_{k}"]) for k in ("rest", "contact", "flight")]
+        assert split[0] >= 32 and sum(split) >= 32
         assert abs(float(r["q_bias"]) - (float(r["q_pred"]) - float(r["q_mc"]))) < 1e-6
         assert float(r["reward_min"]) <= float(r["reward_max"])
         # 40 s episodes at 4 s: every exploring episode ends by the time limit or before

@@ -15,9 +15,13 @@ At each checkpoint, 32 episodes are played with the behaviour the learner explor
   limit is bootstrapped with the critic at its last state, and `truncated` says how many.
   q_pred far above q_mc is over-estimation; growing without bound, divergence.
 - `reward_min`, `reward_max`, `return_mean`: the scale the critic must fit.
-- `tip_frac`: the fraction of exploring actions whose torque exceeds the tipping torque
-  m g r (the smallest torque that moves a rover at rest): what exploration does to a
-  rover that should keep still.
+- `tip_frac_rest`: of the exploring decisions taken at rest (contact state F), the
+  fraction whose torque exceeds the tipping torque m g r (the smallest torque that moves
+  a rover at rest): what exploration does to a rover that should keep still. Flight
+  decisions outnumber rest decisions by two orders of magnitude and a torque in flight
+  tips nothing, so only decisions at rest count; `decisions_rest`, `decisions_contact`
+  and `decisions_flight` say how the exploring decisions split by contact state (ground
+  contact: pivoting or sliding, states B-E and G).
 - `explore_success`, `explore_broken`, `eval_success`, `eval_broken`, `eval_median_ttrtp`.
 - `ent_coef` (SAC/TQC/CrossQ) and `obs_std_max`/`obs_std_min` of the observation
   normalisation (statistics that keep moving while the replay buffer keeps old samples).
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import importlib
 import io
 import sys
 import time
@@ -40,14 +45,18 @@ import torch
 
 from hoprover_env.agents.policies import SB3Policy, torque_to_action
 from hoprover_env.core.params import RoverParams
+from hoprover_env.envs.registry import task
+from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+from hoprover_env.tasks import observation
 from hoprover_env.training.sb3_agents import env_kwargs, load_config, make_agent
 from hoprover_env.training.train import build_env
 from hoprover_env.util.files import atomic_write
-from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
 
+REST, FLIGHT = 5, 0                      # contact state codes F and A
 FIELDS = ["timesteps", "wall_s", "q_pred", "q_mc", "q_bias", "truncated", "reward_min",
-          "reward_max", "return_mean", "tip_frac", "explore_success", "explore_broken",
+          "reward_max", "return_mean", "tip_frac_rest", "decisions_rest", "decisions_contact",
+          "decisions_flight", "explore_success", "explore_broken",
           "eval_success", "eval_broken", "eval_median_ttrtp", "ent_coef", "obs_std_min",
           "obs_std_max"]
 
@@ -58,6 +67,13 @@ def tipping_action(cfg: dict) -> float:
     p = RoverParams()
     return torque_to_action(p.mass * p.gravity * p.half_width, p,
                             SimpleNamespace(**env_kwargs(cfg)))
+
+
+def mode_slot(env_id: str) -> int:
+    """Where the one-hot contact state starts in the id's observation (its task module's
+    OBS_MODE, or the torque task's)."""
+    module = importlib.import_module(task(env_id).module)
+    return int(getattr(module, "OBS_MODE", observation.OBS_MODE))
 
 
 def critic_value(model, obs: torch.Tensor, act: torch.Tensor) -> np.ndarray:
@@ -101,7 +117,10 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
     q0 = tail = None
     trunc = np.zeros(episodes, bool)
     success, broken = np.zeros(episodes, bool), np.zeros(episodes, bool)
-    n_act = n_tip = 0
+    counts = {"rest": 0, "contact": 0, "flight": 0}
+    n_tip = 0
+    mode = np.full(episodes, REST)       # every episode starts upright at rest
+    slot = mode_slot(cfg["env_id"])
     tip = tipping_action(cfg)
     while open_.any():
         o = torch.as_tensor(venv.normalize_obs(obs), dtype=torch.float32)
@@ -110,11 +129,15 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
             q0 = critic_value(model, o, act)
             tail = np.zeros(episodes)
         a = act.numpy()
-        n_act += int(open_.sum())
-        n_tip += int((np.abs(a[:, 0]) > tip)[open_].sum())
+        at_rest, flying = open_ & (mode == REST), open_ & (mode == FLIGHT)
+        counts["rest"] += int(at_rest.sum())
+        counts["flight"] += int(flying.sum())
+        counts["contact"] += int((open_ & ~at_rest & ~flying).sum())
+        n_tip += int((np.abs(a[:, 0]) > tip)[at_rest].sum())
         for i in np.flatnonzero(open_):
             bonus[i].append(ent[i])
         obs, rew, done, infos = env.step(a)
+        mode = np.argmax(obs[:, slot:slot + 7], axis=1)   # the next decision's state
         for i in np.flatnonzero(open_ & done):
             info = infos[i]
             success[i], broken[i] = bool(info.get("is_success")), bool(info.get("broken"))
@@ -138,7 +161,9 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
             "q_bias": float((q0 - q_mc).mean()), "truncated": int(trunc.sum()),
             "reward_min": float(allr.min()), "reward_max": float(allr.max()),
             "return_mean": float(np.mean([np.sum(r) for r in rewards])),
-            "tip_frac": n_tip / max(n_act, 1), "explore_success": float(success.mean()),
+            "tip_frac_rest": n_tip / max(counts["rest"], 1),
+            **{f"decisions_{k}": v for k, v in counts.items()},
+            "explore_success": float(success.mean()),
             "explore_broken": int(broken.sum())}
 
 
