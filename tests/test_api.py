@@ -119,13 +119,13 @@ def test_roversim_copy_is_independent_and_stop_on():
 def test_jit_only_kernel_functions_raise_instead_of_crashing():
     # Kernel helpers compiled without a Python entry (core.INNER) crashed the interpreter
     # with a segmentation fault when called from Python; they raise a TypeError instead.
+    import importlib
+    import pkgutil
     import subprocess
     import sys
 
     from numba.core.registry import CPUDispatcher
 
-    import importlib
-    import pkgutil
     from hoprover_env import core, tasks
     from hoprover_env.jit import compiler as _compile
     from hoprover_env.tasks import reward
@@ -166,6 +166,7 @@ def test_every_subpackage_is_shipped():
     # a package missing from pyproject's list installs fine in editable mode and breaks
     # every non-editable install (the core became a package)
     import pathlib
+
     import tomllib
 
     root = pathlib.Path(__file__).resolve().parents[1]

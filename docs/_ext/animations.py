@@ -2,10 +2,11 @@
 
     python docs/_ext/animations.py HopRover-v0 scratch 0.7 out.gif
 
-One episode of a bundled policy (`hoprover_env.agents.policies.load_policy`) towards one target,
-replayed densely (`hoprover_env.evaluation.replay.record_episode`) and drawn by the env's own renderer
-(`hoprover_env.evaluation.replay.write_video`): the GIF of `evaluate.py --video`. A JSON file beside the
-GIF records what was run and the judge's verdict, for the caption.
+One episode of a bundled policy (`hoprover_env.agents.policies.load_policy`) towards one
+target, replayed densely (`hoprover_env.evaluation.replay.record_episode`) and drawn by the
+env's own renderer (`hoprover_env.evaluation.replay.write_video`): the GIF of `evaluate.py
+--video`. A JSON file beside the GIF records what was run and the judge's verdict, for the
+caption.
 """
 from __future__ import annotations
 
@@ -25,9 +26,9 @@ def make_animation(env_id: str, policy: str, target_x: float, out: Path) -> dict
     """Run `policy` on `env_id` towards `target_x` [m], write the GIF `out` and its JSON
     (policy, target, TTRTP [s] or None, broken, seconds taken). Returns that record.
     Raises ValueError if the policy does not act in `env_id`'s task."""
+    import hoprover_env
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.replay import record_episode, write_video
-    import hoprover_env
 
     t0 = time.perf_counter()
     pol = load_policy(policy)
@@ -58,9 +59,10 @@ def make_estimate_animation(env_id, pol, policy: str, target_x: float, out: Path
     instant of one episode (episode seed 0)."""
     import imageio.v2 as imageio
     import numpy as np
+
+    import hoprover_env
     from hoprover_env import core
     from hoprover_env.envs.rendering import Renderer
-    import hoprover_env
     venv = hoprover_env.vector_env_class(env_id)(1, info_level="full",
                                                  **getattr(pol, "env_kwargs", {}))
     obs, info = venv.reset(seed=0, options={"target_x": target_x})

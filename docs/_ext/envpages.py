@@ -77,6 +77,7 @@ def _space(space) -> str:
 def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
     """The Markdown that replaces one {hoprover-env} block."""
     import gymnasium as gym
+
     import hoprover_env
 
     if env_id not in hoprover_env.ENVS:
@@ -120,9 +121,9 @@ def env_markdown(env_id: str, opts: dict, srcdir: Path) -> str:
             f"{meta['target_x']:+.2f} m: {verdict} by the contest judge. Rendered during "
             "the build from this run (the GIF of `evaluate.py --video`); the time in the "
             "corner is simulated time, sped up."
-            + (f" Left: the true rover; right: the rover as the policy's estimator sees "
-               f"it (the last fix, the attitude estimate, the contact state it reads from "
-               f"the gyro)." if "sides" in meta else ""),
+            + (" Left: the true rover; right: the rover as the policy's estimator sees "
+               "it (the last fix, the attitude estimate, the contact state it reads from "
+               "the gyro)." if "sides" in meta else ""),
             ":::", "",
         ]
     lines.append(body.strip())

@@ -16,16 +16,21 @@ import gymnasium as gym
 import numpy as np
 
 from hoprover_env import core
+from hoprover_env.core.params import P_ROUGH, P_SLOPE, RoverParams
+from hoprover_env.envs.parts import (
+    NO_TERRAIN_SEED,
+    TTRTP_NOT_REACHED,
+    check_render_mode,
+    full_info,
+    task_spaces,
+)
+from hoprover_env.envs.parts import info as make_info
 from hoprover_env.jit import compiler as _compile
-from hoprover_env.tasks import draws, reward
-from hoprover_env.tasks.config import sample_episode
 from hoprover_env.sim.simulate import make_state
-from hoprover_env.util.validate import finite_real
-from hoprover_env.core.params import P_ROUGH, P_SLOPE
+from hoprover_env.tasks import draws, reward, torque
+from hoprover_env.tasks.config import sample_episode
 from hoprover_env.tasks.layout import E_T_TOTAL
-from hoprover_env.envs.parts import (NO_TERRAIN_SEED, TTRTP_NOT_REACHED, check_render_mode, full_info,
-                        info as make_info, task_spaces)
-from hoprover_env.tasks import torque
+from hoprover_env.util.validate import finite_real
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
 # info's numpy scalars, made once (numpy scalars are immutable)
@@ -80,10 +85,11 @@ class HopRoverEnv(gym.Env):
         self._a = np.zeros(self.task.action_dim)
         self.terrain_seed = None
         self._w = np.zeros(core.N_WORK)
-        self._s = None
-        self._p = None
+        # the episode's state and parameter rows: empty until the first reset
+        self._s: np.ndarray = np.empty(0)
+        self._p: np.ndarray = np.empty(0)
         self._done = False
-        self._params = self.config.params
+        self._params: RoverParams | None = self.config.params
         self._legacy = self.config.draws == "legacy"
         self._keys = draws.RoverKeys(1)
         self._row = np.zeros(1, dtype=np.int64)
@@ -165,7 +171,7 @@ class HopRoverEnv(gym.Env):
         """Hold the torque `action` maps to for one control period. Returns (observation,
         reward, terminated, truncated, info). Raises ValueError for a non-finite or
         misshapen action and gymnasium.error.ResetNeeded before reset or after the end."""
-        if self._s is None:
+        if self._s.size == 0:
             raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:
             raise gym.error.ResetNeeded("the episode has ended (terminated or truncated): "
@@ -193,7 +199,7 @@ class HopRoverEnv(gym.Env):
         judge its TTRTP, so the next step pays no second bonus (a goal-conditioned
         learner that keeps going after success, hoprover_env/envs/goal.py). A rover that
         broke or ran out of time stays ended (ResetNeeded)."""
-        if self._s is None or not self._done:
+        if self._s.size == 0 or not self._done:
             raise gym.error.ResetNeeded("continue_episode() follows a step that ended the "
                                         "episode in success")
         if self._s[core.S_BROKEN] != 0.0 or self._s[core.S_ERROR] != 0.0 \
@@ -229,7 +235,7 @@ class HopRoverEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; "
                             'e.g. gym.make("HopRover-v0", render_mode="rgb_array")')
             return None
-        if self._s is None:
+        if self._s.size == 0:
             raise gym.error.ResetNeeded("call reset() before render()")
         if self._renderer is None:
             from hoprover_env.envs.rendering import Renderer

@@ -174,9 +174,9 @@ def episode_workers(policy, workers: int | None, n: int) -> int:
 def _run_spread(policy, targets, kwargs, batch, progress, first_episode, terrain,
                 n_workers) -> list[EpisodeResult]:
     """run_episodes over chunks of the targets in `n_workers` worker processes
-    (evaluation.workers), each running its chunk with a copy of `policy` as the serial path would (episode e seeded
-    first_episode + e); the results in order (each with the run's wall time per
-    episode), the policy's statistics (if it keeps any: `statistics`/`add_statistics`)
+    (evaluation.workers), each running its chunk with a copy of `policy` as the serial path
+    would (episode e seeded first_episode + e); the results in order (each with the run's
+    wall time per episode), the policy's statistics (if it keeps any: `statistics`/`add_statistics`)
     summed over the copies."""
     from hoprover_env.evaluation import workers as pool
     n = len(targets)

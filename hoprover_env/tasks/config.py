@@ -12,16 +12,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, ClassVar, Mapping
+from collections.abc import Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 
 from hoprover_env.core.params import RoverParams
-from hoprover_env.tasks.reward import RewardConfig
 from hoprover_env.sim.randomize import RANDOMIZABLE, check_randomize, draw_params  # noqa: F401
 from hoprover_env.sim.simulate import DEFAULT_RTOL, make_options, make_state
-from hoprover_env.tasks.layout import (ACTION_MAPS, E_ACTION_MAP, E_ACTION_SCALE, E_CONTROL_DT,
-                                      E_T_TOTAL, N_E)
+from hoprover_env.tasks.layout import (
+    ACTION_MAPS,
+    E_ACTION_MAP,
+    E_ACTION_SCALE,
+    E_CONTROL_DT,
+    E_T_TOTAL,
+    N_E,
+)
+from hoprover_env.tasks.reward import RewardConfig
 from hoprover_env.util.validate import finite_real, is_real, positive_real
 
 # The settings that RL from scratch trains with on the torque-level tasks
@@ -109,7 +116,7 @@ class EnvConfig(RewardConfig):
                              "drawn by tasks/draws.py)")
 
     @classmethod
-    def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> "EnvConfig":
+    def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> EnvConfig:
         """The config of these keyword arguments; `owner` names the caller in errors."""
         names = {f.name for f in dataclasses.fields(cls)}
         unused = [k for k in kwargs if k in cls.unused]
@@ -161,7 +168,7 @@ class EnvConfig(RewardConfig):
 
 def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
     """The base parameters, each randomised field scaled by U(1 - r, 1 + r)."""
-    return draw_params(cfg.params, cfg.randomize, rng)
+    return draw_params(cfg.params, cfg.randomize or {}, rng)
 
 
 def sample_episode(cfg: EnvConfig, rng: np.random.Generator,

@@ -31,9 +31,22 @@ import numpy as np
 from numba import types as nt
 
 from hoprover_env import core
-from hoprover_env.core.params import (FIELD_INDEX, MAX_MAGNITUDE, N_FIELDS, N_PARAMS, P_G,
-                                      P_GC, P_GS, P_H, P_MUD, P_MUS, P_R, P_ROUGH, P_SLOPE,
-                                      from_fields)
+from hoprover_env.core.params import (
+    FIELD_INDEX,
+    MAX_MAGNITUDE,
+    N_FIELDS,
+    N_PARAMS,
+    P_G,
+    P_GC,
+    P_GS,
+    P_H,
+    P_MUD,
+    P_MUS,
+    P_R,
+    P_ROUGH,
+    P_SLOPE,
+    from_fields,
+)
 from hoprover_env.core.params import invalid_rows as invalid_field_rows
 from hoprover_env.core.terrain import philox4x64
 from hoprover_env.jit.compiler import MAT, VEC, kernel

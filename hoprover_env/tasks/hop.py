@@ -16,9 +16,9 @@ the hop. Each step runs, inside the jitted kernel on the control grid of `contro
 
 The step returns when the rover is at rest again outside the band, when the judge's TTRTP
 is reached, when it breaks, or when the episode's time is up. A rover that comes to rest
-with a contact point in the band is left at rest until the judge's 5 s are up (so a
-step that starts in the band, e.g. a target within 0.1 m of the start, only waits). It is the physics of
-HopRover-v0, the same kernel and the same judge; only the decision points differ.
+with a contact point in the band is left at rest until the judge's 5 s are up (so a step
+that starts in the band, e.g. a target within 0.1 m of the start, only waits). It is the
+physics of HopRover-v0, the same kernel and the same judge; only the decision points differ.
 
 ## Action space
 
@@ -29,8 +29,8 @@ grows about geometrically with the torque, so this gives equal resolution to sho
 long hops.
 
 ## Observation space
-
-That of HopRover-v0 (`Box(float32, (19,))`, the table in hoprover_env/tasks/torque.py), observed at the end of
+ That of HopRover-v0 (`Box(float32, (19,))`, the table in hoprover_env/tasks/torque.py),
+observed at the end of
 each hop: at rest, so the useful parts are the offset from the target (0, 16, 17), the
 time (14) and the judge's dwell (15).
 
@@ -93,18 +93,26 @@ from typing import ClassVar
 
 import numpy as np
 
+from hoprover_env.core.layout import (
+    ERR_STEP,
+    MODE_A,
+    MODE_F,
+    S_ERROR,
+    S_INBAND,
+    S_MODE,
+    S_T,
+    S_TH,
+    S_W,
+)
+from hoprover_env.core.params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.core.layout import ERR_STEP, MODE_A, MODE_F, S_ERROR, S_INBAND, S_MODE, S_T, S_TH, S_W
-from hoprover_env.tasks.config import EnvConfig
-from hoprover_env.core.params import P_G, P_I, P_M, P_R, P_TMAX, P_TMIN
-from hoprover_env.tasks import reward
-from hoprover_env.tasks import torque
+from hoprover_env.tasks import Registration, reward, torque
 from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
+from hoprover_env.tasks.config import EnvConfig
 from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, E_TASK
-from hoprover_env.tasks import Registration
-from hoprover_env.util.validate import is_real
 from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
+from hoprover_env.util.validate import is_real
 
 # this task's slots of E (tasks/layout.py): the built-in controller
 E_HOLD_KP = E_TASK        # attitude hold in flight [1/s^2]

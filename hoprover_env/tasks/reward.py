@@ -54,11 +54,16 @@ import math
 
 import numpy as np
 
-from hoprover_env.jit.compiler import kernel, BOOL, F64, VEC
 from hoprover_env.core.layout import MODE_A, S_MODE, S_TH, S_W, S_XT
 from hoprover_env.core.params import P_TMAX, P_TMIN
-from hoprover_env.tasks.observation import (POS_SCALE, RATE_SCALE, dwell_fraction, landing_x,
-                                reference_point)
+from hoprover_env.jit.compiler import BOOL, F64, VEC, kernel
+from hoprover_env.tasks.observation import (
+    POS_SCALE,
+    RATE_SCALE,
+    dwell_fraction,
+    landing_x,
+    reference_point,
+)
 from hoprover_env.util.validate import is_real, non_negative_real
 
 RW_W_DIST, RW_W_TIME, RW_SUCCESS, RW_BREAK, RW_GAMMA, RW_SHAPING, RW_W_ATT, RW_W_BAND, \
