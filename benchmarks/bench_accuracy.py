@@ -337,7 +337,7 @@ def scipy_launch_and_landing(params: RoverParams, torque: float) -> dict:
 
 
 def launch_modes(events) -> str:
-    """'FBCA'-style letters of the launch, as tests/test_reference.py writes them."""
+    """'FBCA'-style letters of the launch, as tests/sim/test_reference.py writes them."""
     return "".join([events[0][2]] + [e[3] for e in events
                                      if e[1] in ("tip", "slip", "stick", "liftoff")])
 

@@ -117,7 +117,7 @@ NOTE_WRONG_TILT = (
     "the body by up to 1e-9 m and leaves the rising corner up to 1e-9 m under the ground: a "
     "B/C state with theta < 0 or a D/E state with theta > 0. It lasts microseconds to "
     "milliseconds (until the free corner has risen out), so the control-instant samples of "
-    "`tests/test_stress.py` rarely see it; the checks after each impact do.")
+    "`tests/sim/test_stress.py` rarely see it; the checks after each impact do.")
 NOTE_SNAPS = (
     "**Penetration below -1e-9 m by repeated snaps ({runs} runs, lowest {lowest:.3g} m).** "
     "The same snap, repeated: a corner left under the ground by one impact (wrong tilt) and "
@@ -130,7 +130,7 @@ NOTE_AT_BREAK = (
     "The Euler step that carries a top corner to the ground ends the run as broken before "
     "the bottom corners are put back on the ground (`_euler_ground_check` tests the top "
     "corners first), so at the breaking instant a bottom corner can be one step's motion "
-    "under the ground (a tall rover falling on its side). `tests/test_stress.py` would see "
+    "under the ground (a tall rover falling on its side). `tests/sim/test_stress.py` would see "
     "it through `Rollout.min_corner_height`.")
 NOTE_BUDGET_EVENT = (
     "**Event budget, `event` integrator ({n:.0f} intervals).** A corner that bounces is "

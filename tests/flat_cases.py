@@ -1,7 +1,7 @@
 """Runs on flat ground whose results must not move by a single bit when terrain is added
 (slope 0 and roughness 0 equal the contest model). The arrays they gave before
 terrain existed are stored in tests/data/flat_baseline.npz, made by
-tests/data/make_flat_baseline.py from commit 6fc532c; tests/test_terrain_flat.py replays
+tests/data/make_flat_baseline.py from commit 6fc532c; tests/sim/test_terrain_flat.py replays
 them. Only the public API of that commit is used here."""
 import math
 

@@ -220,7 +220,7 @@ def refine_edge(table: dict, offsets, budget: int = 3000, log=print) -> dict:
     at -0.10044 m has a reference of 9.0 s, which the grid's plan takes 1.39 times).
     Each offset is searched afresh and from the plan of the grid's first target; the
     better is kept, and its mirror image flies the negative side (mirrored plans take
-    the same time, tests/test_plan_table.py)."""
+    the same time, tests/research/test_plan_table.py)."""
     start, params = start_state()
     xs = np.asarray(offsets, dtype=float)
     probs = _problems(xs, start, params)

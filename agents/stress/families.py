@@ -1,7 +1,7 @@
 """The families of runs of the stability stress benchmark (benchmarks/bench_stress.py).
 
 Each builder takes a numpy Generator and `quick` and returns the RunSpecs of one family
-(agents/stress/drivers.py runs them); tests/test_rollout.py replays the scheduled ones through
+(agents/stress/drivers.py runs them); tests/sim/test_rollout.py replays the scheduled ones through
 `simulate`.
 """
 from __future__ import annotations

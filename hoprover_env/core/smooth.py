@@ -12,7 +12,7 @@ each link bound to the next smooth one (`_compile.rebind`):
 
 Nothing else differs: on smooth ground both builds run the same code on the same numbers
 (with roughness 0 the general one draws nothing and its tilt is exactly 0), so a
-trajectory is the same bit for bit (tests/test_smooth_build.py). The envs use this build while
+trajectory is the same bit for bit (tests/core/test_smooth_build.py). The envs use this build while
 every rover of theirs is on smooth ground (`tasks.common.TaskSpec.kernels`); slopes are
 smooth ground too (a slope turns gravity, docs/MODEL.md section 11).
 """

@@ -3,7 +3,7 @@ counter-based generator (docs/MODEL.md section 11, docs/PHYSICS.md "Terrain").
 
 The generator is Philox4x64-10 (Salmon, Moraes, Dror, Shaw, "Parallel random numbers:
 as easy as 1, 2, 3", SC 2011), the one numpy ships as `numpy.random.Philox`
-(tests/test_terrain_rough.py checks this implementation against it bit for bit). Being
+(tests/core/test_terrain_rough.py checks this implementation against it bit for bit). Being
 counter-based, a draw is a pure function of (key, counter): key = (seed, rover index),
 counter = (impact count, attempt, 0, 0). No generator state is carried, so a run's
 bumps do not depend on the threads, the batch it sits in, or what other runs do.

@@ -32,7 +32,7 @@ numba for anyone else in the process (docs/COMPILING.md):
 `kernel` leans on numba internals (`_numba_internals`): the CPUDispatcher class, its
 `get_call_template` hook, a dispatcher's `_cache` and the wrapper options. Should a numba
 release move one of them, everything falls back to plain ``numba.njit(cache=True)`` with
-a warning: correct results, a slower cold start (tests/test_compile.py hides them).
+a warning: correct results, a slower cold start (tests/core/test_compile.py hides them).
 `run_threaded` restores the OpenMP settings numba's OpenMP layer changes.
 """
 from __future__ import annotations

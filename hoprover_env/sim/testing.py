@@ -1,7 +1,7 @@
 """Invariant checks of a simulated rover, shared by the tests and the benchmarks.
 
 One home for the rules a correct state obeys (docs/MODEL.md section 4), so that the
-property tests (tests/test_stress.py, tests/test_regressions.py) and the stability
+property tests (tests/sim/test_stress.py, tests/sim/test_regressions.py) and the stability
 stress benchmark (benchmarks/bench_stress.py, through agents/stress/drivers.py's driver) judge
 states by the same code:
 

@@ -3,7 +3,7 @@
 A chunk is a slice of the target list starting at a multiple of the local batch size
 and one batch long, so each task runs exactly the batch a local `run_episodes` would
 (same sub-env grouping, same policy batches, same random streams): the merged results
-equal the local run episode for episode (tests/test_ray.py), wall times aside. A task
+equal the local run episode for episode (tests/training/test_ray.py), wall times aside. A task
 whose node dies is run again elsewhere by Ray (its retries), with the same result.
 
 Each task rebuilds its policy from its spec. A bundled name, `scripted` and `random`

@@ -16,7 +16,7 @@ from hoprover_env.agents.policies import BUNDLED_DIR
 from hoprover_env.training import evaluate
 from hoprover_env.util.files import atomic_write, write_json
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # ---------------------------------------------------------------- evaluate.py arguments

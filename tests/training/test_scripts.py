@@ -162,7 +162,7 @@ def test_killed_run_resumes_from_its_wall_clock_checkpoint(tmp_path, capsys):
     cfg = write_cfg(tmp_path, {**TINY, "pretrain": None, "timesteps": never,
                                "evaluation": {"freq": never, "episodes": 2, "seed": 1},
                                "checkpoint": {"freq": never}})
-    root = Path(__file__).resolve().parent.parent          # the checkout: train.py
+    root = Path(__file__).resolve().parents[2]          # the checkout: train.py
     proc = subprocess.Popen([sys.executable, str(root / "train.py"), "--config", cfg, "--out",
                              str(out), "--no-progress", "--checkpoint-seconds", "1"],
                             cwd=root, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

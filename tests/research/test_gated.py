@@ -298,7 +298,7 @@ def test_the_bundled_plan_clone_is_the_research_network_exported():
     made (agents/plan_clone/plan_clone.pt), on observations of real episodes."""
     import gymnasium as gym
     bundled = load_policy("plan_clone")
-    research = gated.load_policy(gated.Path(__file__).parents[1] / "agents" / "plan_clone"
+    research = gated.load_policy(gated.Path(__file__).parents[2] / "agents" / "plan_clone"
                                  / "plan_clone.pt")
     envs = gym.make_vec("HopRover-v0", num_envs=32)
     obs, _ = envs.reset(seed=4)

@@ -16,7 +16,7 @@ import torch
 
 import hoprover_env  # noqa: F401  (registers the envs)
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))
 WHY = "pip install -e '.[rl]'"
 TASKS = ["HopRover-v0", "HopRoverHop-v0"]

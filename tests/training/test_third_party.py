@@ -17,7 +17,7 @@ import yaml
 
 import hoprover_env  # noqa: F401  (registers the envs)
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 HYPERPARAMS = ROOT / "hyperparams"
 ZOO_FILE = HYPERPARAMS / "ppo.yml"
 # keys the zoo consumes itself; everything else goes to the algorithm's constructor

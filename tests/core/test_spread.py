@@ -175,7 +175,7 @@ print("done", len(results), sum(r.success for r in results))
 def test_a_script_without_a_main_guard_spreads_its_episodes(tmp_path):
     script = tmp_path / "unguarded.py"
     script.write_text(UNGUARDED)
-    root = str(Path(__file__).resolve().parents[1])
+    root = str(Path(__file__).resolve().parents[2])
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         p for p in (root, os.environ.get("PYTHONPATH")) if p))
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,

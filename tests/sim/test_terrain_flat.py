@@ -9,7 +9,8 @@ import pytest
 from flat_cases import cases, record
 from hoprover_env import simulate
 
-BASELINE = np.load(os.path.join(os.path.dirname(__file__), "data", "flat_baseline.npz"))
+BASELINE = np.load(os.path.join(os.path.dirname(os.path.dirname(__file__)), "data",
+                               "flat_baseline.npz"))
 CASES = cases()
 
 

@@ -8,7 +8,7 @@ import pytest
 
 from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR, BUNDLED_NETS
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "benchmarks" / "results" / "leaderboard.json"
 GROUPS = ("RL from reward", "Imitation of a planner",
           "Planners that use the simulator as their model", "References")

@@ -268,7 +268,7 @@ def test_slow_return_after_lift_off_is_located_whatever_the_horizon(delay, t1, t
 
 
 def test_a_flight_towards_a_huge_t_stop_still_lands():
-    # found by tests/test_fuzz.py: with t_stop = 1e300 the flight's curvature bound was
+    # found by tests/envs/test_fuzz.py: with t_stop = 1e300 the flight's curvature bound was
     # infinite, every step NaN, and the rover flew through the ground to t = 1e300
     from hoprover_env import RoverSim
     ends = []

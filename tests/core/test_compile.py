@@ -2,7 +2,7 @@
 on a warm one; what a cold first step compiles, in one process or with the
 parallel-compile helper (a fresh interpreter, never a fork); the fallback to plain numba
 when its internals are missing. (An edited task module compiling afresh:
-tests/test_task_recompiles.py.)"""
+tests/tasks/test_task_recompiles.py.)"""
 import json
 import os
 import re

@@ -19,7 +19,7 @@ ray = pytest.importorskip("ray", reason="Ray is not installed: pip install 'hopr
 pytest.importorskip("ray.rllib", reason="RLlib is not installed: pip install 'hoprover[ray]'")
 pytest.importorskip("optuna", reason="Optuna is not installed: pip install 'hoprover[ray]'")
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 pytestmark = pytest.mark.slow
 
 

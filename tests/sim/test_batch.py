@@ -4,6 +4,7 @@ import math
 import numba
 import numpy as np
 import pytest
+from test_rollout import assert_identical
 
 from helpers import batch_on_one_and_all_threads
 from hoprover_env import BatchRollout, RoverParams, simulate, simulate_batch
@@ -11,7 +12,6 @@ from hoprover_env.core.params import FIELDS, as_arrays, invalid_rows
 from hoprover_env.sim import batch as batch_module
 from hoprover_env.sim import randomize as rz
 from hoprover_env.sim.simulate import make_state
-from test_rollout import assert_identical
 
 
 def random_batch(rng, n, k, control_dt):

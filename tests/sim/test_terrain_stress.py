@@ -1,4 +1,4 @@
-"""The property test of tests/test_stress.py on random slopes and roughness: never NaN,
+"""The property test of tests/sim/test_stress.py on random slopes and roughness: never NaN,
 never under the ground, states consistent with the kinematics, bit-reproducible from the
 seed, and no energy gain at an impact under the dissipative law."""
 import dataclasses
@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
+from test_stress import run, scenario
 
 from hoprover_env.sim.testing import kinematic_violations
-from test_stress import run, scenario
 
 
 @st.composite

@@ -81,7 +81,7 @@ def _tiny_config(tmp_path, **extra):
     from pathlib import Path
 
     import yaml
-    config = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
+    config = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
     cfg = yaml.safe_load(open(config))
     cfg.update(n_envs=2, timesteps=32, evaluation={"freq": 16, "episodes": 2})
     cfg["hyperparams"].update(n_steps=16, batch_size=16, n_epochs=1)
@@ -140,7 +140,7 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
     from pathlib import Path
 
     from hoprover_env.training.sb3_agents import ConfigError, load_config
-    path = Path(__file__).resolve().parent.parent / "configs" / "ppo_mission_hop.yaml"
+    path = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="agents.train_mission"):
         load_config(path)
 

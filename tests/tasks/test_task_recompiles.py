@@ -16,7 +16,7 @@ import pytest
 # cold compiles in fresh interpreters
 pytestmark = pytest.mark.slow
 
-TOY = pathlib.Path(__file__).with_name("toy_task.py")
+TOY = pathlib.Path(__file__).parents[1] / "toy_task.py"
 
 RUN = r'''
 import json, numpy as np, gymnasium as gym, hoprover_env

@@ -24,7 +24,7 @@ def test_regenerating_one_section_keeps_every_other_line(tmp_path):
     """BENCHMARKS.md is the generator's alone: a run of one section rewrites that section
     and leaves every other heading and line of the file as it was."""
     from pathlib import Path
-    original = (Path(__file__).resolve().parents[1] / "BENCHMARKS.md").read_text()
+    original = (Path(__file__).resolve().parents[2] / "BENCHMARKS.md").read_text()
     out = tmp_path / "BENCHMARKS.md"
     out.write_text(original)
     assert main(["--quick", "--only", "scaling", "--out", str(out)]) == 0
@@ -65,7 +65,7 @@ def test_cold_compare_times_a_checkout_cold_then_cached(capsys):
     import re
 
     from benchmarks import cold_compare
-    here = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     cold_compare.main([here, "--rounds", "1", "--one-process"])
     out = capsys.readouterr().out
     cold, cached = map(float, re.search(r"round 0: .*: cold ([0-9.]+) s, cached ([0-9.]+) s",
