@@ -11,17 +11,29 @@ The package has one subpackage per layer, each importing only from those below i
 batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
 from hoprover_env.core.params import RoverParams
-from hoprover_env.envs import registry as _registry
+from hoprover_env.envs.env import HopRoverEnv
 from hoprover_env.envs.registry import (
     ENVS,
     Task,
     config_class,
     env_class,
     gym_register,
+    register_installed,
     register_task,
     task,
     vector_env_class,
 )
+from hoprover_env.envs.tasks import (
+    HopRoverHopEnv,
+    HopRoverHopVectorEnv,
+    HopRoverMissionEnv,
+    HopRoverMissionVectorEnv,
+    HopRoverRLEnv,
+    HopRoverRLVectorEnv,
+    HopRoverTerrainEnv,
+    HopRoverTerrainVectorEnv,
+)
+from hoprover_env.envs.vector_env import HopRoverVectorEnv
 from hoprover_env.sim.batch import BatchRollout, simulate_batch
 from hoprover_env.sim.rollout import Rollout
 from hoprover_env.sim.simulate import RoverSim, simulate
@@ -34,10 +46,9 @@ __all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
            "BatchRollout", "ENVS", "Task", "task", "env_class", "vector_env_class",
            "config_class", "register_task", "HopRoverEnv", "HopRoverVectorEnv",
            "HopRoverHopEnv", "HopRoverHopVectorEnv", "HopRoverTerrainEnv",
-           "HopRoverTerrainVectorEnv", "HopRoverMissionEnv", "HopRoverMissionVectorEnv"]
+           "HopRoverTerrainVectorEnv", "HopRoverMissionEnv", "HopRoverMissionVectorEnv",
+           "HopRoverRLEnv", "HopRoverRLVectorEnv"]
 
-
-def __getattr__(name):          # the env classes, by name (hoprover_env.envs.registry)
-    if name in ("HopRoverEnv", "HopRoverVectorEnv") or name in _registry._CLASSES:
-        return getattr(_registry, name)
-    raise AttributeError(f"module 'hoprover_env' has no attribute {name!r}")
+# last, so that an installed task module may import any name of the package: the task
+# modules installed packages name in the entry-point group "hoprover.tasks"
+register_installed()

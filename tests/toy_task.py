@@ -1,9 +1,10 @@
 """HopRoverTip: tip the rover onto a corner and hold it there (a toy task).
 
 The worked example of docs/ARCHITECTURE.md, "Adding a task": one module, made by its
-recipe and touching no other file. The tests register it with
-``hoprover_env.register_task("toy_task")``; inside the package, the module would sit in
-hoprover_env/tasks/ with one line added to ``hoprover_env.tasks.TASK_MODULES``.
+recipe and touching no other file. It registers itself when imported (its last line,
+``register_task(__name__)``), so that ``gym.make("toy_task:HopRoverTip-v0")`` works with
+the module on sys.path; inside the package, the module would sit in
+hoprover_env/tasks/ with one line added to ``hoprover_env.tasks.TASK_MODULES`` instead.
 
 ## Description
 
@@ -48,6 +49,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from hoprover_env import register_task
 from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_NEVENTS, S_T, S_TH, S_W
 from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration, torque
@@ -102,4 +104,6 @@ OBS_LOW = np.full(4, -1.0, dtype=np.float32)
 OBS_HIGH = np.full(4, 1.0, dtype=np.float32)
 TASK = TaskSpec(name="toy_tip", config=TipEnvConfig, step=step, observe=observe,
                 obs_low=OBS_LOW, obs_high=OBS_HIGH)
-REGISTER = (Registration("HopRoverTip-v0", {"episode_time": 120.0}),)
+REGISTER = (Registration("HopRoverTip-v0", {"episode_time": 120.0}),)     # no suite
+
+register_task(__name__)

@@ -36,7 +36,7 @@ from hoprover_env.evaluation.scores import format_table, summarize
 from hoprover_env.util.files import atomic_write
 
 ROOT = Path(__file__).resolve().parents[2]     # the repository
-SUITES = {name: suites.TASK_OF[name] for name in ("level", "terrain", "contest")}
+SUITES = {name: suites.task_of(name) for name in ("level", "terrain", "contest")}
 AGENTS = {
     # every bundled agent on every suite, each task's own learned policy first; the
     # suites' references are read from the suite, not run
@@ -193,7 +193,7 @@ def evaluate(suite_names, agent_names=None) -> dict:
 def suite_line(name: str, res: dict) -> str:
     """'**level-v1** (HopRover-v0, HopRoverHop-v0; 200 episodes, checksum `...`)'."""
     n = len(next(iter(res["agents"].values()))["episodes"])
-    also = [i for i, s in suites.SUITE_OF.items() if s == name and i != SUITES[name]]
+    also = [i for i in suites.suite_ids(name) if i != SUITES[name]]
     return (f"**{res['suite']}** ({', '.join([SUITES[name], *also])}; {n} episodes, "
             f"checksum `{res['checksum'][:12]}`)")
 

@@ -172,7 +172,7 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     compete, trim, verify by replay and save the suite."""
     cols = suites.draw_episodes(name)
     problems = problems_of(cols)
-    env_id = suites.TASK_OF[name]
+    env_id = suites.task_of(name)
     entry = report.setdefault(name, {})
     if stored:
         old = suites._read(suites.path_of(name, version), name, version)
@@ -208,7 +208,7 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     cols["reference_ttrtp"] = final
     meta = {"budget": budget, "agents": sorted(set(agents_before + agents)), "search_s": wall,
             "candidates": evals, "created": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-            "env_ids": sorted(k for k, v in suites.SUITE_OF.items() if v == name)}
+            "env_ids": sorted(suites.suite_ids(name))}
     path = suites.save(name, version, cols, scheds, sources, meta)
     entry["reference_ttrtp"] = final.tolist()
     entry["sources"] = sources

@@ -55,12 +55,38 @@ DATA_DIR = Path(__file__).resolve().parent / "suite_data"
 EPISODE_TIME = 600.0
 CONTROL_DT = 0.5
 NO_TERRAIN_SEED = -1
-# env id -> suite name (the registry's), and suite -> the torque task that runs it
-SUITE_OF = {env_id: spec.suite for env_id, spec in ENVS.items()}
-TASK_OF: dict[str, str] = {}
-for _env_id, _spec in ENVS.items():
-    if not _spec.hops:
-        TASK_OF.setdefault(_spec.suite, _env_id)
+
+
+def suite_of(env_id: str) -> str:
+    """The name of the suite a registered id is scored on (its Registration's `suite`),
+    read from the registry when called, so that a task registered later counts.
+    ValueError for an unknown id or one registered without a suite."""
+    if env_id not in ENVS:
+        raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")
+    name = ENVS[env_id].suite
+    if name is None:
+        raise ValueError(f"{env_id!r} is scored on no test suite: its Registration names "
+                         f"none (suite=None); registered ids with one: "
+                         f"{sorted(suite_ids())}")
+    return name
+
+
+def suite_ids(name: str | None = None) -> list[str]:
+    """The registered ids scored on the suite `name` (None: on any suite), in
+    registration order, read from the registry when called."""
+    return [env_id for env_id, spec in ENVS.items()
+            if spec.suite is not None and (name is None or spec.suite == name)]
+
+
+def task_of(name: str) -> str:
+    """The id whose env runs the suite `name`: the first registered id scored on it
+    whose action is a torque held over a control period (not a hop). ValueError if no
+    such id is registered."""
+    for env_id in suite_ids(name):
+        if not ENVS[env_id].hops:
+            return env_id
+    raise ValueError(f"no registered torque-level id is scored on the suite {name!r}")
+
 # the seed each suite's episodes are drawn from (never used for training or validation)
 SUITE_SEEDS = {"level": 1_000_001, "terrain": 1_000_002}
 SIZES = {"level": 200, "terrain": 200}
@@ -229,13 +255,10 @@ def save(name: str, version: int, columns: dict, schedules: list, sources: list,
 
 
 def load(env_id: str, version: int | None = None) -> Suite:
-    """The test suite of a registered task (`SUITE_OF`), at `version` (default: the
-    newest). Raises ValueError naming an unknown id or version, or a file whose checksum
-    does not match its episodes."""
-    if env_id not in SUITE_OF:
-        raise ValueError(f"no test suite for env id {env_id!r}; suites exist for "
-                         f"{sorted(SUITE_OF)}")
-    name = SUITE_OF[env_id]
+    """The test suite of a registered task (`suite_of`), at `version` (default: the
+    newest). Raises ValueError naming an unknown id or version, an id registered without
+    a suite, or a file whose checksum does not match its episodes."""
+    name = suite_of(env_id)
     have = versions(name)
     if not have:
         raise ValueError(f"the {name!r} suite of {env_id!r} has no data file in {DATA_DIR}")

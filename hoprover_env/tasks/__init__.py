@@ -43,11 +43,12 @@ TASK_MODULES = (
 class Registration:
     """One registered id of a task: the `id` gym.make takes, the env arguments it fixes
     (`kwargs`), the frozen test suite it is scored on (`suite`,
-    hoprover_env.evaluation.suites) and whether one action is a whole hop (`hops`)
-    rather than a torque held over a control period."""
+    hoprover_env.evaluation.suites: "level", "terrain" or "contest"; None, the default:
+    none, and scoring it on a suite is refused) and whether one action is a whole hop
+    (`hops`) rather than a torque held over a control period."""
     id: str
     kwargs: dict = dataclasses.field(default_factory=dict)
-    suite: str = "level"
+    suite: str | None = None
     hops: bool = False
 
 

@@ -233,5 +233,5 @@ TASK = TaskSpec(name="hop", config=HopEnvConfig, step=step, observe=observe,
 # carry them): a time cost of 0.01 per second makes one long hop beat a safe series of
 # short ones; the discount is per hop.
 HOP_RL_SETTINGS = {"gamma": 0.98, "time_cost": 0.01}
-REGISTER = (Registration("HopRoverHop-v0", hops=True),
-            Registration("HopRoverHopRL-v0", HOP_RL_SETTINGS, hops=True))
+REGISTER = (Registration("HopRoverHop-v0", suite="level", hops=True),
+            Registration("HopRoverHopRL-v0", HOP_RL_SETTINGS, suite="level", hops=True))

@@ -227,6 +227,6 @@ TASK = TaskSpec(
         ("hoprover_env.tasks.common", "open_step"), ("hoprover_env.tasks.common", "close_step"),
         ("hoprover_env.tasks.torque", "action_to_torque"),
         ("hoprover_env.tasks.observation", "observe"))))
-REGISTER = (Registration("HopRover-v0"),
+REGISTER = (Registration("HopRover-v0", suite="level"),
             Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),
-            Registration("HopRoverRL-v0", RL_SETTINGS))
+            Registration("HopRoverRL-v0", RL_SETTINGS, suite="level"))

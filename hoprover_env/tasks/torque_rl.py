@@ -165,4 +165,4 @@ TASK = TaskSpec(
         ("hoprover_env.tasks.common", "open_step"), ("hoprover_env.tasks.common", "close_step"),
         ("hoprover_env.tasks.torque", "action_to_torque"),
         ("hoprover_env.tasks.torque_rl", "observe"))))
-REGISTER = (Registration("HopRoverRL-v1", RL_V1_SETTINGS),)
+REGISTER = (Registration("HopRoverRL-v1", RL_V1_SETTINGS, suite="level"),)

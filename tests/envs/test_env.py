@@ -500,9 +500,9 @@ def test_rl_ids_are_their_task_with_the_rl_settings_as_defaults(rl_id, base):
     """An RL id is its task, scored on the same suite, with the settings RL trains with
     as defaults: the same bits as the task given those settings, and still overridable."""
     from hoprover_env.envs.registry import task
-    from hoprover_env.evaluation.suites import SUITE_OF
+    from hoprover_env.evaluation.suites import suite_of
     settings = task(rl_id).kwargs
-    assert settings and SUITE_OF[rl_id] == SUITE_OF[base]
+    assert settings and suite_of(rl_id) == suite_of(base)
     assert task(rl_id).hops == task(base).hops
     a, b = gym.make(rl_id), gym.make(base, **settings)
     for name, value in settings.items():

@@ -118,7 +118,7 @@ def test_agents_play_the_references_ground(env_id):
 
     class Schedule:                       # the reference plan, one interval per step
         env_kwargs = {"control_dt": 0.5}
-        env_id = suites.TASK_OF[suite.name]
+        env_id = suites.task_of(suite.name)
 
         def reset(self, n):
             steps["k"] = 0
