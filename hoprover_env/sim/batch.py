@@ -139,7 +139,7 @@ def _controller(controller, n):
     use_ctrl = rollout.is_compiled(controller)
     source = rollout.CTRL_COMPILED if use_ctrl else rollout.CTRL_SCHEDULE
     if use_ctrl:
-        rollout.kernel_one()
+        rollout.control_stub()
         ctrl = rollout.control_function(controller)
         sched = np.zeros((n, 0))
     elif callable(controller):
@@ -306,7 +306,7 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
         raise ValueError(f"recording {n} runs of {n_ctrl * sub + 1} samples needs "
                          f"{n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 / 1e9:.1f} GB; pass "
                          "record=False (summaries only; rollout(i) re-runs run i)")
-    run_many = rollout.kernel_many()
+    run_many = rollout.kernel_many(rollout.loop_kind(opts, P))
     if not use_ctrl:
         ctrl = rollout.no_control
     buf = rollout.Buffers(n, n_ctrl * sub + 1, 64, record)

@@ -52,8 +52,9 @@ from numba.experimental.function_type import WrapperAddressProtocol
 from numba.extending import is_jitted
 
 from hoprover_env import core
-from hoprover_env.core.params import P_TMAX, P_TMIN, RoverParams
-from hoprover_env.jit.compiler import compile_now, kernel
+from hoprover_env.core import integrator, smooth
+from hoprover_env.core.params import P_ROUGH, P_TMAX, P_TMIN, RoverParams
+from hoprover_env.jit.compiler import bind_globals, compile_now, kernel
 from hoprover_env.util.validate import check_torque
 
 ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma
@@ -170,7 +171,7 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
             for c in range(core.N_STATE):
                 backup[c] = S[c]
             S[core.S_STOP_ON] = -1.0
-            n = core.advance(S, P, O, cmd, t_stop, evbuf, W)
+            n = advance(S, P, O, cmd, t_stop, evbuf, W)
             if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP \
                     or S[core.S_ERROR] == core.ERR_WORK:
                 prog[G_STATUS] = ST_BUDGET
@@ -214,9 +215,9 @@ def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n
         i = orderb[j]
         if activeb[i]:
             tid = get_thread_id()
-            run_one(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
-                    t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
-                    progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
+            run_loop(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
+                     t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
+                     progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
 
 
 _RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
@@ -224,9 +225,35 @@ _RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M,
 _RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B, _T3, _M,
                         _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M, nt.int64[::1])
 # Explicit signatures make the controller a function pointer (one compiled loop for every
-# controller); they would also compile at import, so the two entry points are built on
-# first use: most sessions (the environments) never need them.
-run_one = run_many = no_control = None
+# controller); they would also compile at import, so the loops are built on first use:
+# most sessions (the environments) never need them.
+#
+# The loops come in three kinds, by what their runs need (`loop_kind`). numba compiles
+# every function a kernel can reach, whichever branch runs, so one loop over
+# `core.advance` would compile the Euler integrator and the rough-ground code (the
+# terrain generator, the tilted impact) into every run: an event run on smooth ground,
+# the common case, gets the smooth build of the event integrator (core/smooth.py), an
+# event run on rough ground the general event integrator, an Euler run `core.advance`.
+# Each kind is `_run` (and `_run_many` over it) with `advance` (`run_loop`) bound to its
+# integrator, compiled and cached under its own name, `_run_<kind>` (`_run_many_<kind>`).
+ADVANCE = {"event_smooth": smooth.advance_event_smooth,
+           "event": integrator.advance_event,
+           "euler": core.advance}
+advance = core.advance          # what `_run` calls; each kind binds its own
+run_loop = None                 # what `_run_many` calls; each kind binds its own `_run`
+run_one: dict = {}              # kind -> the one-run loop, compiled on first use
+run_many: dict = {}             # kind -> the threaded N-run loop, compiled on first use
+no_control = None
+
+
+def loop_kind(O: np.ndarray, P: np.ndarray) -> str:
+    """The kind of loop (a key of ADVANCE) that runs with options O and parameter rows
+    P (one row, or one per run) need: "euler", "event" if any run is on rough ground,
+    else "event_smooth". On smooth ground the smooth and the general build give the same
+    bits (tests/core/test_smooth_build.py)."""
+    if int(O[core.O_INTEGRATOR]) == core.INTEGRATOR_EULER:
+        return "euler"
+    return "event" if bool((np.asarray(P)[..., P_ROUGH] > 0.0).any()) else "event_smooth"
 
 
 class _FixedAddress(WrapperAddressProtocol):
@@ -267,22 +294,34 @@ def _compiled(func, signature, parallel=False):
     return dispatcher
 
 
-def kernel_one():
-    """The one-run loop, compiled (or loaded from numba's cache) on first use."""
-    global run_one, no_control
-    if run_one is None:
+def control_stub():
+    """The stand-in controller of scheduled and Python-controlled runs, compiled (or
+    loaded from numba's cache) on first use."""
+    global no_control
+    if no_control is None:
         no_control = _fixed_address(_compiled(_no_control, CONTROL_SIG))
-        run_one = _compiled(_run, _RUN_SIG)
-    return run_one
+    return no_control
 
 
-def kernel_many():
-    """The threaded N-run loop (it calls the one-run loop), built on first use."""
-    global run_many
-    if run_many is None:
-        kernel_one()
-        run_many = _compiled(_run_many, _RUN_MANY_SIG, parallel=True)
-    return run_many
+def kernel_one(kind: str = "euler"):
+    """The one-run loop of `kind` (`loop_kind`; "euler" runs any options and ground),
+    compiled (or loaded from numba's cache) on first use."""
+    if kind not in run_one:
+        control_stub()
+        name = f"_run_{kind}"       # stored under it: a kernel pickles by reference
+        loop = _compiled(bind_globals(_run, name, __name__, advance=ADVANCE[kind]), _RUN_SIG)
+        run_one[kind] = globals()[name] = loop
+    return run_one[kind]
+
+
+def kernel_many(kind: str = "euler"):
+    """The threaded N-run loop of `kind` (it calls the one-run loop), built on first use."""
+    if kind not in run_many:
+        name = f"_run_many_{kind}"
+        loop = _compiled(bind_globals(_run_many, name, __name__, run_loop=kernel_one(kind)),
+                         _RUN_MANY_SIG, parallel=True)
+        run_many[kind] = globals()[name] = loop
+    return run_many[kind]
 
 
 def is_compiled(controller) -> bool:
@@ -473,7 +512,7 @@ def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, t
     """`simulate`'s run: a torque schedule (1-D float64, checked finite), a compiled
     controller, or a Python controller (called here at every control instant with the
     contest's arguments), through the one compiled loop. Returns the `Rollout`."""
-    run = kernel_one()
+    run = kernel_one(loop_kind(O, P))
     if schedule is not None:
         source, ctrl = CTRL_SCHEDULE, no_control
     elif is_compiled(controller):

@@ -80,7 +80,8 @@ def make_state(params: RoverParams, target_x: float, initial_state=None, seed=No
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state.
     `seed` and `rover` key the rough-terrain draws (see validate.check_seed)."""
-    _compile.prepare()              # on a cold numba cache: compile on two cores
+    # on a cold numba cache: compile on two cores, for the ground this run is on
+    _compile.prepare(rough=params.roughness > 0.0)
     target_x = finite_real("target_x", target_x)
     if initial_state is None:
         initial_state = (0.0, params.half_height, 0.0, 0.0, 0.0, 0.0)
@@ -136,10 +137,11 @@ def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None =
     on rough ground needs a seed (make_state would draw a fresh one; here the caller
     draws and records it). The first run make_state would refuse raises its ValueError,
     prefixed with "run i: "."""
-    _compile.prepare()              # on a cold numba cache: compile on two cores
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     n = targets.shape[0]
     P = np.ascontiguousarray(P, dtype=np.float64).reshape(-1, P.shape[-1])
+    # on a cold numba cache: compile on two cores, for the ground these runs are on
+    _compile.prepare(rough=bool((P[:, P_ROUGH] > 0.0).any()))
     X = np.zeros((0, 6)) if initial is None else np.ascontiguousarray(initial, np.float64)
     rovers = np.zeros(n, np.int64) if rovers is None else np.asarray(rovers, np.int64)
     if seeds is None and (P[:, P_ROUGH] > 0.0).any():
