@@ -25,6 +25,10 @@ ZOO_ONLY = {"n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "env_w
             "policy_kwargs"}
 
 
+# env arguments that shape only the training episodes' starts (evaluation starts at rest)
+TRAINING_ONLY = {"flight_start"}
+
+
 def zoo_hyperparams() -> dict:
     return yaml.safe_load(ZOO_FILE.read_text())["HopRoverRL-v0"]
 
@@ -33,12 +37,15 @@ def zoo_hyperparams() -> dict:
 def test_hyperparams_files_name_registered_ids_and_carry_no_env_kwargs(path):
     """The zoo gives a file's env_kwargs to its training envs only, never to the env it
     evaluates and picks the best model on; so each entry's settings must be its id's
-    defaults."""
+    defaults, and env_kwargs may hold only a training start distribution (flight_start),
+    which evaluation must not have."""
     entries = yaml.safe_load(path.read_text())
     assert entries
     for env_id, hp in entries.items():
         assert env_id in gym.registry, f"{path.name}: {env_id} is not a registered id"
-        assert "env_kwargs" not in hp, f"{path.name}: {env_id} passes env_kwargs"
+        if "env_kwargs" in hp:
+            kwargs = dict(hp["env_kwargs"])
+            assert set(kwargs) <= TRAINING_ONLY, f"{path.name}: {env_id} passes {kwargs}"
         assert {"n_timesteps", "policy"} <= set(hp)
         if "gamma" in hp:      # the shaping's discount must be the learner's
             assert gym.spec(env_id).kwargs.get("gamma") == hp["gamma"], (path.name, env_id)
@@ -72,7 +79,8 @@ def _zoo_runs():
     first."""
     for path in sorted(HYPERPARAMS.glob("*.yml")):
         ids = list(yaml.safe_load(path.read_text()))
-        yield path.stem, "HopRoverRL-v0" if "HopRoverRL-v0" in ids else ids[0]
+        torque = [i for i in ids if i.startswith("HopRoverRL-")]
+        yield path.stem, torque[0] if torque else ids[0]
 
 
 @pytest.mark.parametrize("algo, env_id", list(_zoo_runs()))
@@ -102,7 +110,7 @@ def test_zoo_trains_evaluates_and_enjoys_as_its_users_run_it(tmp_path, algo, env
     lengths = [int(line.split()[-1]) for line in out.stdout.splitlines()
                if line.startswith("Episode Length")]
     assert lengths
-    if env_id == "HopRoverRL-v0":
+    if env_id.startswith("HopRoverRL-"):
         assert evals["ep_lengths"].max() <= 300 and max(lengths) <= 300
 
 
@@ -141,6 +149,7 @@ def _zoo_entry_as_config(algo: str, env_id: str, hp: dict) -> dict:
 
     from hoprover_env.training.sb3_agents import ACTIVATIONS
     hp = dict(hp)
+    hp.pop("env_kwargs", None)                  # compared with the config's env above
     norm = ast.literal_eval(hp.pop("normalize", "{}"))
     pk = eval(hp.pop("policy_kwargs", "dict()"), {"nn": nn, "dict": dict})  # noqa: S307
     if "activation_fn" in pk:
@@ -183,7 +192,8 @@ def test_each_zoo_entry_is_a_train_py_config(path):
     configs = [p for p in (ROOT / "configs").glob("*.yaml")
                if yaml.safe_load(p.read_text()).get("algo") == path.stem]
     for env_id, hp in yaml.safe_load(path.read_text()).items():
-        want = config_class(env_id)(**task(env_id).kwargs)
+        training = dict(hp.get("env_kwargs", {}))
+        want = config_class(env_id)(**{**task(env_id).kwargs, **training})
         matches = []
         for p in configs:
             cfg = load_config(p)
