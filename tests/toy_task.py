@@ -55,10 +55,8 @@ from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration, torque
 from hoprover_env.tasks.common import ADVANCE, TaskSpec
 from hoprover_env.tasks.config import EnvConfig
-from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, E_TASK
+from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, task_slots
 from hoprover_env.tasks.observation import clip
-
-E_TIP = E_TASK                # this task's own slot of E: the attitude to hold [rad]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -67,17 +65,17 @@ class TipEnvConfig(EnvConfig):
 
     unused: ClassVar[dict] = {"action_map": "the toy task keeps the linear map",
                               "action_scale": "the toy task keeps the full range"}
-    tip_angle: float = 0.2
+    kernel_fields: ClassVar[tuple[str, ...]] = ("tip_angle",)     # its own slot of E
+    reward_options: ClassVar[tuple[str, ...]] = ()     # its step pays its own reward
+    tip_angle: float = 0.2      # the attitude to hold [rad]
 
     def __post_init__(self):
         super().__post_init__()
         if not (isinstance(self.tip_angle, (int, float)) and 0.0 < self.tip_angle < 1.0):
             raise ValueError(f"tip_angle must lie in (0, 1) rad, got {self.tip_angle!r}")
 
-    def task_vector(self) -> np.ndarray:
-        e = super().task_vector()
-        e[E_TIP] = self.tip_angle
-        return e
+
+E_TIP = task_slots(TipEnvConfig).tip_angle      # its slot of E, for the kernel
 
 
 def step(S, P, O, E, RW, RM, M, action, ev, W):

@@ -26,8 +26,9 @@ from hoprover_env.tasks.layout import (
     E_ACTION_SCALE,
     E_CONTROL_DT,
     E_T_TOTAL,
-    N_E,
+    task_slots,
 )
+from hoprover_env.tasks.reward import OPTIONS as REWARD_OPTIONS
 from hoprover_env.tasks.reward import RewardConfig
 from hoprover_env.util.validate import finite_real, is_real, positive_real
 
@@ -43,13 +44,36 @@ RL_SETTINGS = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0,
                "gamma": 0.995, "time_cost": 0.01}
 
 
-@dataclasses.dataclass(frozen=True)
-class EnvConfig(RewardConfig):
-    """The arguments every task shares (the table in hoprover_env/tasks/torque.py); the
-    reward's own arguments and their checks are RewardConfig's (hoprover_env/tasks/reward.py).
-    A task's config subclasses it with its own arguments, and lists in `unused` those of
-    these it does not use, which are then refused."""
+class _FlatReward(type):
+    """An env config takes the reward's options flat, as the env's keyword arguments
+    (``EnvConfig(gamma=0.9)``, ``gym.make(id, attitude_cost=0.1)``): they are gathered
+    into its `reward` field, a ``reward_config`` built and validated on its own (over a
+    `reward` given too, as dataclasses.replace gives it)."""
 
+    def __call__(cls, *args, **kwargs):
+        given = {name: kwargs.pop(name) for name in REWARD_OPTIONS if name in kwargs}
+        reward = kwargs.pop("reward", None)
+        if isinstance(reward, Mapping):
+            given = {**reward, **given}
+            reward = None
+        if reward is None:
+            reward = cls.reward_config(**given)
+        elif given:
+            reward = dataclasses.replace(reward, **given)
+        return super().__call__(*args, reward=reward, **kwargs)
+
+
+@dataclasses.dataclass(frozen=True)
+class EnvConfig(metaclass=_FlatReward):
+    """The arguments every task shares (the table in hoprover_env/tasks/torque.py). The
+    reward is a part of its own, the field `reward` (a RewardConfig, whose fields and
+    checks are in hoprover_env/tasks/reward.py), whose options the config takes flat and
+    shows as its own attributes (``config.gamma``). A task's config subclasses it with
+    its own arguments, lists in `unused` those of these it does not use, and in
+    `reward_options` those of the reward's it reads (None: all); the others are refused.
+    `reward_config` is the RewardConfig class whose defaults the task keeps."""
+
+    reward: RewardConfig = dataclasses.field(default_factory=RewardConfig)
     control_dt: float = 0.5
     episode_time: float = 600.0
     target_range: tuple = (-1.0, 1.0)
@@ -67,12 +91,49 @@ class EnvConfig(RewardConfig):
     flight_start: float = 0.0
     # the arguments a task does not use, each with the reason: refused, not ignored
     unused: ClassVar[dict] = {}
+    # the task's own fields its kernels read, in the order of their slots of E after the
+    # shared ones (tasks/layout.py task_slots)
+    kernel_fields: ClassVar[tuple[str, ...]] = ()
+    # the reward's options the task reads (None: all of them); the others are refused
+    reward_options: ClassVar[tuple[str, ...] | None] = None
+    reward_config: ClassVar[type[RewardConfig]] = RewardConfig
+
+    def __getattr__(self, name: str) -> Any:
+        """The reward's options, as attributes of the config (``config.gamma``)."""
+        if name in REWARD_OPTIONS:
+            return getattr(self.reward, name)
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
+    @classmethod
+    def unused_options(cls) -> dict[str, str]:
+        """Every argument the task does not use, with the reason: `unused`, and the
+        reward's options outside `reward_options`."""
+        out = dict(cls.unused)
+        if cls.reward_options is not None:
+            for name in REWARD_OPTIONS:
+                if name not in cls.reward_options:
+                    out[name] = (f"a reward option its reward does not read; it reads "
+                                 f"{list(cls.reward_options) or 'none'}")
+        return out
+
+    @classmethod
+    def option_names(cls) -> set[str]:
+        """The env arguments the config takes: its fields (not `reward` itself) and the
+        reward's options."""
+        return ({f.name for f in dataclasses.fields(cls)} - {"reward"}) | set(REWARD_OPTIONS)
 
     def __post_init__(self):
-        super().__post_init__()
-        for name, why in self.unused.items():
-            default = type(self).__dataclass_fields__[name].default
-            if getattr(self, name) != default:
+        if not isinstance(self.reward, RewardConfig):
+            raise ValueError(f"reward must be a RewardConfig, got "
+                             f"{type(self.reward).__name__}")
+        defaults = self.reward_config()
+        for name, why in self.unused_options().items():
+            if name in REWARD_OPTIONS:
+                value, default = getattr(self.reward, name), getattr(defaults, name)
+            else:
+                value = getattr(self, name)
+                default = type(self).__dataclass_fields__[name].default
+            if value != default:
                 raise ValueError(f"{type(self).__name__} does not use {name} ({why}); "
                                  f"leave it at {default!r}")
 
@@ -118,11 +179,12 @@ class EnvConfig(RewardConfig):
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> EnvConfig:
         """The config of these keyword arguments; `owner` names the caller in errors."""
-        names = {f.name for f in dataclasses.fields(cls)}
-        unused = [k for k in kwargs if k in cls.unused]
+        names = cls.option_names()
+        refused = cls.unused_options()
+        unused = [k for k in kwargs if k in refused]
         if unused:
             raise TypeError(f"{owner or cls.__name__}() got the argument {unused[0]!r}, which "
-                            f"this task does not use ({cls.unused[unused[0]]})")
+                            f"this task does not use ({refused[unused[0]]})")
         bad = [k for k in kwargs if k not in names]
         if bad:
             # Python's own wording: TorchRL's GymEnv probes with frameskip=1 and drops it
@@ -132,17 +194,31 @@ class EnvConfig(RewardConfig):
                             f"{bad[0]!r}{also}; valid environment arguments: {sorted(names)}")
         return cls(**kwargs)
 
+    def reward_vector(self) -> np.ndarray:
+        """The RW vector the kernels read: the reward part's."""
+        return self.reward.reward_vector()
+
     def options_vector(self) -> np.ndarray:
         """The kernel's option vector O (integrator, impact law, tolerances)."""
         return make_options(self.integrator, self.impact_law, self.rtol, self.euler_dt)
 
+    def kernel_values(self) -> dict[str, float]:
+        """The values of `kernel_fields` the kernel reads, by name: the fields as they
+        are, unless a task scales one (the mission task's noise_scale)."""
+        return {name: getattr(self, name) for name in self.kernel_fields}
+
     def task_vector(self) -> np.ndarray:
-        """The task configuration vector E (hoprover_env/tasks/layout.py)."""
-        e = np.zeros(N_E)
+        """The task configuration vector E (hoprover_env/tasks/layout.py): the shared
+        slots, then the task's `kernel_fields` in declared order."""
+        slots = task_slots(type(self))
+        e = np.zeros(slots.size)
         e[E_CONTROL_DT] = self.control_dt
         e[E_T_TOTAL] = self.episode_time
         e[E_ACTION_MAP] = ACTION_MAPS[self.action_map]
         e[E_ACTION_SCALE] = self.action_scale
+        values = self.kernel_values()
+        for name in slots.names:
+            e[getattr(slots, name)] = values[name]
         return e
 
     def draw_terrain(self, rng: np.random.Generator) -> dict:

@@ -91,8 +91,6 @@ import dataclasses
 import math
 from typing import ClassVar
 
-import numpy as np
-
 from hoprover_env.core.layout import (
     ERR_STEP,
     MODE_A,
@@ -110,15 +108,16 @@ from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.tasks import Registration, reward, torque
 from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, episode_ended, open_step
 from hoprover_env.tasks.config import EnvConfig
-from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, E_TASK
+from hoprover_env.tasks.layout import E_CONTROL_DT, E_T_TOTAL, task_slots
 from hoprover_env.tasks.observation import OBS_HIGH, OBS_LOW, clip, observe
 from hoprover_env.util.validate import is_real
 
-# this task's slots of E (tasks/layout.py): the built-in controller
-E_HOLD_KP = E_TASK        # attitude hold in flight [1/s^2]
-E_HOLD_KD = E_TASK + 1    # [1/s]
-E_LAUNCH_MAX = E_TASK + 2  # longest a launch torque is held before giving up [s]
-E_LAUNCH_MIN = E_TASK + 3  # weakest launch, a multiple of the tipping torque m g r
+
+@dataclasses.dataclass(frozen=True)
+class HopRewardConfig(reward.RewardConfig):
+    """The reward of the hop task: a step is a whole hop, so a lower discount."""
+
+    gamma: float = 0.98
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,11 +131,15 @@ class HopEnvConfig(EnvConfig):
         "action_scale": "one action is a hop's launch torque, mapped by hop_torque",
         "flight_start": "a hop is launched from rest: every step starts at rest"}
 
-    gamma: float = 0.98
-    hold_kp: float = 0.15
-    hold_kd: float = 0.9
-    launch_max: float = 60.0
-    launch_min: float = 1.05
+    # its own slots of E: the built-in controller (tasks/layout.py task_slots)
+    kernel_fields: ClassVar[tuple[str, ...]] = ("hold_kp", "hold_kd", "launch_max",
+                                                "launch_min")
+    reward_config: ClassVar[type[reward.RewardConfig]] = HopRewardConfig
+
+    hold_kp: float = 0.15       # attitude hold in flight [1/s^2]
+    hold_kd: float = 0.9        # [1/s]
+    launch_max: float = 60.0    # longest a launch torque is held before giving up [s]
+    launch_min: float = 1.05    # weakest launch, a multiple of the tipping torque m g r
 
     def __post_init__(self):
         super().__post_init__()
@@ -148,13 +151,13 @@ class HopEnvConfig(EnvConfig):
             raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
                              f"in (1, 1000), got {self.launch_min!r}")
 
-    def task_vector(self) -> np.ndarray:
-        e = super().task_vector()
-        e[E_HOLD_KP] = self.hold_kp
-        e[E_HOLD_KD] = self.hold_kd
-        e[E_LAUNCH_MAX] = self.launch_max
-        e[E_LAUNCH_MIN] = self.launch_min
-        return e
+
+# this task's slots of E, named for its kernels (module-level ints: numba folds them)
+SLOTS = task_slots(HopEnvConfig)
+E_HOLD_KP = SLOTS.hold_kp
+E_HOLD_KD = SLOTS.hold_kd
+E_LAUNCH_MAX = SLOTS.launch_max
+E_LAUNCH_MIN = SLOTS.launch_min
 
 
 # A hop that never ends (it cannot: every state decays to rest or flies ballistically)

@@ -119,6 +119,7 @@ is `observe` below (the sensors, drawn by `core.terrain.truncated_normal`).
 import dataclasses
 import math
 from collections.abc import Mapping
+from typing import ClassVar
 
 import numpy as np
 
@@ -127,19 +128,10 @@ from hoprover_env.core.params import P_SLOPE, P_TMAX, P_TMIN
 from hoprover_env.core.terrain import truncated_normal
 from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration, torque
-from hoprover_env.tasks.layout import E_T_TOTAL, E_TASK
+from hoprover_env.tasks.layout import E_T_TOTAL, task_slots
 from hoprover_env.tasks.observation import POS_SCALE, RATE_SCALE, clip
 from hoprover_env.tasks.terrain import SLOPE_SCALE, TerrainEnvConfig
 from hoprover_env.util.validate import non_negative_real, positive_real
-
-# this task's slots of E (tasks/layout.py): its sensors
-E_ATT_NOISE = E_TASK        # attitude sensor noise, 1 sigma [rad]
-E_RATE_NOISE = E_TASK + 1   # rate sensor noise [rad/s]
-E_BIAS_WALK = E_TASK + 2    # attitude bias random walk [rad / sqrt(s)]
-E_FIX_NOISE = E_TASK + 3    # position fix noise [m]
-E_FIX_REST = E_TASK + 4     # time at rest before a fix [s]
-E_INCL_NOISE = E_TASK + 5   # inclinometer noise [rad]
-E_HISTORY = E_TASK + 6      # readings in the observation, newest first
 
 # The ground a mission does not know: restitutions and friction drawn per episode
 # (relative half-ranges, EnvConfig.randomize), about the spread of the regolith
@@ -156,17 +148,23 @@ class MissionEnvConfig(TerrainEnvConfig):
     each episode, `randomize` defaulting to MISSION_GROUND) plus its sensors and
     actuator (the table above). `noise_scale` multiplies every noise."""
 
+    # its own slots of E: its sensors (tasks/layout.py task_slots), the noises scaled
+    # by noise_scale (kernel_values)
+    kernel_fields: ClassVar[tuple[str, ...]] = (
+        "attitude_noise", "rate_noise", "bias_walk", "fix_noise", "fix_rest",
+        "inclinometer_noise", "history")
+
     randomize: Mapping[str, float] | None = dataclasses.field(
         default_factory=lambda: dict(MISSION_GROUND))
     noise_scale: float = 1.0
-    attitude_noise: float = math.radians(0.5)
-    rate_noise: float = 1e-4
-    bias_walk: float = 1e-3
-    fix_noise: float = 0.01
-    fix_rest: float = 1.0
-    inclinometer_noise: float = 0.02
+    attitude_noise: float = math.radians(0.5)   # attitude sensor noise, 1 sigma [rad]
+    rate_noise: float = 1e-4                    # rate sensor noise [rad/s]
+    bias_walk: float = 1e-3                     # attitude bias random walk [rad/sqrt(s)]
+    fix_noise: float = 0.01                     # position fix noise [m]
+    fix_rest: float = 1.0                       # time at rest before a fix [s]
+    inclinometer_noise: float = 0.02            # inclinometer noise [rad]
     actuator_error: float = 0.05
-    history: int = 1
+    history: int = 1                            # readings in the observation, newest first
 
     def __post_init__(self):
         super().__post_init__()
@@ -182,17 +180,23 @@ class MissionEnvConfig(TerrainEnvConfig):
                              f"of 100 % or more reverses the torque), got "
                              f"{self.actuator_error} x {self.noise_scale}")
 
-    def task_vector(self) -> np.ndarray:
-        e = super().task_vector()
-        k = self.noise_scale
-        e[E_ATT_NOISE] = k * self.attitude_noise
-        e[E_RATE_NOISE] = k * self.rate_noise
-        e[E_BIAS_WALK] = k * self.bias_walk
-        e[E_FIX_NOISE] = k * self.fix_noise
-        e[E_FIX_REST] = self.fix_rest
-        e[E_INCL_NOISE] = k * self.inclinometer_noise
-        e[E_HISTORY] = self.history
-        return e
+    def kernel_values(self) -> dict[str, float]:
+        values = super().kernel_values()
+        for name in ("attitude_noise", "rate_noise", "bias_walk", "fix_noise",
+                     "inclinometer_noise"):
+            values[name] = self.noise_scale * values[name]
+        return values
+
+
+# this task's slots of E, named for its kernels (module-level ints: numba folds them)
+SLOTS = task_slots(MissionEnvConfig)
+E_ATT_NOISE = SLOTS.attitude_noise
+E_RATE_NOISE = SLOTS.rate_noise
+E_BIAS_WALK = SLOTS.bias_walk
+E_FIX_NOISE = SLOTS.fix_noise
+E_FIX_REST = SLOTS.fix_rest
+E_INCL_NOISE = SLOTS.inclinometer_noise
+E_HISTORY = SLOTS.history
 
 
 # the task memory M of one rover

@@ -91,7 +91,9 @@ ATT_MAX = 2.0 + U_Q * math.log1p(U_MAX / U_Q)   # bound of a(s): (1 - cos theta)
 
 @dataclasses.dataclass(frozen=True)
 class RewardConfig:
-    """The reward's arguments (the env tables list them; all validated here)."""
+    """The reward's arguments (the env tables list them; all validated here). An env
+    config holds one as its `reward` field (hoprover_env/tasks/config.py); a task that
+    changes a default subclasses it (the hop task's gamma)."""
 
     dist_weight: float = 1.0
     time_cost: float = 1.0 / 600.0
@@ -132,6 +134,10 @@ class RewardConfig:
         rw[RW_W_ENERGY] = self.energy_weight
         rw[RW_ATT_COST] = self.attitude_cost
         return rw
+
+
+# the reward's options, by name: what an env config takes flat and passes to its reward
+OPTIONS = tuple(f.name for f in dataclasses.fields(RewardConfig))
 
 
 def new_memory(n: int | None = None) -> np.ndarray:

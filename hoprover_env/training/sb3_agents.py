@@ -22,7 +22,6 @@ A config has these sections (every key is checked; a typo is an error that names
 from __future__ import annotations
 
 import copy
-import dataclasses
 import inspect
 import math
 from pathlib import Path
@@ -201,7 +200,7 @@ def validate(cfg: dict) -> None:
         raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
                           f"got {cfg.get('env_id')!r}")
     env_cls = config_class(cfg["env_id"])
-    env_fields = {f.name for f in dataclasses.fields(env_cls)}
+    env_fields = env_cls.option_names()
     _check_keys("env", cfg["env"], env_fields)
     try:
         env_config = env_cls(**env_kwargs(cfg))

@@ -103,14 +103,12 @@ SECTIONS = ("hyperparams", "env", "policy")
 def section_keys(cfg: dict, section: str) -> set:
     """The keys a config section accepts (those hoprover_env.training.sb3_agents.validate
     checks)."""
-    import dataclasses
-
     from hoprover_env.training.sb3_agents import hyper_keys, policy_keys
     if section == "hyperparams":
         return hyper_keys(cfg["algo"])
     if section == "env":
         from hoprover_env.envs.registry import config_class
-        return {f.name for f in dataclasses.fields(config_class(cfg["env_id"]))}
+        return config_class(cfg["env_id"]).option_names()
     return policy_keys(cfg["algo"])
 
 

@@ -69,3 +69,33 @@ def test_the_options_a_task_does_not_use_are_refused(tip_id):
 def test_a_module_that_is_not_a_task_is_refused():
     with pytest.raises(TypeError, match="no TASK"):
         registry.register_task("helpers")
+
+
+def test_the_reward_options_a_task_does_not_read_are_refused(tip_id):
+    """The toy task pays its own reward: every option of the shared reward is refused,
+    named, at gym.make (TypeError) and when its config is built (ValueError)."""
+    import toy_task
+    for name, value in (("success_bonus", 123), ("shaping", "landing"), ("energy_weight", 5)):
+        with pytest.raises(TypeError, match=f"'{name}', which this task does not use"):
+            gym.make(tip_id, **{name: value})
+        with pytest.raises(ValueError, match=f"does not use {name}"):
+            toy_task.TipEnvConfig(**{name: value})
+    # a task that reads the reward takes its options flat, as before
+    cfg = gym.make("HopRoverRL-v1", attitude_cost=0.3).unwrapped.config
+    assert cfg.attitude_cost == 0.3 and cfg.reward.attitude_cost == 0.3
+    from hoprover_env.tasks.hop import HopEnvConfig
+    assert HopEnvConfig().gamma == 0.98 and HopEnvConfig(gamma=0.9).reward.gamma == 0.9
+
+
+def test_a_tasks_own_slots_of_E_are_its_declared_fields_after_the_shared_ones(tip_id):
+    import toy_task
+    from hoprover_env.tasks import hop, mission
+    from hoprover_env.tasks.layout import N_SHARED, task_slots
+    assert toy_task.E_TIP == N_SHARED
+    e = toy_task.TipEnvConfig(tip_angle=0.3).task_vector()
+    assert e.shape == (N_SHARED + 1,) and e[toy_task.E_TIP] == 0.3
+    assert (hop.E_HOLD_KP, hop.E_LAUNCH_MIN) == (N_SHARED, N_SHARED + 3)
+    m = mission.MissionEnvConfig(noise_scale=2.0, history=3)
+    e = m.task_vector()
+    assert e[mission.E_RATE_NOISE] == 2.0 * m.rate_noise and e[mission.E_HISTORY] == 3
+    assert len(e) == task_slots(mission.MissionEnvConfig).size == N_SHARED + 7
