@@ -5,7 +5,7 @@ the info dict (envs/parts.py) and renders.
 
 What an env of a task observes, does and pays is the task's: its module's docstring has
 the tables (hoprover_env/tasks/torque.py for HopRover-v0). HopRoverEnv itself is the
-torque task's env; hoprover_env.envs.registry makes every other task's from it.
+torque task's env; every other task's subclasses it (hoprover_env/envs/tasks.py).
 """
 from __future__ import annotations
 
@@ -61,7 +61,7 @@ def check_actions(action, shape, what="action") -> np.ndarray:
 class HopRoverEnv(gym.Env):
     """A hoprover task as a Gymnasium env; this class is the torque task's (HopRover-v0,
     HopRoverContest-v0: its tables are in hoprover_env/tasks/torque.py), and every other
-    task's env class is this one with its own `task` (hoprover_env.envs.registry).
+    task's env class is this one with its own `task` (hoprover_env/envs/tasks.py).
     Keyword arguments are the task config's (unknown names raise TypeError, arguments
     the task does not use too); render_mode is None, "rgb_array" or "human"."""
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -18,11 +18,14 @@
 =================  ==================================================================
 
 A task is one module. It holds its env's documentation (its docstring: the tables of a
-Gymnasium env), its config dataclass, its own slots of E, its step template and
-observe, ``TASK = TaskSpec(...)`` and ``REGISTER``: the ids it is registered under.
-Adding one is that module plus its name in `TASK_MODULES` below: the env classes are
-made from it (hoprover_env.envs.registry) and gymnasium registers its ids when
-hoprover_env is imported. docs/ARCHITECTURE.md walks through one.
+Gymnasium env), its config dataclass (with the fields its kernels read, its
+``kernel_fields``, and the reward options it reads), the named slots of those fields in
+E, its step template and observe, ``TASK = TaskSpec(...)`` and ``REGISTER``: the ids it
+is registered under. Adding one to the package is that module, its name in
+`TASK_MODULES` below and its two env classes written out in hoprover_env/envs/tasks.py;
+gymnasium registers its ids when hoprover_env is imported. A module outside the package
+registers itself instead (``hoprover_env.register_task(__name__)``, its last line).
+docs/ARCHITECTURE.md walks through one.
 """
 from __future__ import annotations
 
