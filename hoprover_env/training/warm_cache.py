@@ -2,10 +2,11 @@
 
 Builds and steps every registered environment (the single env and the native vector
 env, threaded and not) and runs `simulate` and `simulate_batch` with both integrators
-once, which compiles every kernel into numba's cache; in a checkout it also runs one
-short episode of the scripted hopper and of a bundled learned policy (agents/). Every
-later process on the machine, a Ray worker included, loads the compiled code instead
-of compiling it (10-16 s per process on a cold cache).
+(the event one on smooth and on rough ground) once, which compiles every kernel into
+numba's cache; in a checkout it also runs one short episode of the scripted hopper and
+of a bundled learned policy (agents/). Every later process on the machine, a Ray
+worker included, loads the compiled code instead of compiling it (10-16 s per process
+on a cold cache).
 
 The cache is where numba keeps it for the imported hoprover: the package's
 __pycache__ folders when they are writable (an editable install: the checkout), else
@@ -44,7 +45,7 @@ def warm(log=None) -> None:
     import gymnasium as gym
     import numpy as np
 
-    from hoprover_env import simulate, simulate_batch
+    from hoprover_env import RoverParams, simulate, simulate_batch
     from hoprover_env.envs import registry as _registry
     say = log or (lambda msg: None)
     for env_id in _registry.ENVS:
@@ -59,12 +60,18 @@ def warm(log=None) -> None:
             vec.step(vec.action_space.sample())
             vec.close()
         say(f"  {env_id}: {time.perf_counter() - t0:.1f} s")
-    for integrator in ("event", "euler"):
+    # each integrator, and the event integrator on rough ground too: the loops of simulate
+    # and simulate_batch are compiled per kind of run (sim/rollout.py, loop_kind)
+    for integrator, params in (("event", None), ("event", RoverParams(roughness=0.1)),
+                               ("euler", None)):
         t0 = time.perf_counter()
-        simulate(np.zeros(10), t_end=5.0, control_dt=0.5, integrator=integrator)
-        simulate_batch(np.zeros((2, 10)), np.array([0.5, -0.5]), t_end=5.0, control_dt=0.5,
-                       integrator=integrator)
-        say(f"  simulate, simulate_batch ({integrator}): {time.perf_counter() - t0:.1f} s")
+        simulate(np.full(10, 3e-4), t_end=5.0, control_dt=0.5, integrator=integrator,
+                 params=params, seed=0)
+        simulate_batch(np.full((2, 10), 3e-4), np.array([0.5, -0.5]), t_end=5.0,
+                       control_dt=0.5, integrator=integrator, params=params, seed=0)
+        ground = "smooth" if params is None else "rough"
+        say(f"  simulate, simulate_batch ({integrator}, {ground} ground): "
+            f"{time.perf_counter() - t0:.1f} s")
     try:        # a checkout: its agents/ run the scripted hopper and the learned policies
         from hoprover_env.agents.policies import load_policy
         from hoprover_env.evaluation.episodes import run_episodes
