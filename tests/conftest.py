@@ -1,4 +1,7 @@
 import os
+import subprocess
+import sys
+import time
 
 from hypothesis import HealthCheck, settings
 
@@ -8,6 +11,34 @@ settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True
 settings.register_profile("thorough", max_examples=300, deadline=None,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+# HOPROVER_TEST_WARMUP=0 skips the warm-up below (a cache known to be warm)
+WARMUP_SWITCH = "HOPROVER_TEST_WARMUP"
+
+
+def pytest_configure(config):
+    """Compile once per test session, before pytest-xdist starts its workers: in the
+    controller of an -n run (an xdist worker has `workerinput`), `python -m
+    hoprover_env.compile` compiles (or loads) every kernel into numba's on-disk cache, so
+    that the workers load them instead of each compiling the same kernels at once. A run
+    without -n compiles what it uses on first use, as before. On a warm cache this only
+    loads (seconds); if it fails, the tests run anyway and show the failure themselves."""
+    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None) \
+            or config.getoption("collectonly") \
+            or os.environ.get(WARMUP_SWITCH, "1").strip() == "0":
+        return
+    start = time.monotonic()
+    out = subprocess.run([sys.executable, "-m", "hoprover_env.compile"], capture_output=True,
+                         text=True)
+    if out.returncode == 0:         # its last line: what it compiled and loaded
+        summary = (out.stdout.strip().splitlines() or [""])[-1]
+        print(f"numba cache warmed for the workers in {time.monotonic() - start:.0f} s: "
+              f"{summary}", file=sys.stderr)
+    else:
+        lines = (out.stdout + out.stderr).strip().splitlines()
+        print(f"warning: `python -m hoprover_env.compile` failed (exit {out.returncode}); "
+              "the workers compile on first use:\n" + "\n".join(lines[-15:]),
+              file=sys.stderr)
 
 
 def pytest_collection_modifyitems(config, items):
