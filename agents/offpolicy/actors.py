@@ -14,8 +14,10 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
 - flight (A): the median |a|, the median |omega| and the correlation of the torque with
   -omega (1: a damper that brakes the spin).
 
-Per episode: broken, success, the opening action, its correlation with the target, and
-the final distance to the target.
+Per episode: broken, success, whether it ended in flight (cut by the 600 s limit before
+landing), the median flight's duration (decisions in a row in flight, times the control
+period), the opening action, its correlation with the target, and the final distance to
+the target.
 
 The action gap (`--gap-states`, 8 by default): at flight states the actor reached, the
 critic's Q(s, a) and the one-step reward r(s, a) (the env re-played from that state with
@@ -68,7 +70,9 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     modes, acts, omegas, states = [], [], [], []
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
-    out = {k: np.zeros(n, bool) for k in ("broken", "success")}
+    out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
+    run = np.zeros(n, int)               # decisions in the current flight
+    flights: list[int] = []              # each finished flight's decisions
     final = np.full(n, np.nan)
     while open_.any():
         a = np.asarray(policy.act(obs, venv), dtype=np.float32)
@@ -80,6 +84,10 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             omegas.append(rs[i, 5])
             if mode[i] == FLIGHT:
                 states.append(rs[i])
+                run[i] += 1
+            elif run[i]:
+                flights.append(int(run[i]))
+                run[i] = 0
             if math.isnan(first[i]):
                 first[i] = a[i, 0]
         a[~open_] = 0.0
@@ -90,11 +98,18 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             for i in np.flatnonzero(ended):
                 out["broken"][i] = bool(fin["broken"][i])
                 out["success"][i] = bool(fin["is_success"][i])
+                out["ended_in_flight"][i] = int(fin["state"][i]) == FLIGHT
                 final[i] = float(fin["rover_state"][i][0]) - targets[i]
         open_ &= ~ended
     venv.close()
-    return {"mode": np.asarray(modes), "action": np.asarray(acts), "omega": np.asarray(omegas),
+    return {"flights": np.asarray(flights + [int(r) for r in run if r]),
+            "mode": np.asarray(modes), "action": np.asarray(acts), "omega": np.asarray(omegas),
             "flight_states": np.asarray(states), "opening": first, "final": final, **out}
+
+
+def control_dt(policy) -> float:
+    """The policy's control period [s]."""
+    return float(env_arguments(policy).get("control_dt", 0.5))
 
 
 def tipping_action(policy) -> float:
@@ -179,6 +194,9 @@ def main(argv=None) -> int:
         "per_state": per_state(run, tipping_action(policy)),
         "broken": int(run["broken"].sum()), "success": int(run["success"].sum()),
         "median_final_distance_m": float(np.median(np.abs(run["final"]))),
+        "ended_in_flight": int(run["ended_in_flight"].sum()),
+        "median_flight_s": float(np.median(run["flights"]) * control_dt(policy))
+        if len(run["flights"]) else float("nan"),
         "median_abs_opening": float(np.median(np.abs(run["opening"]))),
         "corr_opening_target": opening_corr,
         "action_gap": action_gap(args.model, policy, run["flight_states"], targets,
