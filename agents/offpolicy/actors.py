@@ -16,8 +16,8 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
 
 Per episode: broken, success, whether it ended in flight (cut by the 600 s limit before
 landing), the median flight's duration (decisions in a row in flight, times the control
-period), the opening action, its correlation with the target, and the final distance to
-the target.
+period) and that of each episode's longest flight, the opening action, its correlation
+with the target, and the final distance to the target.
 
 The action gap (`--gap-states`, 8 by default): at flight states the actor reached, the
 critic's Q(s, a) and the one-step reward r(s, a) (the env re-played from that state with
@@ -72,6 +72,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
     run = np.zeros(n, int)               # decisions in the current flight
+    longest = np.zeros(n, int)           # each episode's longest flight
     flights: list[int] = []              # each finished flight's decisions
     final = np.full(n, np.nan)
     while open_.any():
@@ -85,6 +86,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             if mode[i] == FLIGHT:
                 states.append(rs[i])
                 run[i] += 1
+                longest[i] = max(longest[i], run[i])
             elif run[i]:
                 flights.append(int(run[i]))
                 run[i] = 0
@@ -102,7 +104,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
                 final[i] = float(fin["rover_state"][i][0]) - targets[i]
         open_ &= ~ended
     venv.close()
-    return {"flights": np.asarray(flights + [int(r) for r in run if r]),
+    return {"flights": np.asarray(flights + [int(r) for r in run if r]), "longest": longest,
             "mode": np.asarray(modes), "action": np.asarray(acts), "omega": np.asarray(omegas),
             "flight_states": np.asarray(states), "opening": first, "final": final, **out}
 
@@ -197,6 +199,7 @@ def main(argv=None) -> int:
         "ended_in_flight": int(run["ended_in_flight"].sum()),
         "median_flight_s": float(np.median(run["flights"]) * control_dt(policy))
         if len(run["flights"]) else float("nan"),
+        "median_longest_flight_s": float(np.median(run["longest"]) * control_dt(policy)),
         "median_abs_opening": float(np.median(np.abs(run["opening"]))),
         "corr_opening_target": opening_corr,
         "action_gap": action_gap(args.model, policy, run["flight_states"], targets,
