@@ -29,7 +29,7 @@ from hoprover_env import core
 from hoprover_env.core.params import MAX_MAGNITUDE, P_H, P_ROUGH, RoverParams, from_fields
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.compiler import MAT, VEC, kernel
-from hoprover_env.sim.rollout import Rollout, budget_error, is_compiled, run_rollout
+from hoprover_env.sim.rollout import ADVANCE, Rollout, budget_error, is_compiled, run_rollout
 from hoprover_env.util.validate import (
     check_rover,
     check_seed,
@@ -225,7 +225,12 @@ class RoverSim:
             raise ValueError(f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; "
                              f"got {stop_on!r}")
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
-        n = core.advance(self.s, self.p, self.o, torque, t_stop, self._ev, self._w)
+        # the integrator this sim's options and ground need, no more (rollout.loop_kind)
+        if self.o[core.O_INTEGRATOR] == core.INTEGRATOR_EULER:
+            advance = ADVANCE["euler"]
+        else:
+            advance = ADVANCE["event" if self.p[P_ROUGH] > 0.0 else "event_smooth"]
+        n = advance(self.s, self.p, self.o, torque, t_stop, self._ev, self._w)
         if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP, core.ERR_WORK):
             raise budget_error(self.t, float(self.s[core.S_ERROR]))
         ev = self._ev
