@@ -5,6 +5,7 @@ the scripted hopper acting on the estimate reaches hidden targets of HopRoverMis
 import math
 
 import numpy as np
+import pytest
 
 import hoprover_env  # noqa: F401  (registers the envs)
 from hoprover_env import core
@@ -40,6 +41,7 @@ def _run(seeds, targets, noise_scale=1.0):
     return rows
 
 
+@pytest.mark.slow                # statistics over many episodes
 def test_the_attitude_estimate_is_consistent_with_its_covariance():
     rows = _run(range(6), [0.6, -0.8, 0.3, 1.0, -0.4, 0.9])
     err = np.array([(e - t + math.pi) % (2 * math.pi) - math.pi for t, e, *_ in rows])
@@ -88,6 +90,7 @@ def test_the_gyro_tells_flight_from_contact():
     assert not (np.array([r[3] == "F" for r in rows]) & said).any()
 
 
+@pytest.mark.slow                # whole episodes
 def test_the_scripted_hopper_on_the_estimate_reaches_hidden_targets():
     rng = np.random.default_rng(20261125)             # targets no one tuned on
     targets = rng.uniform(-1.0, 1.0, 16)

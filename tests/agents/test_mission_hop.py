@@ -25,6 +25,7 @@ def toward(f):
     return math.copysign(0.2 + 0.4 * min(abs(float(f[F_TO_GO])), 1.0), float(f[F_TO_GO]))
 
 
+@pytest.mark.slow                # gymnasium's checker steps many hops
 def test_the_hop_env_passes_the_gymnasium_checker():
     check_env(MissionHopEnv(), skip_render_check=True)
 
@@ -91,6 +92,7 @@ def _tiny_config(tmp_path, **extra):
     return str(path)
 
 
+@pytest.mark.slow                # trains and resumes
 def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
     import csv
 
@@ -121,6 +123,7 @@ def test_the_trainer_names_an_unknown_config_key(tmp_path, capsys):
     assert "n_env" in capsys.readouterr().err
 
 
+@pytest.mark.slow                # whole suite episodes
 def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     """The bar of 90 % on the suite, on the suite's first 40 episodes; the whole
     suite's 97.5 % is in docs/studies/mission.md."""
@@ -145,6 +148,7 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
         load_config(path)
 
 
+@pytest.mark.slow                # trains through the baselines driver
 def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
     import json
 

@@ -90,6 +90,7 @@ def test_mpc_rejects_bad_budgets():
         MPCPolicy(terrain_samples=0)
 
 
+@pytest.mark.slow                # whole mpc episodes
 def test_mpc_plays_an_episode_alike_alone_and_in_any_batch():
     # the agent's random streams (its CMA-ES seeds, its own terrain samples) are keyed by
     # the state it plans from, not by the episodes planned beside it or before it

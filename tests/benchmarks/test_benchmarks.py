@@ -2,9 +2,15 @@
 speed targets live in BENCHMARKS.md, not in timed unit tests)."""
 import math
 
+import pytest
+
 import benchmarks.bench_core as bench_core
 import benchmarks.bench_oracle as bench_oracle
 from benchmarks.__main__ import main
+
+# the fast tier (pytest -m "not slow") leaves this file out:
+# the benchmark suite's quick mode, end to end
+pytestmark = pytest.mark.slow
 
 
 def test_benchmark_suite_quick(tmp_path):

@@ -10,6 +10,11 @@ import sys
 
 import pytest
 
+# the fast tier (pytest -m "not slow") leaves this file out: fresh interpreters make
+# and step every registered env
+pytestmark = pytest.mark.slow
+
+
 # What the process holds before hoprover is imported, compared after it ran. hoprover's
 # dependencies are imported first: what importing them does (gymnasium adds warnings
 # filters, numpy starts its BLAS threads) is theirs, and a user of a Gymnasium env

@@ -10,9 +10,15 @@ import sys
 
 import pytest
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# a fresh interpreter imports every module of the package (torch and Ray included)
+pytestmark = pytest.mark.slow
+
+
 PROBE = r'''
 import importlib, importlib.util, json, pkgutil, sys
 import hoprover_env
+
 names = ["simulate", *hoprover_env.__all__]
 before = {name: getattr(hoprover_env, name) for name in names}
 hooks = [type(f).__module__ for f in sys.meta_path]

@@ -114,6 +114,7 @@ def mpc_rows(results):
             for r in results]
 
 
+@pytest.mark.slow                # worker processes
 def test_mpc_episodes_spread_over_processes_equal_the_serial_run():
     # same episodes, same order, same numbers: a chunk runs its episodes seeded as the
     # serial run seeds them, and mpc plays an episode alike in any batch
@@ -172,6 +173,7 @@ print("done", len(results), sum(r.success for r in results))
 """
 
 
+@pytest.mark.slow                # a script and its workers
 def test_a_script_without_a_main_guard_spreads_its_episodes(tmp_path):
     script = tmp_path / "unguarded.py"
     script.write_text(UNGUARDED)

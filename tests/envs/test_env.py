@@ -352,6 +352,7 @@ def test_sb3_adapter_contract():
     assert venv.get_attr("render_mode") == [None] * 3
 
 
+@pytest.mark.slow                # trains PPO
 def test_sb3_ppo_trains_on_the_adapter(tmp_path):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize

@@ -73,6 +73,7 @@ def test_success_at_rest_in_the_band_and_keep_going():
         gym.make("HopRoverGoal-v1", band_weight=0.5)
 
 
+@pytest.mark.slow                # trains SAC with hindsight replay
 @pytest.mark.parametrize("n_envs", [1, 2])
 def test_sb3_her_trains_on_the_goal_env(n_envs):
     torch = pytest.importorskip("torch")

@@ -166,6 +166,7 @@ def test_contact_point_follows_the_judge_through_a_hop():
     assert checked > 0.9 * len(roll.t)
 
 
+@pytest.mark.slow                # draws nine matplotlib figures
 def test_nine_figures_on_a_slope(tmp_path):
     from hoprover_env.evaluation.plots import nine_figures
     roll = simulate(launch_then_hold(2e-4), t_end=200.0, control_dt=0.5, target_x=0.35,

@@ -16,6 +16,10 @@ import torch
 
 import hoprover_env  # noqa: F401  (registers the envs)
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# trains with TorchRL, Tianshou and skrl
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))
 WHY = "pip install -e '.[rl]'"

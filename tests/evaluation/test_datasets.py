@@ -8,6 +8,10 @@ import pytest
 
 from hoprover_env.evaluation import datasets
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# builds offline-RL datasets with Minari and replays every episode
+pytestmark = pytest.mark.slow
+
 minari = pytest.importorskip("minari", reason="pip install 'hoprover[offline]'")
 
 

@@ -7,6 +7,10 @@ import yaml
 
 from agents import baselines
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# trains seeds one after another
+pytestmark = pytest.mark.slow
+
 TINY = {
     "algo": "ppo", "env_id": "HopRoverHop-v0", "n_envs": 4, "timesteps": 512, "seed": 0,
     "env": {"control_dt": 0.5},

@@ -1,10 +1,12 @@
 """Clones of agents/plan_clone/clone_study.py leave as run directories that load_policy reads."""
 import numpy as np
+import pytest
 
 from agents.plan_clone.clone_study import _model, _policy, export
 from hoprover_env.agents.policies import load_policy
 
 
+@pytest.mark.slow                # fits a clone
 def test_an_exported_clone_loads_and_acts_as_it_was_fitted(tmp_path):
     cfg, venv, model = _model("linear", activation="relu")
     rng = np.random.default_rng(0)

@@ -32,6 +32,7 @@ def test_summary_counts_misses_as_inf_and_a_rover_tipped_out_of_the_band():
     assert s["worst_ratio"] == math.inf and s["median_ratio"] == 1.3
 
 
+@pytest.mark.slow                # whole episodes of two agents
 def test_the_same_agent_as_its_own_reference_is_at_one(tmp_path, capsys):
     out = tmp_path / "fresh.json"
     assert fresh_targets.main(["--policy", "scripted", "--seed", "3", "--n", "6",
@@ -64,6 +65,7 @@ def test_terrain_episodes_are_drawn_as_the_suites_are():
     assert np.all(np.abs(other["terrain"]["slope"]) <= 0.2)
 
 
+@pytest.mark.slow                # whole episodes of two agents
 def test_terrain_task_flies_both_agents_on_each_episodes_ground(tmp_path, capsys):
     out = tmp_path / "fresh.json"
     assert fresh_targets.main(["--task", "terrain", "--policy", "terrain", "--seed", "5",

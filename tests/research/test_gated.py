@@ -39,6 +39,7 @@ def test_the_gate_is_the_same_in_numpy_and_torch():
     np.testing.assert_array_equal(gated.near_edge(torch.as_tensor(obs)).numpy(), mask)
 
 
+@pytest.mark.slow                # a sweep of states through the network
 def test_the_network_is_the_main_branch_with_a_dead_zone_and_the_nudge_branch_near_the_edge():
     rng = np.random.default_rng(1)
     main, nudge = _branches(rng)
@@ -187,6 +188,7 @@ def test_a_symmetric_network_is_odd_under_the_mirror_and_keeps_it_when_saved(tmp
     np.testing.assert_array_equal(loaded.act(obs, None), a)
 
 
+@pytest.mark.slow                # whole episodes against the planner
 def test_the_bundled_plan_clone_nudges_at_the_band_edge_within_the_regret_bound():
     from hoprover_env.evaluation import suites
     from hoprover_env.evaluation.episodes import run_episodes
@@ -293,6 +295,7 @@ def test_the_exported_module_acts_as_the_network_and_loads_with_no_research_code
         np.testing.assert_array_equal(loaded.act(obs, None), gated.GatedPolicy(net).act(obs, None))
 
 
+@pytest.mark.slow                # rebuilds and compares the research network
 def test_the_bundled_plan_clone_is_the_research_network_exported():
     """The package's plan_clone.pt2 acts exactly as the state-dict network the pipeline
     made (agents/plan_clone/plan_clone.pt), on observations of real episodes."""

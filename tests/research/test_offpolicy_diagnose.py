@@ -11,6 +11,10 @@ import yaml
 pytest.importorskip("torch")
 from agents.offpolicy import diagnose  # noqa: E402
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# SAC and TD3 runs
+pytestmark = pytest.mark.slow
+
 TINY = {"n_envs": 2, "seed": 0,
         "env": {"control_dt": 4.0, "episode_time": 40.0, "gamma": 0.99, "action_map": "cubic"},
         "normalize": {"obs": True, "reward": False},

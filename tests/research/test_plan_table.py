@@ -96,6 +96,7 @@ def test_the_teacher_flies_the_table_plans(table):
     assert res[2].success and res[2].ttrtp == 5.0          # in the band: do nothing
 
 
+@pytest.mark.slow                # the whole plan-table pipeline from a config
 def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
     import yaml
 

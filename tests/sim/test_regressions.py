@@ -198,6 +198,7 @@ def test_no_impact_is_logged_in_mid_air_over_a_long_control_interval():
     assert not any(e[1] == "impact" and e[0] < t_lift + 10.0 for e in roll.events)
 
 
+@pytest.mark.slow                # the closed form sampled on millions of points
 def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
     # RoverSim stopped at t = 140.87 s with every corner 0.32 m up. Checked
     # against the closed-form flight sampled every 1e-5 s.

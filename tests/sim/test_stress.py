@@ -2,6 +2,7 @@
 import math
 
 import numpy as np
+import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
@@ -84,6 +85,7 @@ def run(p, state, control_dt, torques, hold, integrator, law, t_end, seed=None):
                     euler_dt=5e-3, seed=seed)
 
 
+@pytest.mark.slow                # hypothesis: 25 random whole runs
 @given(scenario())
 def test_never_nan_never_under_ground_always_consistent_and_deterministic(sc):
     roll = run(*sc)

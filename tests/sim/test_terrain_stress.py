@@ -4,6 +4,7 @@ seed, and no energy gain at an impact under the dissipative law."""
 import dataclasses
 
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from test_stress import run, scenario
@@ -20,6 +21,7 @@ def terrain_scenario(draw):
     return p, state, control_dt, torques, hold, integrator, law, min(t_end, 600.0), seed
 
 
+@pytest.mark.slow                # hypothesis: random whole runs
 @given(terrain_scenario())
 def test_terrain_never_nan_never_under_ground_consistent_and_reproducible(sc):
     roll = run(*sc)

@@ -16,6 +16,10 @@ from hoprover_env.evaluation.episodes import run_episodes  # noqa: E402
 from hoprover_env.training import train  # noqa: E402
 from hoprover_env.training.sb3_agents import ConfigError, load_config, make_agent, validate  # noqa: E402
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# trains, resumes and evaluates TQC, CrossQ and RecurrentPPO
+pytestmark = pytest.mark.slow
+
 ENV = {"control_dt": 1.0, "episode_time": 30.0, "target_range": [-0.3, 0.3]}
 TINY = {"env_id": "HopRover-v0", "n_envs": 2, "timesteps": 300, "seed": 0, "env": ENV,
         "evaluation": {"freq": 200, "episodes": 2, "seed": 1}, "checkpoint": {"freq": 100}}

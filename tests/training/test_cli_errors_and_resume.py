@@ -60,6 +60,7 @@ def _fake_run(tmp_path, name):
     return run
 
 
+@pytest.mark.slow                # two training runs
 def test_two_run_directories_get_two_rows(tmp_path, capsys):
     a, b = _fake_run(tmp_path, "runA"), _fake_run(tmp_path, "runB")
     out = tmp_path / "res.json"
@@ -207,6 +208,7 @@ def _check_run_files(run):
     return rows, meta
 
 
+@pytest.mark.slow                # trains, resumes, and trains uninterrupted
 def test_resume_keeps_every_evaluation_once_and_matches_uninterrupted(tmp_path, monkeypatch):
     import yaml
 

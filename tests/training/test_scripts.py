@@ -15,6 +15,11 @@ import yaml
 from hoprover_env.agents.policies import BUNDLED_DIR, BUNDLED_NAME
 from hoprover_env.training import evaluate, train
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# train.py and evaluate.py end to end: training runs, resumes, sweeps
+pytestmark = pytest.mark.slow
+
+
 TINY = {
     "algo": "ppo", "n_envs": 4, "timesteps": 2048, "seed": 0,
     "env": {"control_dt": 1.0, "episode_time": 60.0, "target_range": [-0.3, 0.3]},

@@ -17,6 +17,10 @@ import yaml
 
 import hoprover_env  # noqa: F401  (registers the envs)
 
+# the fast tier (pytest -m "not slow") leaves this file out:
+# trains with the RL Zoo and CleanRL's wrappers
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 HYPERPARAMS = ROOT / "hyperparams"
 ZOO_FILE = HYPERPARAMS / "ppo.yml"
