@@ -10,6 +10,8 @@ The package has one subpackage per layer, each importing only from those below i
 (docs/ARCHITECTURE.md): `jit`, `util`, `core` (the physics kernel), `sim` (simulate,
 batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
+# first: the kernel sources the compiler's cache fingerprint covers, before any kernel
+from hoprover_env import _kernel_sources  # noqa: F401
 from hoprover_env.core.params import RoverParams
 from hoprover_env.envs.env import HopRoverEnv
 from hoprover_env.envs.registry import (

@@ -63,12 +63,18 @@ F64x2, F64x4, F64x5, I64x2 = (nt.UniTuple(F64, 2), nt.UniTuple(F64, 4),
 OPTIONS = dict(cache=True, error_model="numpy", _nrt=False)
 
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-# the files whose code a cached kernel may embed (a change to any drops every cache)
-KERNEL_SOURCES = sorted(glob.glob(os.path.join(_PACKAGE, "core", "*.py"))
-                        + glob.glob(os.path.join(_PACKAGE, "tasks", "*.py"))
-                        + glob.glob(os.path.join(_PACKAGE, "jit", "*.py"))
-                        + [os.path.join(_PACKAGE, "sim", name) for name in (
-                            "controllers.py", "rollout.py")])
+# the files whose code a cached kernel may embed (a change to any drops every cache): this
+# layer's own, and those hoprover_env/_kernel_sources.py adds before any kernel is built
+KERNEL_SOURCES = sorted(glob.glob(os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                               "*.py")))
+
+
+def add_kernel_sources(paths) -> None:
+    """Add files to KERNEL_SOURCES: called by the package before its first kernel, since
+    the fingerprint over them is taken when the first kernel is built."""
+    if _fingerprint.cache_info().currsize:
+        raise RuntimeError("kernel sources added after the first kernel was built")
+    KERNEL_SOURCES[:] = sorted(set(KERNEL_SOURCES) | {os.path.abspath(p) for p in paths})
 
 
 @functools.cache
@@ -358,21 +364,33 @@ def drop_stale_cache(dispatcher) -> None:
 ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0": no helper
 _HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
 HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
-# The end of a phase (built for the ground, core/smooth.py), the largest piece (about
-# 45 % of the work), is the main process's; then both processes take the next function
-# not yet taken from QUEUE, then an env's extra functions, and last QUEUE_END: largest
-# first, so that the two finish together (BENCHMARKS.md, "Cold start").
-AFTER_PHASE = {True: "hoprover_env.core.phase_end:after_phase",
-               False: "hoprover_env.core.smooth:after_phase_smooth"}
-QUEUE = ("hoprover_env.core.contact_phases:contact_phase",
-         "hoprover_env.core.flight:flight_phase")
-QUEUE_END = ("hoprover_env.core.integrator:init_state",
-             "hoprover_env.core.contact_phases:g_phase")
-HELPER_FUNCTIONS = QUEUE + QUEUE_END          # what prepare() looks for in the cache
+# The end of a phase (built for the ground), the largest piece (about 45 % of the work),
+# is the main process's; then both processes take the next function not yet taken from
+# QUEUE, then an env's extra functions, and last QUEUE_END: largest first, so that the two
+# finish together (BENCHMARKS.md, "Cold start"). The kernels themselves are given by the
+# layer that defines them (`register_warm`, called by core/smooth.py at import).
+AFTER_PHASE: dict = {}                        # {rough: kernel}
+QUEUE: tuple = ()
+QUEUE_END: tuple = ()
 _prepared = False
 
 
+def register_warm(after_phase: dict, queue, queue_end) -> None:
+    """Name the kernels `prepare` compiles on a cold cache: the end of a phase per ground
+    ({rough: kernel}), then QUEUE and QUEUE_END (see above)."""
+    global AFTER_PHASE, QUEUE, QUEUE_END
+    AFTER_PHASE, QUEUE, QUEUE_END = dict(after_phase), tuple(queue), tuple(queue_end)
+
+
+def _reference(dispatcher) -> str:
+    """The "module:name" of a kernel: how the helper finds it, as pickling one does."""
+    f = dispatcher.py_func
+    return f"{f.__module__}:{f.__qualname__}"
+
+
 def _resolve(names):
+    """The kernels `_reference` named (their modules are imported already in this
+    process; in the helper, by importing hoprover_env, which imports every layer)."""
     return [_module_attribute(*name.split(":")) for name in names]
 
 
@@ -430,7 +448,7 @@ def prepare(extra=(), rough: bool = True) -> None:
     _prepared = True
     if os.environ.get(_HELPER_FLAG):
         return
-    functions = _resolve(HELPER_FUNCTIONS + tuple(extra))
+    functions = QUEUE + QUEUE_END + tuple(extra)
     if all(_cached(d) for d in functions):
         return
     print(MESSAGE, file=sys.stderr, flush=True)
@@ -447,13 +465,13 @@ def prepare(extra=(), rough: bool = True) -> None:
     try:
         if taken is None:
             return
-        queue = (taken,) + QUEUE + tuple(extra) + QUEUE_END
+        queue = (taken, *map(_reference, QUEUE + tuple(extra) + QUEUE_END))
         helper = _start_helper(queue)
         if helper is None:
             return
         started = time.monotonic()
         try:
-            compile_now(_resolve((AFTER_PHASE[bool(rough)],))[0])
+            compile_now(AFTER_PHASE.get(bool(rough)))
             compile_queue(queue)
             helper.wait(timeout=max(0.0, started + HELPER_TIMEOUT - time.monotonic()))
         except subprocess.TimeoutExpired:
@@ -472,9 +490,9 @@ def prepare(extra=(), rough: bool = True) -> None:
 
 
 def compile_queue(queue) -> None:
-    """Compile each function of `queue` ("module:name", after the directory where
-    takers leave their marks) that no other process has taken: what both processes of
-    `prepare` run."""
+    """Compile each function of `queue` ("module:name" by `_reference`, after the
+    directory where takers leave their marks) that no other process has taken: what both
+    processes of `prepare` run."""
     taken, *names = queue
     for k, name in enumerate(names):
         try:
@@ -495,8 +513,8 @@ def _start_helper(queue):
     path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
     try:
         return subprocess.Popen(
-            [sys.executable, "-c", "import sys; from hoprover_env.jit import compiler as c; "
-             "c.compile_queue(sys.argv[1:])", *queue],
+            [sys.executable, "-c", "import sys, hoprover_env; from hoprover_env.jit import "
+             "compiler as c; c.compile_queue(sys.argv[1:])", *queue],
             env=dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"}),
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     except OSError:

@@ -90,7 +90,8 @@ class TaskSpec:
     ``holes``           further placeholders of the step template and their kernels
     ``hidden_info``     ``f(M) -> dict``: what info_level="full" adds of the task memory
                         (a task that hides state from the policy shows it here)
-    ``compile_extra``   inner kernels the parallel-compile helper builds on a cold cache
+    ``compile_extra``   declared kernels the parallel-compile helper builds on a cold
+                        cache (module-level: it finds them by module and name)
     ==================  ==============================================================
     """
     name: str

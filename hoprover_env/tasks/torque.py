@@ -223,10 +223,7 @@ def commanded_torque(action, P, E, M):
 TASK = TaskSpec(
     name="torque", config=EnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
     obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
-    compile_extra=tuple(f"{module}:{name}" for module, name in (
-        ("hoprover_env.tasks.common", "open_step"), ("hoprover_env.tasks.common", "close_step"),
-        ("hoprover_env.tasks.torque", "action_to_torque"),
-        ("hoprover_env.tasks.observation", "observe"))))
+    compile_extra=(open_step, close_step, action_to_torque, observe))
 REGISTER = (Registration("HopRover-v0", suite="level"),
             Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),
             Registration("HopRoverRL-v0", RL_SETTINGS, suite="level"))

@@ -89,7 +89,7 @@ from hoprover_env.core.layout import S_MODE, S_TH, S_TORQUE, S_VX, S_VY, S_W, S_
 from hoprover_env.core.params import P_BAND, P_H, P_TMAX, P_TMIN
 from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration
-from hoprover_env.tasks.common import TaskSpec
+from hoprover_env.tasks.common import TaskSpec, close_step, open_step
 from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
 from hoprover_env.tasks.observation import (
     HEIGHT_SCALE,
@@ -101,7 +101,7 @@ from hoprover_env.tasks.observation import (
     landing_x,
     reference_point,
 )
-from hoprover_env.tasks.torque import commanded_torque, step
+from hoprover_env.tasks.torque import action_to_torque, commanded_torque, step
 
 OBS_DX, OBS_HEIGHT, OBS_VX, OBS_VY, OBS_SIN, OBS_COS, OBS_RATE, OBS_SPIN = range(8)
 OBS_MODE = 8            # 8..14: one-hot contact state A..G
@@ -161,8 +161,5 @@ def observe(S, P, E, M, obs):
 TASK = TaskSpec(
     name="torque_rl", config=RLEnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
     obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
-    compile_extra=tuple(f"{module}:{name}" for module, name in (
-        ("hoprover_env.tasks.common", "open_step"), ("hoprover_env.tasks.common", "close_step"),
-        ("hoprover_env.tasks.torque", "action_to_torque"),
-        ("hoprover_env.tasks.torque_rl", "observe"))))
+    compile_extra=(open_step, close_step, action_to_torque, observe))
 REGISTER = (Registration("HopRoverRL-v1", RL_V1_SETTINGS, suite="level"),)

@@ -168,7 +168,7 @@ def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, m
     pc.prepare()
     monkeypatch.setattr(pc, "_prepared", False)
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
-    for d in pc._resolve(pc.HELPER_FUNCTIONS + torque.TASK.compile_extra):  # compiled here
+    for d in pc.QUEUE + pc.QUEUE_END + torque.TASK.compile_extra:  # compiled here
         pc.compile_now(d)
     pc.prepare(torque.TASK.compile_extra)
     assert started == []
@@ -185,12 +185,13 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
 
     class Dispatcher:
         _cache = Cache()
+        py_func = _no_helper
 
     started = []
     monkeypatch.setattr(pc, "_start_helper", _no_helper(started))
     monkeypatch.setattr(pc, "_cached", lambda d: False)
     monkeypatch.setattr(pc, "_cores", lambda: 2)
-    monkeypatch.setattr(pc, "_resolve", lambda names: [Dispatcher()])
+    monkeypatch.setattr(pc, "QUEUE", (Dispatcher(),))
     monkeypatch.setenv(pc.ENV_SWITCH, "1")
     monkeypatch.delenv(pc._HELPER_FLAG, raising=False)
     lock = tmp_path / "hoprover-compile-helper.lock"
@@ -264,6 +265,7 @@ def test_a_helper_that_hangs_is_waited_for_then_killed(tmp_path, monkeypatch):
 
     class Dispatcher:
         _cache = Cache()
+        py_func = _no_helper
 
     helpers, compiled = [], []
 
@@ -274,6 +276,8 @@ def test_a_helper_that_hangs_is_waited_for_then_killed(tmp_path, monkeypatch):
     monkeypatch.setattr(pc, "_start_helper", start)
     monkeypatch.setattr(pc, "_cached", lambda d: False)
     monkeypatch.setattr(pc, "_cores", lambda: 2)
+    monkeypatch.setattr(pc, "AFTER_PHASE", {True: Dispatcher(), False: Dispatcher()})
+    monkeypatch.setattr(pc, "QUEUE", (Dispatcher(),))
     monkeypatch.setattr(pc, "_resolve", lambda names: [Dispatcher()] * len(names))
     monkeypatch.setattr(pc, "compile_now", compiled.append)
     monkeypatch.setattr(pc, "HELPER_TIMEOUT", 0.5)
@@ -285,3 +289,22 @@ def test_a_helper_that_hangs_is_waited_for_then_killed(tmp_path, monkeypatch):
     assert time.monotonic() - started < 30
     assert len(helpers) == 1 and helpers[0].returncode == -9
     assert compiled and not list(tmp_path.iterdir())        # the lock is gone
+
+
+def test_the_layers_tell_the_compiler_what_it_compiles_and_hashes():
+    # the compiler names no module above its own: the package adds the kernel sources
+    # before the first kernel (hoprover_env/_kernel_sources.py) and core registers the
+    # parts of the parallel cold compile (core/smooth.py)
+    import hoprover_env
+    from hoprover_env.core import contact_phases, smooth
+    from hoprover_env.jit import compiler as pc
+    root = os.path.dirname(hoprover_env.__file__)
+    for name in ("core/integrator.py", "tasks/common.py", "jit/compiler.py",
+                 "sim/rollout.py", "sim/controllers.py"):
+        assert os.path.join(root, name) in pc.KERNEL_SOURCES
+    assert os.path.join(root, "sim/simulate.py") not in pc.KERNEL_SOURCES
+    assert pc.AFTER_PHASE[False] is smooth.after_phase_smooth
+    assert pc.QUEUE[0] is contact_phases.contact_phase
+    assert pc._resolve([pc._reference(d) for d in pc.QUEUE]) == list(pc.QUEUE)
+    with pytest.raises(RuntimeError):          # too late: kernels are built already
+        pc.add_kernel_sources([__file__])
