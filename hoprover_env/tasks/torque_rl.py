@@ -36,7 +36,7 @@ target, while the attitude potential changes up to 30 rad/s and the distance up 
 | 18 | ballistic landing point of the c.m. minus target | / 1 m, clipped | -10 | 10 |
 | 19 | torque applied during the last period | / T_max | -1 | 1 |
 
-Slot 7 saturates at 6600 rad/s and slots 0, 17 and 18 at 10 m, beyond anything the
+Slot 7 saturates at 3300 rad/s and slots 0, 17 and 18 at 10 m, beyond anything the
 reward resolves: the attitude term is constant past 30 rad/s and `dist_cap` may not
 exceed 10 m here. So the reward is a function of the observations (and the step's
 length), never of hidden state.
