@@ -42,7 +42,6 @@ import math
 import time
 
 import numpy as np
-from scipy.optimize import brentq
 from scipy.stats import wasserstein_distance
 
 from agents.launch_land import (
@@ -66,10 +65,10 @@ from agents.launch_land import (
     run_scenario,
 )
 from benchmarks import accuracy_report
+from benchmarks.accuracy_reference import scipy_launch_and_landing
 from benchmarks.report import Section, best_of
 from hoprover_env import RoverParams, RoverSim, core, simulate
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.sim.reference import Ref
 from hoprover_env.sim.simulate import make_options, make_state
 
 # ----------------------------------------------------------------------------------
@@ -293,49 +292,8 @@ def warm_up(driver: Driver) -> float:
 
 
 # ----------------------------------------------------------------------------------
-# The independent reference: scipy to the lift-off, closed form to the touchdown
+# The independent reference (benchmarks/accuracy_reference.py) against the simulator
 # ----------------------------------------------------------------------------------
-def scipy_launch_and_landing(params: RoverParams, torque: float) -> dict:
-    """Lift-off by scipy, then the flight under the attitude hold in closed form.
-
-    Between control instants (lift-off + k CONTROL_DT) the torque is constant, so the
-    c.m. follows one parabola from the lift-off and theta a quadratic in t per
-    interval. The touchdown is the first root of the lowest bottom corner's height,
-    y - l max(sin(theta + alpha), sin(alpha - theta)), found by Brent's method in the
-    first interval (past the apex) whose end is below the ground.
-    """
-    ref = Ref(m=params.mass, I=params.inertia, r=params.half_width, h=params.half_height,
-              g=params.gravity, mus=params.mu_static, mud=params.mu_dynamic)
-    t_lo, s_lo, modes = ref.launch(torque)
-    x0, y0, theta, vx, vy0, omega = (float(v) for v in s_lo)
-    g, inertia, ell, alpha = ref.g, ref.I, ref.l, ref.alpha
-    t_apex = t_lo + vy0 / g
-
-    def y_at(t):
-        tau = t - t_lo
-        return y0 + vy0 * tau - 0.5 * g * tau * tau
-
-    t_a = t_lo
-    for k in range(1, int(T_END / CONTROL_DT)):
-        t_b = t_lo + k * CONTROL_DT
-        cmd = attitude_hold(theta, omega, inertia, KP, KD)
-        beta = min(max(cmd, params.torque_min), params.torque_max) / inertia
-
-        def lowest_corner(t, th0=theta, w0=omega, t0=t_a, beta=beta):
-            th = th0 + w0 * (t - t0) + 0.5 * beta * (t - t0) ** 2
-            return y_at(t) - ell * max(math.sin(th + alpha), math.sin(alpha - th))
-
-        if t_b > t_apex and lowest_corner(t_b) < 0.0:
-            t_land = brentq(lowest_corner, t_a, t_b, xtol=1e-15, rtol=8.9e-16)
-            return {"liftoff_t": t_lo, "liftoff_state": np.asarray(s_lo, float),
-                    "modes": "".join(modes), "land_t": t_land,
-                    "land_x": x0 + vx * (t_land - t_lo)}
-        theta = theta + omega * (t_b - t_a) + 0.5 * beta * (t_b - t_a) ** 2
-        omega = omega + beta * (t_b - t_a)
-        t_a = t_b
-    raise RuntimeError(f"scipy reference: no touchdown by T_END (torque {torque:g})")
-
-
 def launch_modes(events) -> str:
     """'FBCA'-style letters of the launch, as tests/sim/test_reference.py writes them."""
     return "".join([events[0][2]] + [e[3] for e in events
@@ -346,7 +304,7 @@ def cross_check(driver: Driver, torques, reference_runs, targets) -> list:
     """Reference (event at REFERENCE_RTOL) against scipy + closed form, per torque."""
     rows = []
     for torque in torques:
-        sp = scipy_launch_and_landing(driver.params, torque)
+        sp = scipy_launch_and_landing(driver.params, torque, KP, KD, CONTROL_DT, T_END)
         sim = RoverSim(driver.params, target_x=targets[torque], rtol=REFERENCE_RTOL)
         events = sim.advance(torque, T_END, stop_on="liftoff")
         ref = reference_runs[torque]

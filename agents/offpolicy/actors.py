@@ -141,10 +141,9 @@ def per_state(run: dict, tip: float) -> dict:
     return rows
 
 
-def action_gap(model_path: Path, policy, states: np.ndarray, targets, k: int,
+def action_gap(policy, states: np.ndarray, targets, k: int,
                rng: np.random.Generator) -> list[dict]:
     """Critic and one-step reward over GRID at k flight states."""
-    from stable_baselines3.common.base_class import BaseAlgorithm  # noqa: F401
     model = policy.model
     if len(states) == 0:
         return []
@@ -202,7 +201,7 @@ def main(argv=None) -> int:
         "median_longest_flight_s": float(np.median(run["longest"]) * control_dt(policy)),
         "median_abs_opening": float(np.median(np.abs(run["opening"]))),
         "corr_opening_target": opening_corr,
-        "action_gap": action_gap(args.model, policy, run["flight_states"], targets,
+        "action_gap": action_gap(policy, run["flight_states"], targets,
                                  args.gap_states, np.random.default_rng(args.seed))}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(args.out, json.dumps(report, indent=1) + "\n")

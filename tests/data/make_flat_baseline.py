@@ -1,9 +1,10 @@
 """Write tests/data/flat_baseline.npz: the flat-ground results of tests/flat_cases.py as
 the code before terrain (commit 6fc532c) gives them.
 
-    git worktree add --detach /tmp/base 6fc532c
-    cd /tmp/base && PYTHONPATH=.:<this repo>/tests \\
-        python <this repo>/tests/data/make_flat_baseline.py
+    git worktree add --detach ../flat-base 6fc532c
+    cd ../flat-base && PYTHONPATH=.:$OLDPWD/tests python $OLDPWD/tests/data/make_flat_baseline.py
+
+(run from the checkout's root: $OLDPWD is the checkout after the cd)
 
 It refuses to run on code that already knows about terrain (RoverParams.slope)."""
 import os
