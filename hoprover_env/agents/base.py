@@ -28,6 +28,7 @@ import numpy as np
 
 from hoprover_env import core
 from hoprover_env.core.params import RoverParams
+from hoprover_env.tasks.torque import torque_to_action as _torque_to_action
 
 
 class SB3Policy:
@@ -140,6 +141,10 @@ class ControllerPolicy:
         actions (N, 1). Raises ValueError if a controller returns a non-finite torque."""
         out = np.zeros((len(obs), 1))
         smt = venv.config.episode_time
+        invert = venv.task.torque_action        # the inverse of the task's action map
+        if invert is None:
+            raise ValueError(f"{self.name}: a contest controller commands torques, and "
+                             f"the actions of {type(venv).__name__} are not torques")
         for i, (ctrl, ((pos, vel, the, omg, post, t, state), plan_params)) in enumerate(
                 zip(self.controllers, self._inputs(obs, venv))):
             if hasattr(ctrl, "use_params"):      # a planner: the ground it knows of
@@ -147,7 +152,7 @@ class ControllerPolicy:
             torque = float(ctrl(pos, vel, the, omg, post, t, smt, state))
             if not math.isfinite(torque):
                 raise ValueError(f"{self.name}: the controller returned torque {torque!r}")
-            out[i, 0] = torque_to_action(torque, plan_params, venv.config)
+            out[i, 0] = invert(torque, plan_params, venv.config)
         return out
 
 
@@ -191,20 +196,10 @@ class RandomPolicy:
 
 
 def torque_to_action(torque: float, params: RoverParams, config=None) -> float:
-    """The inverse of the env's action map (`tasks.torque.action_to_torque`; linear unless
-    the env config says otherwise), clipped to [-1, 1]."""
-    lo, hi = params.torque_min, params.torque_max
-    amap = getattr(config, "action_map", "linear")
-    scale = getattr(config, "action_scale", 1.0)
-    t = torque / scale
-    if amap == "cubic":
-        ref = hi if t >= 0.0 else -lo
-        if ref <= 0.0:
-            return 0.0
-        return float(np.clip(np.cbrt(t / ref), -1.0, 1.0))
-    if hi == lo:
-        return 0.0
-    return float(np.clip(2.0 * (t - lo) / (hi - lo) - 1.0, -1.0, 1.0))
+    """The inverse of the torque task's action map (tasks/torque.py `torque_to_action`,
+    beside the map itself; linear unless the env config says otherwise), clipped to
+    [-1, 1]."""
+    return _torque_to_action(torque, params, config)
 
 
 class TorchPolicy:

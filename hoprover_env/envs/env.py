@@ -1,6 +1,6 @@
 """The single Gymnasium env of every task: HopRoverEnv steps one rover through a task's
 compiled step (tasks/common.py `build`), draws its episodes (tasks/draws.py, the vector
-env's draws for one rover; tasks/config.py `sample_episode` with draws="legacy"), builds
+env's draws for one rover, under the reset options of tasks/options.py), builds
 the info dict (envs/parts.py) and renders.
 
 What an env of a task observes, does and pays is the task's: its module's docstring has
@@ -26,11 +26,9 @@ from hoprover_env.envs.parts import (
 )
 from hoprover_env.envs.parts import info as make_info
 from hoprover_env.jit import compiler as _compile
-from hoprover_env.sim.simulate import make_state
 from hoprover_env.tasks import draws, reward, torque
-from hoprover_env.tasks.config import sample_episode
+from hoprover_env.tasks import options as reset_options
 from hoprover_env.tasks.layout import E_T_TOTAL
-from hoprover_env.util.validate import finite_real
 
 _NO_LOG = np.zeros((0, core.EV_COLS))
 # info's numpy scalars, made once (numpy scalars are immutable)
@@ -90,7 +88,6 @@ class HopRoverEnv(gym.Env):
         self._p: np.ndarray = np.empty(0)
         self._done = False
         self._params: RoverParams | None = self.config.params
-        self._legacy = self.config.draws == "legacy"
         self._keys = draws.RoverKeys(1)
         self._row = np.zeros(1, dtype=np.int64)
         self.target_x = 0.0
@@ -102,18 +99,14 @@ class HopRoverEnv(gym.Env):
         """Start an episode: returns (observation, info). `seed` keys the episode draws
         (target, randomised parameters, terrain, a task's own: tasks/draws.py) and
         restarts the episode count; without it the next episode of the last seed (or of
-        a seed from OS entropy) is drawn. `options` may fix "target_x" [m],
-        "initial_state" (x, y, theta, vx, vy, omega), "slope" and "roughness" [rad].
-        Raises ValueError for an unknown option or a state no contact state allows."""
+        a seed from OS entropy) is drawn. `options` fix what the draws would decide
+        (tasks/options.py: "target_x" [m], "initial_state" (x, y, theta, vx, vy, omega),
+        "slope" and "roughness" [rad], "terrain_seed", a randomised parameter's value, a
+        task's own start options), so that a frozen episode starts as it was frozen.
+        Raises ValueError naming an unknown or bad option, or for a state no contact
+        state allows."""
         super().reset(seed=seed)
-        if self._legacy:
-            self.target_x, self._params, self._s, self._p, self.terrain_seed = \
-                sample_episode(self.config, self.np_random, options)
-            self._step_kernel = self.task.kernels(self.config.integrator,
-                                                  rough=self._p[P_ROUGH] > 0.0).step
-            self.task.start(self.config, self.np_random, self._s, self._p, self._m)
-        else:
-            self._reset_counter(seed, options)
+        self._start(seed, reset_options.check(self.task, options))
         self._rm[:] = reward.new_memory()
         self._episode = (np.float64(self.target_x), np.float64(self._p[P_SLOPE]),
                          np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
@@ -127,27 +120,13 @@ class HopRoverEnv(gym.Env):
                 self.render()
         return self._obs.copy(), self._info(0)
 
-    def _reset_counter(self, seed, options) -> None:
-        """The episode of draws="counter": the vector env's draws for one rover."""
+    def _start(self, seed, options: dict) -> None:
+        """The episode: the vector env's draws for one rover, under checked options."""
         keys = self._keys
         if seed is None:
             keys.next_episode(self._row)
         else:
             keys.seed_rows(self._row, [seed])
-        if options:
-            from hoprover_env.tasks.config import RESET_OPTIONS
-            bad = sorted(set(options) - set(RESET_OPTIONS))
-            if bad:
-                raise ValueError(f"unknown reset option(s) {bad}; valid: "
-                                 f"{sorted(RESET_OPTIONS)}")
-            if "initial_state" in options:
-                st = np.asarray(options["initial_state"])
-                if st.shape != (6,) or st.dtype.kind not in "iuf":
-                    make_state(self.config.params, 0.0, options["initial_state"])  # raises
-            for key in ("target_x", "slope", "roughness"):
-                if key in options:
-                    finite_real(f"options[{key!r}]", options[key])
-            options = {k: np.asarray(v)[None] for k, v in options.items()}
         ep = draws.sample_episodes(self.task, self.config, keys.lo, keys.hi, keys.episode,
                                    options)
         self._s, self._p = ep.S[0], ep.P[0]
@@ -158,7 +137,7 @@ class HopRoverEnv(gym.Env):
         self._step_kernel = self.task.kernels(self.config.integrator,
                                               rough=self._p[P_ROUGH] > 0.0).step
         m = self._m[None, :]
-        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m)
+        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m, ep.fixed)
 
     @property
     def params(self):

@@ -196,6 +196,12 @@ def config_class(env_id: str):
     return env_class(env_id).task.config
 
 
+def default_config(env_id: str):
+    """The config of a registered id with no further arguments: its task's defaults and
+    what the id fixes (its Registration's kwargs)."""
+    return config_class(env_id)(**task(env_id).kwargs)
+
+
 for _name in TASK_MODULES:
     add_task(_name)
 

@@ -5,10 +5,10 @@
 
 Every sub-env runs its task's step (hoprover_env/tasks), the code `HopRoverEnv` runs, on a
 row of a 2-D state array; resets draw as the single env does (seed s gives sub-env i the
-seed s + i, as Gymnasium's SyncVectorEnv): with draws="counter" (the default) every row
-reset at once in one vectorised draw keyed by (the sub-env's seed, its episode number)
-(hoprover_env/tasks/draws.py), with draws="legacy" from a numpy Generator per sub-env.
-So sub-env i and `HopRoverEnv` seeded with s + i agree bit for bit.
+seed s + i, as Gymnasium's SyncVectorEnv): every row reset at once in one vectorised
+draw keyed by (the sub-env's seed, its episode number) (hoprover_env/tasks/draws.py), under
+the reset options of hoprover_env/tasks/options.py. So sub-env i and `HopRoverEnv` seeded
+with s + i agree bit for bit.
 
 Arguments: those of HopRoverEnv, plus `num_envs`, `autoreset_mode` (NextStep, the
 default, or SameStep), `max_episode_steps` (an extra step limit per episode) and
@@ -25,12 +25,11 @@ from typing import Any
 
 import numba
 import numpy as np
-from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from hoprover_env import core
-from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE, RoverParams
+from hoprover_env.core.params import N_PARAMS, P_ROUGH, P_SLOPE
 from hoprover_env.envs.env import check_actions
 from hoprover_env.envs.parts import (
     NO_TERRAIN_SEED,
@@ -43,8 +42,8 @@ from hoprover_env.envs.parts import info as make_info
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.spread import spread_order
 from hoprover_env.tasks import draws, reward, torque
+from hoprover_env.tasks import options as reset_options
 from hoprover_env.tasks.common import note_info_rows
-from hoprover_env.tasks.config import RESET_OPTIONS, sample_episode
 
 THREAD_THRESHOLD = 64
 
@@ -130,12 +129,9 @@ class HopRoverVectorEnv(VectorEnv):
         self._order = spread_order(n)       # the rows in the order the threaded step reads them
         self.targets = np.zeros(n)
         self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
-        self._legacy = self.config.draws == "legacy"
-        self._params: list[RoverParams] | draws.ParamsView = (
-            [self.config.params] * n if self._legacy else draws.ParamsView(self.P))
+        self._params = draws.ParamsView(self.P)
         self._keys = draws.RoverKeys(n)
         self._observe_rows = self.task.observer()
-        self._rngs: list = [None] * n
         self._traces: list = [[] for _ in range(n)] if render_mode else []
         self._renderers: list = []
         self._ready = False
@@ -162,16 +158,9 @@ class HopRoverVectorEnv(VectorEnv):
         return self._params
 
     def _reset_rows(self, rows: np.ndarray, options=None):
-        """New episodes of the sub-envs in `rows` (draws="counter"): one draw for all,
-        keyed by each one's seed and episode number (hoprover_env/tasks/draws.py)."""
-        if self._legacy:
-            for i in rows:
-                self._reset_one(i, None if options is None else
-                                {k: (v[i] if k == "initial_state" else
-                                     int(v[i]) if k == "terrain_seed" else float(v[i]))
-                                 for k, v in options.items()})
-            self._note_info(rows)
-            return
+        """New episodes of the sub-envs in `rows`: one draw for all, keyed by each one's
+        seed and episode number (hoprover_env/tasks/draws.py), under `options` (checked,
+        one row per sub-env)."""
         keys = self._keys
         ep = draws.sample_episodes(self.task, self.config, keys.lo[rows], keys.hi[rows],
                                    keys.episode[rows],
@@ -179,14 +168,13 @@ class HopRoverVectorEnv(VectorEnv):
                                    {k: v[rows] for k, v in options.items()})
         self.S[rows] = ep.S
         self.P[rows] = ep.P
-        assert isinstance(self._params, draws.ParamsView)     # counter draws: a view of P
         self._params.forget(rows)
         self.targets[rows] = ep.targets
         self.terrain_seeds[rows] = ep.terrain_seeds
         self._steps[rows] = 0
         self._rm[rows] = reward.new_memory()
         m = self.task.new_memory(len(rows))
-        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m)
+        self.task.start_rows(self.config, ep.U, ep.S, ep.P, m, ep.fixed)
         self.M[rows] = m
         if not self._rough and (ep.P[:, P_ROUGH] > 0.0).any():   # an autoreset onto bumps
             self._choose_kernel(True)
@@ -202,29 +190,14 @@ class HopRoverVectorEnv(VectorEnv):
         note_info_rows(self.S, rows, *self._info_columns)
         self._slope[rows] = self.P[rows, P_SLOPE]
 
-    def _reset_one(self, i: int, options=None):
-        target, params, s, p, seed = sample_episode(self.config, self._rngs[i], options)
-        self.terrain_seeds[i] = NO_TERRAIN_SEED if seed is None else seed
-        self.S[i] = s
-        self.P[i] = p
-        if p[P_ROUGH] > 0.0 and not self._rough:       # an autoreset onto bumps
-            self._choose_kernel(True)
-        self.targets[i] = target
-        self.params[i] = params
-        self._steps[i] = 0
-        self._rm[i] = reward.new_memory()
-        self.task.start(self.config, self._rngs[i], self.S[i], self.P[i], self.M[i])
-        self.task.observe(self.S[i], self.P[i], self._e, self.M[i], self._obs[i])
-        if self.render_mode:
-            self._traces[i] = [(float(s[core.S_X]), float(s[core.S_Y]))]
-
     def reset(self, *, seed: int | list | None = None, options: dict | None = None):
         """Reset the sub-envs (all, or those in options["reset_mask"]). `seed` is an int
         (sub-env i gets seed + i) or one per sub-env (None entries: no new seed); a
         sub-env given no seed draws the next episode of its last one (one never seeded:
-        base + i, base a seed from OS entropy drawn once per call); the options of
-        env_config.RESET_OPTIONS ("target_x", "initial_state", "slope", "roughness",
-        "terrain_seed") take a value or one per sub-env. Returns (observations, infos)."""
+        base + i, base a seed from OS entropy drawn once per call); the reset options
+        (hoprover_env/tasks/options.py: "target_x", "initial_state", "slope", "roughness",
+        "terrain_seed", randomised parameters' values, the task's start options) take a
+        value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
         first: int | None = None         # an int seed: sub-env i's is first + i
@@ -239,38 +212,18 @@ class HopRoverVectorEnv(VectorEnv):
         mask = np.asarray(options.pop("reset_mask", self._all), dtype=np.bool_)
         if mask.shape != (n,):
             raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
-        per_env = {}
-        for key in RESET_OPTIONS:           # a value, or one per sub-env
-            if key not in options:
-                continue
-            value = np.asarray(options.pop(key))
-            width = (6,) if key == "initial_state" else ()
-            if value.shape not in (width, (n, *width)):
-                raise ValueError(f"options[{key!r}] must have shape {width or '()'} or "
-                                 f"{(n, *width)} (one per sub-env), got {value.shape}")
-            if key == "terrain_seed" and value.dtype.kind not in "iu":
-                raise ValueError(f"options['terrain_seed'] must be integers, got {value.dtype}")
-            per_env[key] = np.broadcast_to(value, (n, *width))
-        if options:
-            raise ValueError(f"unknown reset option(s) {sorted(options)}; valid: "
-                             f"{sorted(('reset_mask',) + RESET_OPTIONS)}")
+        per_env = reset_options.check(self.task, options, n, per_rover=True,
+                                      also=("reset_mask",))
         rows = np.flatnonzero(mask)
-        if self._legacy:
-            if seeds is None:
-                seeds = [None if first is None else first + i for i in range(n)]
-            for i in rows:
-                if seeds[i] is not None or self._rngs[i] is None:
-                    self._rngs[i], _ = seeding.np_random(seeds[i])
+        keys = self._keys
+        if first is not None:
+            keys.seed_consecutive(first, rows)
+        elif seeds is not None:
+            given = np.array([seeds[i] is not None for i in rows], dtype=np.bool_)
+            keys.seed_rows(rows[given], [seeds[i] for i in rows[given]])
+            keys.next_episode(rows[~given])
         else:
-            keys = self._keys
-            if first is not None:
-                keys.seed_consecutive(first, rows)
-            elif seeds is not None:
-                given = np.array([seeds[i] is not None for i in rows], dtype=np.bool_)
-                keys.seed_rows(rows[given], [seeds[i] for i in rows[given]])
-                keys.next_episode(rows[~given])
-            else:
-                keys.next_episode(rows)
+            keys.next_episode(rows)
         self._reset_rows(rows, per_env or None)
         self._choose_kernel((self.P[:, P_ROUGH] > 0.0).any())
         self._autoreset[mask] = False
@@ -326,8 +279,7 @@ class HopRoverVectorEnv(VectorEnv):
                 infos)
 
     def _autoreset_rows(self, rows) -> None:
-        if not self._legacy:
-            self._keys.next_episode(rows)
+        self._keys.next_episode(rows)
         self._reset_rows(rows)
 
     def _infos(self, nev, mask=None) -> dict:

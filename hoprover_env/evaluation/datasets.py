@@ -31,10 +31,13 @@ from pathlib import Path
 
 import numpy as np
 
-TASKS = ("HopRover-v0", "HopRoverHop-v0", "HopRoverTerrain-v0")
 LEVELS = ("random", "medium", "expert", "mixed")
+# the bundled policy each dataset's expert level plays (agents/policies: which of them is
+# the best learned one for an id is a fact about the bundled files, not about the task),
+# and the mid-training checkpoints of the medium level; the datasets' tasks are these ids
 EXPERT = {"HopRover-v0": "scratch", "HopRoverHop-v0": "hop", "HopRoverTerrain-v0": "terrain"}
-MEDIUM = {"HopRover-v0": "scratch_medium"}          # bundled mid-training checkpoints
+MEDIUM = {"HopRover-v0": "scratch_medium"}
+TASKS = tuple(EXPERT)
 CODE = "https://github.com/hoprover/hoprover/blob/main/hoprover_env/datasets.py"
 
 
@@ -160,18 +163,15 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     return [buffers[k] for k in sorted(buffers)]
 
 
-def suite_draws() -> str:
-    from hoprover_env.evaluation.suites import SUITE_DRAWS
-    return SUITE_DRAWS
-
-
 def suite_return(task: str, policy, kwargs: dict, suite) -> float:
-    """Mean undiscounted return of `policy` on `task`'s frozen suite (episode e seeded e)."""
-    terrain = suite.terrain()
+    """Mean undiscounted return of `policy` on `task`'s frozen suite (episode e seeded e,
+    started as frozen: its target, ground and `task`'s start conditions)."""
+    from hoprover_env.evaluation.suites import check_frozen
+    check_frozen(task, kwargs)
+    conditions = suite.conditions(task)
     eps = [(e, {"target_x": float(suite.targets[e]),
-                **{k: v[e] for k, v in terrain.items()}}) for e in range(len(suite))]
-    bufs = collect(task, [policy], {**kwargs, "draws": suite_draws()}, episodes=eps,
-                   num_envs=min(64, len(eps)))
+                **{k: v[e] for k, v in conditions.items()}}) for e in range(len(suite))]
+    bufs = collect(task, [policy], kwargs, episodes=eps, num_envs=min(64, len(eps)))
     return float(np.mean([sum(b.rewards) for b in bufs]))
 
 

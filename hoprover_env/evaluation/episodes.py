@@ -61,9 +61,10 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
                  workers: int | None = None) -> list[EpisodeResult]:
     """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
     env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
-    `terrain` fixes each episode's ground: {"slope": per-episode slopes [rad],
+    `terrain` fixes each episode's start: {"slope": per-episode slopes [rad],
     "roughness": per-episode roughness [rad], "terrain_seed": per-episode seeds of the
-    bumps (integers)} (reset options of every hoprover env).
+    bumps (integers)} and any other reset option, one value per episode
+    (hoprover_env/tasks/options.py: a frozen suite's start conditions, `Suite.conditions`).
     `progress` is called with the number of finished episodes. `first_episode` numbers
     the episodes of a slice of a larger target set (evaluate.py --ray runs slices that
     start at multiples of `batch`, so each batch is the one a local run has).
@@ -81,9 +82,9 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     kwargs.pop("flight_start", None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
-    # terrain seeds stay integers: up to 2^63, a float64 would round them to other bumps
-    terrain = {k: np.broadcast_to(np.asarray(v, dtype=np.int64 if k == "terrain_seed"
-                                             else float), targets.shape)
+    # seeds stay integers (terrain_seed, a task's seed options): up to 2^63, a float64
+    # would round them to other bumps and other noise
+    terrain = {k: np.broadcast_to(_column(k, v), targets.shape)
                for k, v in (terrain or {}).items()}
     n_workers = episode_workers(policy, workers, len(targets))
     if n_workers > 1:
@@ -97,13 +98,25 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     return results
 
 
+def _column(key: str, value) -> np.ndarray:
+    """A per-episode reset option as an array: integers as int64, the rest float."""
+    v = np.asarray(value)
+    return v.astype(np.int64) if key == "terrain_seed" or (
+        v.dtype.kind in "iu" and v.dtype != np.bool_) else v.astype(float)
+
+
+def policy_env_id(policy) -> str:
+    """The registered id whose env a policy acts in (its `env_id`; HopRover-v0)."""
+    return getattr(policy, "env_id", "HopRover-v0")
+
+
 def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
     n = len(targets)
     # a policy of the hop-level task acts once per hop, in that task's vector env
-    venv = vector_env_class(getattr(policy, "env_id", "HopRover-v0"))(
+    venv = vector_env_class(policy_env_id(policy))(
         n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
     # episode e's sub-env is seeded with e, whatever the batch it runs in: the draws a
-    # task makes at reset (the mission's sensors and ground) belong to the episode
+    # task makes at reset that the options leave open belong to the episode
     obs, _ = venv.reset(seed=offset, options={"target_x": targets, **ground})
     if isinstance(policy, RandomPolicy):
         policy.reset(n, offset)

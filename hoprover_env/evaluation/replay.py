@@ -18,12 +18,12 @@ from hoprover_env import Rollout, core, simulate
 from hoprover_env.agents.scripted import ScriptedHopper
 from hoprover_env.envs import registry as _registry
 from hoprover_env.envs.registry import vector_env_class
-from hoprover_env.tasks.hop import hop_torque
 
 
 def _launch_torque(action: float, venv) -> float:
-    """The launch torque [N m] the hop-level env `venv` flies for `action` (its own map)."""
-    return float(hop_torque(action, venv.P[0], venv.config.task_vector()))
+    """The launch torque [N m] the hop-level env `venv` flies for `action` (its task's
+    own map, TaskSpec.action_torque)."""
+    return float(venv.task.action_torque(action, venv.P[0], venv.config.task_vector()))
 
 
 @dataclasses.dataclass

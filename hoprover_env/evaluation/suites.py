@@ -35,8 +35,27 @@ seed=ep.terrain_seed)` reproduces `ep.reference_ttrtp` bit for bit (`ep.replay()
 `python -m agents.yardstick.references` regenerates them (docs/studies/references.md gives
 its budget).
 
-Each suite file carries its version and a SHA-256 checksum of its episodes, checked on
-load: a file that was changed by hand fails to load.
+What a suite file holds (an .npz, `save` and `load`): per episode the columns of
+`FIELDS` (target, slope, roughness, terrain seed, control period, reference TTRTP) and the
+reference schedule; the sources of the references; and, from format 2 on, the episodes'
+*start conditions*: for each registered id whose env draws more than those columns fix
+(HopRoverMission-v0 on the terrain suite: its unknown ground, restitution_x,
+restitution_y, mu_static and mu_dynamic, its sensor seed `sensor_seed` and its actuator
+draw `actuator_draw`), the values of those draws, as reset options (an array
+``start/<id>/<option>`` each, listed in the meta's ``start``). So an env given
+`Episode.reset_options(env_id)` starts exactly that episode, whatever it is seeded with.
+The terrain suite's were taken once from the per-env numpy draws the suite was scored
+with when frozen (episode e seeded e), so scores made since stay valid. An id the file
+holds no conditions for draws what the columns leave open from the episode's seed
+(episode e seeded e, tasks/draws.py).
+
+A suite run fixes the episode's rover and ground: env_kwargs whose `randomize` differs
+from the id's own (which would redraw them) are refused with a ValueError (`run`); the
+other env arguments apply (a mission's `noise_scale` scales its frozen actuator draw).
+
+Each suite file carries its version, a SHA-256 checksum of its episodes and references
+(`Suite.checksum`, the one scores cite) and one of its start conditions
+(``start_sha256``), both checked on load: a file that was changed by hand fails to load.
 """
 from __future__ import annotations
 
@@ -48,8 +67,7 @@ from pathlib import Path
 import numpy as np
 
 from hoprover_env.core.params import RoverParams
-from hoprover_env.envs.registry import ENVS
-from hoprover_env.tasks.terrain import TerrainEnvConfig
+from hoprover_env.envs.registry import ENVS, default_config
 
 DATA_DIR = Path(__file__).resolve().parent / "suite_data"
 EPISODE_TIME = 600.0
@@ -90,16 +108,11 @@ def task_of(name: str) -> str:
 # the seed each suite's episodes are drawn from (never used for training or validation)
 SUITE_SEEDS = {"level": 1_000_001, "terrain": 1_000_002}
 SIZES = {"level": 200, "terrain": 200}
-TERRAIN_SLOPES = TerrainEnvConfig.slope_range      # the terrain task's default ground
-TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
 CONTEST_TARGET = 0.5
-# The env draws (EnvConfig.draws) a suite's episodes are run with: episode e is seeded e,
-# and what its reset options do not fix (a mission's sensors, actuator and randomised
-# ground) comes from that seed as these draws make it. "legacy" keeps every suite's
-# episodes, and the scores of every run on them, as they were when frozen.
-SUITE_DRAWS = "legacy"
 FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt",
           "reference_ttrtp")
+FORMAT = 2                   # suite files with start conditions (format 1: none)
+START = "start"              # the prefix of a start condition's array: start/<id>/<option>
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,6 +128,8 @@ class Episode:
     reference_ttrtp: float
     reference_schedule: np.ndarray
     reference_source: str             # which search or agent found the reference
+    # the frozen start conditions, per registered id: {env_id: {reset option: value}}
+    start: dict = dataclasses.field(default_factory=dict)
 
     @property
     def params(self) -> RoverParams:
@@ -126,12 +141,16 @@ class Episode:
         """The terrain seed to pass to `simulate` (None on smooth ground)."""
         return None if self.terrain_seed == NO_TERRAIN_SEED else int(self.terrain_seed)
 
-    def reset_options(self) -> dict:
-        """The env reset options that start this episode."""
+    def reset_options(self, env_id: str | None = None) -> dict:
+        """The env reset options that start this episode: its target and ground, and
+        with `env_id` that id's frozen start conditions (none for an id the suite holds
+        none for)."""
         opts = {"target_x": self.target_x, "slope": self.slope,
                 "roughness": self.roughness}
         if self.seed is not None:
             opts["terrain_seed"] = self.seed
+        if env_id is not None:
+            opts.update(self.start.get(env_id, {}))
         return opts
 
     def replay(self):
@@ -183,6 +202,22 @@ class Suite:
             out["terrain_seed"] = seeds
         return out
 
+    def conditions(self, env_id: str) -> dict:
+        """Per-episode reset options beyond the target for an env of `env_id`, as arrays
+        for a vector env: `terrain` and the id's frozen start conditions."""
+        out = self.terrain()
+        names = sorted({k for e in self.episodes for k in e.start.get(env_id, {})})
+        for k in names:
+            if not all(k in e.start.get(env_id, {}) for e in self.episodes):
+                raise ValueError(f"{self.name}-v{self.version}: the start condition {k!r} "
+                                 f"of {env_id} is missing for some episodes")
+            out[k] = np.array([e.start[env_id][k] for e in self.episodes])
+        return out
+
+    def start_ids(self) -> list[str]:
+        """The ids this suite holds frozen start conditions for."""
+        return sorted({i for e in self.episodes for i in e.start})
+
 
 def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
     """The episodes of a suite, drawn from its seed (no references): columns of
@@ -195,11 +230,14 @@ def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> d
     rng = np.random.default_rng(SUITE_SEEDS[name] if seed is None else seed)
     n = SIZES[name] if n is None else n
     targets = rng.uniform(-1.0, 1.0, n)
-    if name == "terrain":
-        low, high = TERRAIN_SLOPES
+    # the ground the suite's task draws, by its config (the terrain task's: a slope
+    # range and a roughness)
+    ground = default_config(task_of(name)).ground()
+    if "slope" in ground:
+        low, high = ground["slope"]
         slopes = rng.uniform(low, high, n)
         seeds = rng.integers(0, 2**63, n, dtype=np.int64)
-        rough = np.full(n, TERRAIN_ROUGHNESS)
+        rough = np.full(n, ground["roughness"])
     else:
         slopes, rough = np.zeros(n), np.zeros(n)
         seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
@@ -221,6 +259,19 @@ def checksum(columns: dict, schedules: list) -> str:
     return h.hexdigest()
 
 
+def start_checksum(start: dict) -> str:
+    """SHA-256 over the start conditions {env_id: {option: column}} (names, dtypes,
+    exact bytes, in sorted order)."""
+    h = hashlib.sha256()
+    for env_id in sorted(start):
+        for key in sorted(start[env_id]):
+            a = np.ascontiguousarray(start[env_id][key])
+            h.update(f"{START}/{env_id}/{key}".encode())
+            h.update(a.dtype.str.encode())
+            h.update(a.tobytes())
+    return h.hexdigest()
+
+
 def path_of(name: str, version: int) -> Path:
     return DATA_DIR / f"{name}-v{version}.npz"
 
@@ -236,20 +287,27 @@ def versions(name: str) -> list[int]:
 
 
 def save(name: str, version: int, columns: dict, schedules: list, sources: list,
-         meta: dict, directory: Path | None = None) -> Path:
-    """Write a suite version (atomically: a temporary file, then a rename)."""
+         meta: dict, directory: Path | None = None, start: dict | None = None) -> Path:
+    """Write a suite version (atomically: a temporary file, then a rename). `start`: the
+    episodes' start conditions, {env_id: {reset option: one value per episode}}."""
     directory = Path(directory or DATA_DIR)
     directory.mkdir(parents=True, exist_ok=True)
     lengths = np.array([len(s) for s in schedules], dtype=np.int64)
     flat = np.concatenate([np.asarray(s, dtype=np.float64) for s in schedules]) \
         if schedules else np.zeros(0)
     digest = checksum(columns, schedules)
-    meta = {**meta, "name": name, "version": version, "sha256": digest}
+    start = {env_id: {k: np.asarray(v) for k, v in opts.items()}
+             for env_id, opts in (start or {}).items()}
+    meta = {**meta, "name": name, "version": version, "sha256": digest, "format": FORMAT,
+            START: {env_id: sorted(opts) for env_id, opts in start.items()},
+            "start_sha256": start_checksum(start)}
+    arrays = {f"{START}/{env_id}/{k}": v for env_id, opts in start.items()
+              for k, v in opts.items()}
     path = directory / f"{name}-v{version}.npz"
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, **{f: columns[f] for f in FIELDS}, schedule_flat=flat,
                         schedule_len=lengths, source=np.array(sources),
-                        meta=np.array(json.dumps(meta, sort_keys=True)))
+                        meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)
     tmp.replace(path)
     return path
 
@@ -277,18 +335,35 @@ def _read(path: Path, name: str, version: int) -> Suite:
         schedules = np.split(z["schedule_flat"], cut)
         sources = [str(s) for s in z["source"]]
         meta = json.loads(str(z["meta"]))
+        start = {env_id: {k: z[f"{START}/{env_id}/{k}"] for k in keys}
+                 for env_id, keys in meta.get(START, {}).items()}
+        stray = [f for f in z.files if f.startswith(START + "/")
+                 and f.split("/", 2)[2] not in meta.get(START, {}).get(f.split("/")[1], ())]
     digest = checksum(columns, schedules)
     if digest != meta.get("sha256"):
         raise ValueError(f"{path}: checksum mismatch (the file says {meta.get('sha256')}, "
                          f"its episodes hash to {digest}); the suite was modified")
+    if meta.get("format", 1) >= 2 and (stray or start_checksum(start)
+                                       != meta.get("start_sha256")):
+        raise ValueError(f"{path}: checksum mismatch of the start conditions (the file "
+                         f"says {meta.get('start_sha256')}, they hash to "
+                         f"{start_checksum(start)}); the suite was modified")
+    n = len(columns["target_x"])
+    for env_id, opts in start.items():
+        for k, v in opts.items():
+            if len(v) != n:
+                raise ValueError(f"{path}: the start condition {env_id}/{k} has {len(v)} "
+                                 f"values for {n} episodes")
     episodes = tuple(
         Episode(index=i, target_x=float(columns["target_x"][i]),
                 slope=float(columns["slope"][i]), roughness=float(columns["roughness"][i]),
                 terrain_seed=int(columns["terrain_seed"][i]),
                 control_dt=float(columns["control_dt"][i]),
                 reference_ttrtp=float(columns["reference_ttrtp"][i]),
-                reference_schedule=schedules[i], reference_source=sources[i])
-        for i in range(len(columns["target_x"])))
+                reference_schedule=schedules[i], reference_source=sources[i],
+                start={env_id: {k: v[i].item() for k, v in opts.items()}
+                       for env_id, opts in start.items()})
+        for i in range(n))
     return Suite(name=name, version=version, checksum=digest, episodes=episodes, meta=meta)
 
 
@@ -297,17 +372,41 @@ def run(policy, suite: Suite, batch: int = 256, progress=None,
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
     contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
     arguments (say a mission task's noise_scale); the suite's episode time stays, and so
-    do the draws its episodes were frozen with (`SUITE_DRAWS`: what the options of an
-    episode leave to the seed, such as the mission task's sensors and unknown ground).
-    `workers`: processes for a policy that may be spread over them (`run_episodes`;
-    None: the policy's own, mpc's one per core; 1: this process only)."""
-    from hoprover_env.evaluation.episodes import run_episodes
-    results = run_episodes(policy, suite.targets,
-                           env_kwargs={"draws": SUITE_DRAWS, **(env_kwargs or {}),
-                                       "episode_time": EPISODE_TIME},
-                           batch=batch, progress=progress, terrain=suite.terrain(),
-                           workers=workers)
-    return judged(results, suite)
+    does every episode's start (its target, ground and the frozen start conditions of
+    the policy's env id). `workers`: processes for a policy that may be spread over them
+    (`run_episodes`; None: the policy's own, mpc's one per core; 1: this process only).
+    Raises ValueError for env arguments that would redraw the frozen rover or ground
+    (`randomize`, see the module docstring)."""
+    return judged(run_results(policy, suite, batch, progress, env_kwargs, workers), suite)
+
+
+def run_results(policy, suite: Suite, batch: int = 256, progress=None,
+                env_kwargs: dict | None = None, workers: int | None = None) -> list:
+    """`run`'s episodes, unjudged: run_episodes' EpisodeResults, in order."""
+    from hoprover_env.evaluation.episodes import policy_env_id, run_episodes
+    env_id = policy_env_id(policy)
+    check_frozen(env_id, {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
+    return run_episodes(policy, suite.targets,
+                        env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
+                        batch=batch, progress=progress, terrain=suite.conditions(env_id),
+                        workers=workers)
+
+
+def check_frozen(env_id: str, env_kwargs: dict) -> None:
+    """Refuse env arguments that would redraw what a suite's episodes fix: a `randomize`
+    other than the id's own (its episodes' rover and ground are the suite's)."""
+    if "randomize" not in env_kwargs:
+        return
+    from hoprover_env.sim.randomize import check_randomize
+    own = default_config(env_id).randomize
+    try:
+        given = check_randomize(env_kwargs["randomize"])
+    except ValueError:
+        given = env_kwargs["randomize"]
+    if given != own:
+        raise ValueError(f"a test suite fixes each episode's rover and ground: "
+                         f"randomize={env_kwargs['randomize']!r} would redraw them; "
+                         f"leave randomize at {env_id}'s own ({own or None!r})")
 
 
 def judged(results, suite: Suite) -> list[dict]:

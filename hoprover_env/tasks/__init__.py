@@ -3,7 +3,9 @@
 =================  ==================================================================
 ``common``         the written interface (`TaskSpec`), the opening and end of every
                    step (`open_step`, `close_step`), the batched loops, `build`
-``config``         `EnvConfig`, the arguments every task shares; episode sampling
+``config``         `EnvConfig`, the arguments every task shares
+``draws``          the episode draws (counter-based, keyed by seed and episode)
+``options``        the reset options, checked in one place; a task's start options
 ``layout``         the shared slots of the task configuration vector E
 ``observation``    the observation vector (one slot each), observe, the reference and
                    landing points the observation and the reward share

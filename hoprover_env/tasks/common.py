@@ -36,6 +36,7 @@ from hoprover_env.core.layout import S_BROKEN, S_ERROR, S_MODE, S_NEVENTS, S_T, 
 from hoprover_env.jit.compiler import BOOL, F64, I64, VEC, bind, kernel
 from hoprover_env.tasks import reward
 from hoprover_env.tasks.layout import E_T_TOTAL
+from hoprover_env.tasks.options import StartOption
 
 if TYPE_CHECKING:
     from hoprover_env.tasks.config import EnvConfig
@@ -82,11 +83,20 @@ class TaskSpec:
                         rovers reset (2-D: S, P and M, which it fills, one row per
                         rover; M is zeroed before), after the episode's draws; U holds
                         ``reset_draws`` uniforms in [0, 1) per rover, drawn from the
-                        rover's (seed, episode) (tasks/draws.py). None: M is zeroed
+                        rover's (seed, episode) (tasks/draws.py). None: M is zeroed.
+                        A task with start options gets a sixth argument, ``fixed``:
+                        the start options given, name -> (n,) values, which replace
+                        what its uniforms would draw
     ``reset_draws``     how many uniforms reset_memory takes per rover
-    ``legacy_reset_memory``  ``f(config, rng, S, P, M)`` on one rover's rows, from its
-                        numpy Generator, for draws="legacy" (None: reset_memory with
-                        uniforms from that Generator)
+    ``start_options``   the reset options of the task's own (tasks/options.py
+                        `StartOption`): what reset_memory draws, given instead, so that
+                        an env can be started in a frozen episode (a test suite's)
+    ``action_torque``   ``f(action, P, E) -> torque`` [N m], callable from Python: the
+                        torque one action component commands (a hop task's: the hop's
+                        launch torque), for replays of an episode's actions
+    ``torque_action``   ``f(torque, params, config) -> action``: its inverse, clipped to
+                        [-1, 1], for a controller that commands torques (None: the
+                        task's action is no torque held over a control period)
     ``holes``           further placeholders of the step template and their kernels
     ``hidden_info``     ``f(M) -> dict``: what info_level="full" adds of the task memory
                         (a task that hides state from the policy shows it here)
@@ -104,11 +114,18 @@ class TaskSpec:
     memory: int = 0
     reset_memory: Callable | None = None
     reset_draws: int = 0
-    legacy_reset_memory: Callable | None = None
+    start_options: tuple[StartOption, ...] = ()
+    action_torque: Callable | None = None
+    torque_action: Callable | None = None
     holes: dict = dataclasses.field(default_factory=dict)
     hidden_info: Callable | None = None
     obs_bounds: Callable | None = None
     compile_extra: tuple = ()
+
+    def __post_init__(self):
+        if self.start_options and self.reset_memory is None:
+            raise ValueError(f"task {self.name!r}: start_options fix what reset_memory "
+                             f"draws; it has none")
 
     def kernels(self, integrator: str, rough: bool = True) -> TaskKernels:
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
@@ -135,23 +152,15 @@ class TaskSpec:
     def new_memory(self, n: int | None = None) -> np.ndarray:
         return np.zeros(self.memory_width if n is None else (n, self.memory_width))
 
-    def start(self, config, rng, S, P, M) -> None:
-        """Fill a rover's task memory at reset (after sample_episode's draws), from its
-        numpy Generator (draws="legacy")."""
-        M[:] = 0.0
-        if self.legacy_reset_memory is not None:
-            self.legacy_reset_memory(config, rng, S, P, M)
-        elif self.reset_memory is not None:
-            m = M[None, :].copy()
-            self.reset_memory(config, rng.random((1, self.reset_draws)), S[None, :],
-                              P[None, :], m)
-            M[:] = m[0]
-
-    def start_rows(self, config, U, S, P, M) -> None:
+    def start_rows(self, config, U, S, P, M, fixed: dict | None = None) -> None:
         """Fill the task memory M of the rovers reset (2-D rows, one per rover) from
-        their uniforms U (n, reset_draws) (draws="counter")."""
+        their uniforms U (n, reset_draws) and the start options given (`fixed`)."""
         M[:] = 0.0
-        if self.reset_memory is not None:
+        if self.reset_memory is None:
+            return
+        if self.start_options:
+            self.reset_memory(config, U, S, P, M, dict(fixed or {}))
+        else:
             self.reset_memory(config, U, S, P, M)
 
     def observer(self):

@@ -1,12 +1,11 @@
-"""Configuration of the RL environments and the per-episode sampling they share.
+"""Configuration of the RL environments.
 
 `EnvConfig` validates every argument once (with errors that name the argument). The
 single env, the vector env and the SB3 adapter all draw an episode's target and
-(randomised) parameters the same way, so that sub-env i of a vector env seeded with s
-replays a single env seeded with s + i bit for bit: with `draws="counter"` (the default)
-from tasks/draws.py, counter-based and vectorised over rovers; with `draws="legacy"`
-with `sample_episode` below, from a per-env numpy Generator (the draws of earlier
-versions).
+(randomised) parameters the same way, from tasks/draws.py (counter-based and vectorised
+over rovers, with the ground a config says: `terrain_columns`), so that sub-env i of a
+vector env seeded with s replays a single env seeded with s + i bit for bit; the reset
+options that fix what the draws would decide are tasks/options.py's.
 """
 from __future__ import annotations
 
@@ -18,8 +17,8 @@ from typing import Any, ClassVar
 import numpy as np
 
 from hoprover_env.core.params import RoverParams
-from hoprover_env.sim.randomize import RANDOMIZABLE, check_randomize, draw_params  # noqa: F401
-from hoprover_env.sim.simulate import DEFAULT_RTOL, make_options, make_state
+from hoprover_env.sim.randomize import RANDOMIZABLE, check_randomize  # noqa: F401
+from hoprover_env.sim.simulate import DEFAULT_RTOL, make_options
 from hoprover_env.tasks.layout import (
     ACTION_MAPS,
     E_ACTION_MAP,
@@ -28,6 +27,7 @@ from hoprover_env.tasks.layout import (
     E_T_TOTAL,
     task_slots,
 )
+from hoprover_env.tasks.options import RESET_OPTIONS  # noqa: F401 (the env's own options)
 from hoprover_env.tasks.reward import OPTIONS as REWARD_OPTIONS
 from hoprover_env.tasks.reward import RewardConfig
 from hoprover_env.util.validate import finite_real, is_real, positive_real
@@ -87,7 +87,6 @@ class EnvConfig(metaclass=_FlatReward):
     action_map: str = "linear"
     action_scale: float = 1.0
     info_level: str = "basic"
-    draws: str = "counter"
     flight_start: float = 0.0
     # the arguments a task does not use, each with the reason: refused, not ignored
     unused: ClassVar[dict] = {}
@@ -167,14 +166,9 @@ class EnvConfig(metaclass=_FlatReward):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
-        if self.draws not in DRAWS:
-            raise ValueError(f"draws must be one of {list(DRAWS)}, got {self.draws!r}")
         if not (is_real(self.flight_start) and 0.0 <= self.flight_start <= 1.0):
             raise ValueError(f"flight_start must be a share in [0, 1], got "
                              f"{self.flight_start!r}")
-        if self.flight_start > 0.0 and self.draws != "counter":
-            raise ValueError("flight_start needs draws='counter' (the flight starts are "
-                             "drawn by tasks/draws.py)")
 
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> EnvConfig:
@@ -221,14 +215,16 @@ class EnvConfig(metaclass=_FlatReward):
             e[getattr(slots, name)] = values[name]
         return e
 
-    def draw_terrain(self, rng: np.random.Generator) -> dict:
-        """The terrain of a new episode ({} here: the ground `params` says; a terrain task
-        draws its slope)."""
+    def terrain_columns(self, u: np.ndarray) -> dict:
+        """The ground of n new episodes, from one uniform each in [0, 1) (`u`): fields
+        of RoverParams and their values (arrays or scalars); {} here, the ground
+        `params` says (a terrain task draws its slope)."""
         return {}
 
-    def terrain_columns(self, u: np.ndarray) -> dict:
-        """draw_terrain of draws="counter", for n rovers at once from one uniform each
-        in [0, 1) (`u`): fields of RoverParams and their values (arrays or scalars)."""
+    def ground(self) -> dict:
+        """The ground fields this config draws per episode and how: a (low, high) range
+        (uniform) or one value ({} here: `params`' ground). What a driver needs to draw
+        held-out ground like the task's, without knowing the task."""
         return {}
 
     def draws_bumps(self) -> bool:
@@ -240,64 +236,6 @@ class EnvConfig(metaclass=_FlatReward):
     def max_steps(self) -> int:
         """Control steps in a full episode."""
         return int(math.ceil(self.episode_time / self.control_dt - 1e-9))
-
-
-def randomized_params(cfg: EnvConfig, rng: np.random.Generator) -> RoverParams:
-    """The base parameters, each randomised field scaled by U(1 - r, 1 + r)."""
-    return draw_params(cfg.params, cfg.randomize or {}, rng)
-
-
-def sample_episode(cfg: EnvConfig, rng: np.random.Generator,
-                   options: Mapping[str, Any] | None = None):
-    """Target, parameters and rough-terrain seed of a new episode, and its initial kernel
-    state and parameter vectors: (target, params, S, P, terrain_seed). `options` may fix
-    'target_x', 'initial_state', 'slope' [rad], 'roughness' [rad] and 'terrain_seed' (an
-    integer in [0, 2^63): the seed of the bumps, to replay an episode such as a frozen
-    test suite's; ignored on smooth ground).
-
-    The draws come from `rng` in a fixed order whatever the options say (target, the
-    randomised parameters, the slope of a terrain task), so seeded streams stay aligned;
-    on rough ground the seed of the bumps is the next draw (none on smooth ground, so a
-    flat env's stream is the one it always was)."""
-    options = dict(options or {})
-    bad = sorted(set(options) - set(RESET_OPTIONS))
-    if bad:
-        raise ValueError(f"unknown reset option(s) {bad}; valid: {sorted(RESET_OPTIONS)}")
-    lo, hi = cfg.target_range
-    drawn = float(rng.uniform(lo, hi))
-    params = randomized_params(cfg, rng)
-    terrain = cfg.draw_terrain(rng)
-    for key in ("slope", "roughness"):
-        if key in options:
-            terrain[key] = finite_real(f"options[{key!r}]", options[key])
-    if terrain and any(getattr(params, k) != v for k, v in terrain.items()):
-        params = dataclasses.replace(params, **terrain)
-    if "target_x" in options:
-        target = float(options["target_x"])
-        if not math.isfinite(target):
-            raise ValueError(f"options['target_x'] must be finite, got {options['target_x']!r}")
-    else:
-        target = cfg.target_x if cfg.target_x is not None else drawn
-    seed = int(rng.integers(2**63)) if params.roughness > 0.0 else None
-    if seed is not None and "terrain_seed" in options:     # drawn all the same: aligned
-        seed = options["terrain_seed"]
-        if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
-                or not 0 <= int(seed) < 2**63:
-            raise ValueError(f"options['terrain_seed'] must be an integer in [0, 2**63), got "
-                             f"{seed!r}")
-        seed = int(seed)
-    state = make_state(params, target, options.get("initial_state"), seed=seed)
-    return target, params, state, params.as_array(), seed
-
-
-# How an env draws its episodes: "counter" (tasks/draws.py: vectorised, keyed by each
-# rover's seed and episode number) or "legacy" (sample_episode below: a numpy Generator
-# per rover, the draws of earlier versions, kept to reproduce old results).
-DRAWS = ("counter", "legacy")
-
-RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness", "terrain_seed")
-
-
 
 
 # Each task's config lives in its task module; these names are kept here for code

@@ -1,4 +1,4 @@
-"""The episode draws of the envs (draws="counter", the default): counter-based and
+"""The episode draws of the envs: counter-based and
 vectorised over rovers, one function for one rover (the single env) and for N (the
 vector env), so that sub-env i of a vector env seeded with s equals a single env seeded
 with s + i bit for bit, whatever the batch, the rows reset together and the threads.
@@ -18,8 +18,9 @@ RoverParams' constraints (Painleve); stream START the flight starts of `flight_s
 (`flight_rows`). A word u becomes a uniform (u >> 11) 2^-53 in
 [0, 1) and a terrain seed u >> 1 in [0, 2^63).
 
-draws="legacy" (tasks/config.py `sample_episode`) is the per-rover numpy Generator of
-earlier versions, kept to reproduce old results.
+Reset options (tasks/options.py, checked there) replace the outcome of a draw, never the
+draw itself: a frozen episode (a test suite's) is given as options, so that an env
+started with them plays exactly that episode, whatever its seed.
 """
 from __future__ import annotations
 
@@ -166,24 +167,18 @@ def _constants(cfg) -> tuple:
     return got
 
 
-def _finite_column(name, value) -> np.ndarray:
-    v = np.asarray(value, dtype=np.float64)
-    if not np.isfinite(v).all():
-        raise ValueError(f"options[{name!r}] must be finite, got "
-                         f"{v.ravel()[np.flatnonzero(~np.isfinite(v.ravel()))[0]]!r}")
-    return v
-
-
 @dataclasses.dataclass
 class Episodes:
     """The draws of n rovers' new episodes: targets (n,), parameter rows P (n,
     N_PARAMS), initial states S (n, N_STATE), terrain seeds (n,) int64 (-1 on smooth
-    ground) and the task's uniforms U (n, TaskSpec.reset_draws)."""
+    ground), the task's uniforms U (n, TaskSpec.reset_draws) and the task's start options
+    given (`fixed`: name -> (n,) values, TaskSpec.start_options)."""
     targets: np.ndarray
     P: np.ndarray
     S: np.ndarray
     terrain_seeds: np.ndarray
     U: np.ndarray
+    fixed: dict = dataclasses.field(default_factory=dict)
 
 
 # The flight starts of `flight_start` (a training option; evaluation always starts at
@@ -217,9 +212,9 @@ def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
 
 def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Episodes:
     """The new episodes of n rovers keyed (keys_lo[i], keys_hi[i]) at episode numbers
-    episodes[i], under `options` (reset options, each one value per rover: "target_x",
-    "initial_state" (n, 6), "slope", "roughness", "terrain_seed"). Raises ValueError
-    as tasks/config.py sample_episode does."""
+    episodes[i], under `options`: reset options as tasks/options.py `check` gives them,
+    n rows each. Raises ValueError for parameters RoverParams refuses, a rough episode
+    without a terrain seed and a start no contact state allows."""
     options = dict(options or {})
     keys_lo = np.ascontiguousarray(keys_lo, dtype=np.uint64)
     keys_hi = np.ascontiguousarray(keys_hi, dtype=np.uint64)
@@ -230,23 +225,21 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     u = uniforms(w)
     # the target
     if "target_x" in options:
-        targets = _finite_column("target_x", options["target_x"]).copy()
+        targets = np.array(options["target_x"], dtype=np.float64)
     elif cfg.target_x is not None:
         targets = np.full(n, cfg.target_x)
     else:
         lo, hi = cfg.target_range
         targets = lo + (hi - lo) * u[:, W_TARGET]
-    # the parameters
+    # the parameters: drawn, then the ground and the fields the options fix
     P = np.empty((n, N_PARAMS))
     P[:] = _constants(cfg)[0]
     randomize_rows(cfg, P, keys_lo, keys_hi, episodes)
-    terrain = cfg.terrain_columns(u[:, W_SLOPE])
-    for key in ("slope", "roughness"):
-        if key in options:
-            terrain[key] = _finite_column(key, options[key])
-    for key, value in terrain.items():
+    fixed = cfg.terrain_columns(u[:, W_SLOPE])
+    fixed.update({key: v for key, v in options.items() if key in _COLUMN})
+    for key, value in fixed.items():
         P[:, _COLUMN[key]] = value
-    if terrain:
+    if fixed:
         bad = invalid_rows(P)
         if bad.any():
             row_params(P[int(np.argmax(bad))])          # raises RoverParams' error
@@ -254,22 +247,20 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     rough = P[:, P_ROUGH] > 0.0
     seeds = np.where(rough, (w[:, W_TERRAIN_SEED] >> _U64(1)).astype(np.int64), _NO_SEED)
     if "terrain_seed" in options:
-        given = np.asarray(options["terrain_seed"])
-        if given.dtype.kind not in "iu" or given.dtype == np.bool_ or \
-                (rough & ((given < 0) | (given >= 2**63))).any():
-            bad = given if given.ndim == 0 else given[np.flatnonzero(rough)[0]]
-            raise ValueError(f"options['terrain_seed'] must be an integer in [0, 2**63), "
-                             f"got {bad!r}")
-        seeds = np.where(rough, given.astype(np.int64), seeds)
+        given = options["terrain_seed"]
+        if (rough & (given < 0)).any():
+            raise ValueError(f"options['terrain_seed'] must be an integer in [0, 2**63) on "
+                             f"rough ground, got {given[np.flatnonzero(rough & (given < 0))[0]]!r}")
+        seeds = np.where(rough, given, seeds)
     # the initial states
     X = np.zeros((0, 6))
     if "initial_state" in options:
-        X = np.ascontiguousarray(options["initial_state"], dtype=np.float64).reshape(n, 6)
+        X = np.array(options["initial_state"], dtype=np.float64, order="C")   # writable
     elif cfg.flight_start > 0.0:
         X = flight_rows(cfg, P, keys_lo, keys_hi, episodes)
-    bad = np.abs(targets) > MAX_MAGNITUDE            # (comparisons with NaN: False, no warning)
+    bad = np.abs(targets) > MAX_MAGNITUDE
     if X.shape[0]:
-        bad |= ~np.isfinite(X).all(axis=1) | (np.abs(X) > MAX_MAGNITUDE).any(axis=1)
+        bad |= (np.abs(X) > MAX_MAGNITUDE).any(axis=1)
     S = np.zeros((n, core.N_STATE))
     codes = np.zeros(n, dtype=np.int64)
     start_rows(S, P, X, targets, codes)
@@ -283,7 +274,9 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
         s = np.where(rough, seeds, 0).astype(np.uint64)
         S[:, core.S_SEED_LO] = np.where(rough, s & _U64(0xFFFFFFFF), 0)
         S[:, core.S_SEED_HI] = np.where(rough, s >> _U64(32), 0)
-    return Episodes(targets, P, S, seeds, u[:, W_TASK:])
+    own = {o.name for o in task.start_options}
+    return Episodes(targets, P, S, seeds, u[:, W_TASK:],
+                    {key: v for key, v in options.items() if key in own})
 
 
 class ParamsView:

@@ -230,7 +230,7 @@ def step(S, P, O, E, RW, RM, M, action, ev, W):
 
 
 TASK = TaskSpec(name="hop", config=HopEnvConfig, step=step, observe=observe,
-                obs_low=OBS_LOW, obs_high=OBS_HIGH,
+                obs_low=OBS_LOW, obs_high=OBS_HIGH, action_torque=hop_torque,
                 compile_extra=torque.TASK.compile_extra)
 # configs/ppo_hop.yaml's settings as defaults (tasks/config.py RL_SETTINGS says why ids
 # carry them): a time cost of 0.01 per second makes one long hop beat a safe series of

@@ -56,7 +56,11 @@ it. A policy needs memory (this stack or a recurrent network) to tell flight fro
 
 ## Rewards, starting state, episode end
 
-As HopRover-v0, on the true state. The rover starts at rest with a fix.
+As HopRover-v0, on the true state. The rover starts at rest with a fix. Besides
+HopRover-v0's reset options, `sensor_seed` (an integer in [0, 2^63)) fixes the episode's
+sensor noise and `actuator_draw` (u in [-1, 1]) its actuator scale, 1 + `actuator_error`
+`noise_scale` u; with the ground's values (`restitution_x`, `restitution_y`,
+`mu_static`, `mu_dynamic`) they start a frozen episode (a test suite's).
 
 ## Info
 
@@ -108,7 +112,8 @@ state, all of it in the task memory M of each rover:
 
 Every draw is a truncated normal (|z| <= 3) from the counter-based generator of the
 rough terrain (core/terrain.py `truncated_normal`), keyed by the episode's sensor seed
-(drawn at reset from the env's generator) and the sensor's channel, at counter = the
+(drawn at reset from the episode's seed, or given as the reset option `sensor_seed`) and
+the sensor's channel, at counter = the
 number of readings so far: an episode replays bit for bit, whatever thread or batch it
 runs in. Velocity and the contact state are never observed.
 
@@ -130,6 +135,7 @@ from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks import Registration, torque
 from hoprover_env.tasks.layout import E_T_TOTAL, task_slots
 from hoprover_env.tasks.observation import POS_SCALE, RATE_SCALE, clip
+from hoprover_env.tasks.options import StartOption
 from hoprover_env.tasks.terrain import SLOPE_SCALE, TerrainEnvConfig
 from hoprover_env.util.validate import non_negative_real, positive_real
 
@@ -284,29 +290,30 @@ def bounds(config) -> tuple:
     return np.tile(OBS_LOW, config.history), np.tile(OBS_HIGH, config.history)
 
 
-def start(config, U, S, P, M) -> None:
+# what start draws, as reset options: a frozen episode's (a test suite's) are given so
+START_OPTIONS = (
+    StartOption("sensor_seed", "seed", "the key of the episode's sensor noise"),
+    StartOption("actuator_draw", "unit", "u of the actuator's scale 1 + actuator_error "
+                "noise_scale u"))
+
+
+def start(config, U, S, P, M, fixed) -> None:
     """New episodes' sensors and actuators, for the rows reset (one per rover), from
     their two uniforms (tasks/draws.py: after the episode's target, ground and terrain):
-    the sensor seed (53 bits), then the actuator's scale. The rover has rested before
-    the episode, so its first reading carries a fix."""
-    seed = (U[:, 0] * 2.0 ** 53).astype(np.uint64)
+    the sensor seed (53 bits), then the actuator's draw u in [-1, 1) and its scale
+    1 + actuator_error noise_scale u; `fixed` (START_OPTIONS given at reset) replaces
+    either. The rover has rested before the episode, so its first reading carries a
+    fix."""
+    if "sensor_seed" in fixed:
+        seed = np.asarray(fixed["sensor_seed"]).astype(np.uint64)
+    else:
+        seed = (U[:, 0] * 2.0 ** 53).astype(np.uint64)
+    u = fixed["actuator_draw"] if "actuator_draw" in fixed else 2.0 * U[:, 1] - 1.0
     M[:, M_SEED_LO] = seed & np.uint64(0xFFFFFFFF)
     M[:, M_SEED_HI] = seed >> np.uint64(32)
-    M[:, M_ACT_SCALE] = 1.0 + config.actuator_error * config.noise_scale * (2.0 * U[:, 1] - 1.0)
+    M[:, M_ACT_SCALE] = 1.0 + config.actuator_error * config.noise_scale * u
     M[:, M_REST] = config.fix_rest
     M[:, M_LAST_T] = S[:, S_T]
-
-
-def start_legacy(config, rng: np.random.Generator, S, P, M) -> None:
-    """start of draws="legacy", on one rover's rows, from its numpy Generator: the
-    sensor seed (63 bits), then the actuator's scale."""
-    seed = int(rng.integers(2**63))
-    scale = 1.0 + config.actuator_error * config.noise_scale * rng.uniform(-1.0, 1.0)
-    M[M_SEED_LO] = seed & 0xFFFFFFFF
-    M[M_SEED_HI] = seed >> 32
-    M[M_ACT_SCALE] = scale
-    M[M_REST] = config.fix_rest
-    M[M_LAST_T] = S[S_T]
 
 
 def hidden_info(M) -> dict:
@@ -321,6 +328,6 @@ def hidden_info(M) -> dict:
 TASK = dataclasses.replace(
     torque.TASK, name="mission", config=MissionEnvConfig, observe=observe,
     obs_low=OBS_LOW, obs_high=OBS_HIGH, memory=N_M, reset_memory=start,
-    reset_draws=2, legacy_reset_memory=start_legacy,
+    reset_draws=2, start_options=START_OPTIONS,
     holes={"ACTUATE": actuate}, hidden_info=hidden_info, obs_bounds=bounds)
 REGISTER = (Registration("HopRoverMission-v0", suite="terrain"),)

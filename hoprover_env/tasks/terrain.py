@@ -103,13 +103,12 @@ class TerrainEnvConfig(EnvConfig):
             raise ValueError(f"roughness must be a finite number >= 0 [rad], got "
                              f"{self.roughness!r}")
 
-    def draw_terrain(self, rng: np.random.Generator) -> dict:
-        return {"slope": float(rng.uniform(*self.slope_range)),
-                "roughness": float(self.roughness)}
-
     def terrain_columns(self, u: np.ndarray) -> dict:
         lo, hi = self.slope_range
         return {"slope": lo + (hi - lo) * u, "roughness": float(self.roughness)}
+
+    def ground(self) -> dict:
+        return {"slope": self.slope_range, "roughness": self.roughness}
 
     def draws_bumps(self) -> bool:
         return self.roughness > 0.0

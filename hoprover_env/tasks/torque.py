@@ -82,7 +82,10 @@ gamma 0.99 (set it to your algorithm's discount).
 Upright at rest at x = 0 (state F). The target is drawn uniformly from `target_range`
 (default [-1, 1] m) each episode, unless `target_x` is fixed (HopRoverContest-v0: 0.5 m)
 or given as `reset(options={"target_x": ...})`. With `randomize`, the physical
-parameters are re-drawn each episode from the env's own generator.
+parameters are re-drawn each episode from the episode's seed. Reset options fix what the
+draws would decide (hoprover_env/tasks/options.py): `target_x`, `initial_state`, `slope`,
+`roughness`, `terrain_seed` and the value of any randomised parameter (`mass`,
+`mu_static`, ...), so that an env started with a frozen episode's options plays it.
 
 ## Episode end
 
@@ -133,7 +136,6 @@ hoprover_env/tasks/reward.py).
 | `energy_weight` | 0.0 | weight of the effort: the integral of abs(T) / T_limit over each step [s] |
 | `action_map`, `action_scale` | "linear", 1.0 | action -> torque map and its range fraction |
 | `info_level` | "basic" | "full" adds state and forces to info |
-| `draws` | "counter" | how episodes are drawn from the seed: "counter" (keyed by the seed and the episode number, vectorised) or "legacy" (a numpy Generator per env, the draws of earlier versions; docs/changelog.md) |
 | `render_mode` | None | "rgb_array" or "human" |
 
 ## Version history
@@ -164,6 +166,8 @@ Its step calls these jitted functions: `common.open_step`, `ACTUATE` (bound to
 `core.advance_event`, or `core.advance` for `integrator="euler"`), `reward.charge` and
 `common.close_step`; then `observation.observe`.
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
+import numpy as np
+
 from hoprover_env.core.layout import S_T
 from hoprover_env.core.params import P_TMAX, P_TMIN
 from hoprover_env.jit.compiler import F64, VEC, kernel
@@ -172,6 +176,7 @@ from hoprover_env.tasks.common import ADVANCE, TaskSpec, close_step, open_step
 from hoprover_env.tasks.config import RL_SETTINGS, EnvConfig
 from hoprover_env.tasks.layout import (
     ACTION_CUBIC,
+    ACTION_MAPS,
     E_ACTION_MAP,
     E_ACTION_SCALE,
     E_CONTROL_DT,
@@ -196,6 +201,24 @@ def action_to_torque(a, P, E):
     else:
         t = P[P_TMIN] + 0.5 * (a + 1.0) * (P[P_TMAX] - P[P_TMIN])
     return E[E_ACTION_SCALE] * t
+
+
+def torque_to_action(torque: float, params, config=None) -> float:
+    """The inverse of `action_to_torque` for a rover of `params` (a RoverParams) under
+    `config`'s action map and scale (linear and 1 without a config), clipped to
+    [-1, 1]: the action a controller that commands `torque` [N m] takes."""
+    lo, hi = params.torque_min, params.torque_max
+    amap = getattr(config, "action_map", "linear")
+    scale = getattr(config, "action_scale", 1.0)
+    t = torque / scale
+    if ACTION_MAPS.get(amap) == ACTION_CUBIC:
+        ref = hi if t >= 0.0 else -lo
+        if ref <= 0.0:
+            return 0.0
+        return float(np.clip(np.cbrt(t / ref), -1.0, 1.0))
+    if hi == lo:
+        return 0.0
+    return float(np.clip(2.0 * (t - lo) / (hi - lo) - 1.0, -1.0, 1.0))
 
 
 def step(S, P, O, E, RW, RM, M, action, ev, W):
@@ -223,6 +246,7 @@ def commanded_torque(action, P, E, M):
 TASK = TaskSpec(
     name="torque", config=EnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
     obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
+    action_torque=action_to_torque, torque_action=torque_to_action,
     compile_extra=(open_step, close_step, action_to_torque, observe))
 REGISTER = (Registration("HopRover-v0", suite="level"),
             Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),

@@ -101,7 +101,7 @@ from hoprover_env.tasks.observation import (
     landing_x,
     reference_point,
 )
-from hoprover_env.tasks.torque import action_to_torque, commanded_torque, step
+from hoprover_env.tasks.torque import action_to_torque, commanded_torque, step, torque_to_action
 
 OBS_DX, OBS_HEIGHT, OBS_VX, OBS_VY, OBS_SIN, OBS_COS, OBS_RATE, OBS_SPIN = range(8)
 OBS_MODE = 8            # 8..14: one-hot contact state A..G
@@ -161,5 +161,6 @@ def observe(S, P, E, M, obs):
 TASK = TaskSpec(
     name="torque_rl", config=RLEnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
     obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
+    action_torque=action_to_torque, torque_action=torque_to_action,
     compile_extra=(open_step, close_step, action_to_torque, observe))
 REGISTER = (Registration("HopRoverRL-v1", RL_V1_SETTINGS, suite="level"),)

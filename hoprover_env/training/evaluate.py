@@ -31,31 +31,33 @@ import time
 import numpy as np
 
 from hoprover_env.agents.policies import load_controller, load_policy
-from hoprover_env.envs.registry import ENVS, config_class
+from hoprover_env.envs.registry import ENVS, default_config
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
-from hoprover_env.tasks.terrain import TerrainEnvConfig
 from hoprover_env.util.files import atomic_write, write_json
 
-# the ground a terrain task draws by default: its config's slope range and roughness [rad]
-TERRAIN_SLOPES = TerrainEnvConfig.slope_range
-TERRAIN_ROUGHNESS = TerrainEnvConfig.roughness
+
+def task_ground(env_id: str | None) -> dict:
+    """The ground a task draws per episode, as its config declares it (EnvConfig.ground:
+    {} for the contest's flat, smooth ground; a terrain task's slope range and
+    roughness [rad])."""
+    return {} if env_id is None else default_config(env_id).ground()
 
 
 def terrain_conditions(args, n: int) -> dict:
     """The ground of each episode ({} for the contest's flat, smooth ground): slopes
-    fixed by --slope or, with --env HopRoverTerrain-v0, held-out draws (seeded by --seed
-    on their own stream, so the targets are those of the flat evaluation), and the
-    roughness (--roughness, or the terrain task's default)."""
+    fixed by --slope or, with an --env that draws its slope (HopRoverTerrain-v0),
+    held-out draws from its range (seeded by --seed on their own stream, so the targets
+    are those of the flat evaluation), and the roughness (--roughness, or the task's)."""
     ground = {}
-    terrain = args.env is not None and issubclass(config_class(args.env), TerrainEnvConfig)
+    drawn = task_ground(args.env)
     if args.slope is not None:
         ground["slope"] = np.full(n, args.slope)
-    elif terrain:
-        ground["slope"] = np.random.default_rng([args.seed, 1]).uniform(*TERRAIN_SLOPES, n)
+    elif "slope" in drawn:
+        ground["slope"] = np.random.default_rng([args.seed, 1]).uniform(*drawn["slope"], n)
     if args.roughness is not None:
         ground["roughness"] = np.full(n, args.roughness)
-    elif terrain:
-        ground["roughness"] = np.full(n, TERRAIN_ROUGHNESS)
+    elif "roughness" in drawn:
+        ground["roughness"] = np.full(n, drawn["roughness"])
     return ground
 
 
@@ -85,10 +87,11 @@ def parse_args(argv=None):
                     help="which target to plot/film (default: the first one that needs a hop)")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
     ap.add_argument("--env", type=str, default=None, choices=sorted(ENVS),
-                    help="the task a controller (scripted, --controller) acts in; "
-                         "HopRoverTerrain-v0 also draws one held-out slope per episode "
-                         f"from U{TERRAIN_SLOPES} rad (seeded by --seed) and sets the "
-                         f"roughness to {TERRAIN_ROUGHNESS} rad, for every policy")
+                    help="the task a controller (scripted, --controller) acts in; a "
+                         "task that draws its ground (HopRoverTerrain-v0: slopes from "
+                         f"U{task_ground('HopRoverTerrain-v0')['slope']} rad) also draws "
+                         "one held-out slope per episode from its range (seeded by --seed) "
+                         "and sets its roughness, for every policy")
     ap.add_argument("--slope", type=float, default=None,
                     help="one ground slope [rad] for every episode and policy")
     ap.add_argument("--roughness", type=float, default=None,
@@ -246,9 +249,12 @@ def _main(argv=None) -> int:
         progress = (lambda k, b=bar: b.update(k - b.n)) if bar else None
         t0 = time.perf_counter()
         try:
-            results = run_episodes(pol, targets, batch=args.batch, progress=progress,
-                                   terrain=ground, env_kwargs={"draws": suites.SUITE_DRAWS}
-                                   if suite else None, workers=args.workers)
+            if suite:                     # each episode as frozen (suites.run)
+                results = suites.run_results(pol, suite, batch=args.batch,
+                                             progress=progress, workers=args.workers)
+            else:
+                results = run_episodes(pol, targets, batch=args.batch, progress=progress,
+                                       terrain=ground, workers=args.workers)
         except ValueError as exc:         # a bad --slope / --roughness, named by the env
             print(f"error: {exc}", file=sys.stderr)
             return 2
@@ -260,7 +266,7 @@ def _main(argv=None) -> int:
               file=sys.stderr)
     where = "" if not ground else (
         f"; slope {args.slope} rad" if args.slope is not None else
-        f"; slopes U{TERRAIN_SLOPES} rad" if "slope" in ground else "") + (
+        f"; slopes U{task_ground(args.env).get('slope')} rad" if "slope" in ground else "") + (
         f", roughness {ground['roughness'][0]} rad" if "roughness" in ground else "")
     if suite:
         print(f"\nthe {suite.name}-v{suite.version} suite of {args.env or 'HopRover-v0'} "

@@ -440,24 +440,22 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
     assert ended >= n
 
 
-def test_counter_draws_seed_episode_and_legacy():
+def test_counter_draws_seed_episode_and_one_draw_path():
     """reset(seed=s) restarts the episode count: the same episodes again; an unseeded
-    reset goes on to the next; draws="legacy" is the numpy Generator of old (the same
-    draws as before this option existed)."""
-    from hoprover_env.tasks.config import sample_episode
+    reset goes on to the next. The draws are tasks/draws.py's, the only ones: `draws`
+    is no env argument."""
     env = HopRoverEnv(randomize={"gravity": 0.3})
     first = [env.reset(seed=4)[1]["target_x"]] + [env.reset()[1]["target_x"] for _ in range(3)]
     again = [env.reset(seed=4)[1]["target_x"]] + [env.reset()[1]["target_x"] for _ in range(3)]
     assert first == again and len(set(first)) == 4
-    old = HopRoverEnv(randomize={"gravity": 0.3}, draws="legacy")
-    _, info = old.reset(seed=4)
-    target, params, *_ = sample_episode(old.config, np.random.default_rng(4))
-    assert info["target_x"] == target and old.params == params
-    with pytest.raises(ValueError, match="draws must be one of"):
-        HopRoverEnv(draws="numpy")
-    venv = HopRoverVectorEnv(3, draws="legacy", randomize={"gravity": 0.3})
+    for draws in ("legacy", "counter"):
+        with pytest.raises(TypeError, match="unexpected keyword argument 'draws'"):
+            HopRoverEnv(draws=draws)
+        with pytest.raises(TypeError, match="unexpected keyword argument 'draws'"):
+            HopRoverVectorEnv(3, draws=draws)
+    venv = HopRoverVectorEnv(3, randomize={"gravity": 0.3})
     obs, _ = venv.reset(seed=4)
-    assert np.array_equal(obs[0], old.reset(seed=4)[0]) and venv.params[0] == old.params
+    assert np.array_equal(obs[0], env.reset(seed=4)[0]) and venv.params[0] == env.params
     unseeded = HopRoverVectorEnv(3)
     a, b = unseeded.reset()[1]["target_x"], HopRoverVectorEnv(3).reset()[1]["target_x"]
     assert len(set(a)) == 3 and not np.array_equal(a, b)     # fresh OS entropy per call

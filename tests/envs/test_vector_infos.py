@@ -62,7 +62,7 @@ def actions(seed: int) -> np.ndarray:
     return a
 
 
-def run(mode: str, info_level: str, threads, draws: str, max_episode_steps=None) -> list:
+def run(mode: str, info_level: str, threads, max_episode_steps=None) -> list:
     """Every output of a scripted run (reset, steps, a masked reset, autoresets), each
     infos checked against infos_from_rows on the way. `threads`: False (the serial
     loop) or the numba thread count of the threaded one."""
@@ -71,7 +71,7 @@ def run(mode: str, info_level: str, threads, draws: str, max_episode_steps=None)
         numba.set_num_threads(threads)
     try:
         venv = HopRoverVectorEnv(N, autoreset_mode=mode, threads=bool(threads),
-                                 info_level=info_level, draws=draws,
+                                 info_level=info_level,
                                  max_episode_steps=max_episode_steps, **ENV_KW)
         finals = []         # (info, observations) read just before a SameStep reset
         reset_rows = venv._autoreset_rows
@@ -148,7 +148,7 @@ def flat(outputs: list) -> list:
 @pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
 def test_vector_infos_equal_those_read_from_the_rows(mode, info_level):
     two = min(2, numba.config.NUMBA_NUM_THREADS)
-    runs = [run(mode, info_level, threads, "counter") for threads in (False, 1, two)]
+    runs = [run(mode, info_level, threads) for threads in (False, 1, two)]
     for other in runs[1:]:                  # the same bits on every loop and thread count
         a, b = flat(runs[0]), flat(other)
         assert len(a) == len(b)
@@ -162,6 +162,5 @@ def test_vector_infos_equal_those_read_from_the_rows(mode, info_level):
 
 
 @pytest.mark.parametrize("mode", ["NextStep", "SameStep"])
-def test_vector_infos_with_a_step_limit_and_legacy_draws(mode):
-    run(mode, "basic", min(2, numba.config.NUMBA_NUM_THREADS), "legacy",
-        max_episode_steps=11)
+def test_vector_infos_with_a_step_limit(mode):
+    run(mode, "basic", min(2, numba.config.NUMBA_NUM_THREADS), max_episode_steps=11)

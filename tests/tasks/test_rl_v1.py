@@ -109,7 +109,8 @@ def test_flight_start_is_checked_and_refused_where_it_cannot_apply():
     for bad in (-0.1, 1.5, float("nan")):
         with pytest.raises(ValueError, match="flight_start"):
             gym.make("HopRoverRL-v1", flight_start=bad)
-    with pytest.raises(ValueError, match="draws='counter'"):
+    # one draw path: flight starts need no option to apply (`draws` is no argument)
+    with pytest.raises(TypeError, match="draws"):
         gym.make("HopRoverRL-v1", flight_start=0.5, draws="legacy")
     with pytest.raises(TypeError, match="flight_start"):
         gym.make("HopRoverHop-v0", flight_start=0.5)
