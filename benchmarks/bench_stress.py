@@ -10,8 +10,8 @@ their ranges, and control periods from 1e-4 s to 10 s. Each family runs with the
 integrator and, where affordable, the contest-style `euler` (dt 1e-3 s), under both
 impact laws.
 
-The driver (agents/stress/drivers.py `drive`, with the stress controllers there and the
-families of runs in agents/stress/families.py) checks the state after every control
+The driver (research/stress/drivers.py `drive`, with the stress controllers there and the
+families of runs in research/stress/families.py) checks the state after every control
 interval (a "sample", what `simulate`
 records) and also right after every impact (it lets `core.advance` stop at each impact,
 through the kernel's stop-on-event slot, checks, and resumes; the physics is unchanged,
@@ -54,7 +54,25 @@ import time
 
 import numpy as np
 
-from agents.stress.drivers import (
+from benchmarks import stress_report
+from benchmarks.report import Section
+from hoprover_env import RoverParams, core, simulate
+from hoprover_env.sim.simulate import make_state
+from hoprover_env.sim.testing import (
+    ENERGY_TOL,
+    KINEMATIC_TOL,
+    N_RECORDS,
+    PENETRATION_TOL,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_NAN,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    check_state,
+    kinematic_violations,
+    new_drift,
+)
+from research.stress.drivers import (
     B_FOUND,
     R_BREAKS,
     R_DRIFT_CORNER_VY,
@@ -88,25 +106,7 @@ from agents.stress.drivers import (
     replay,
     upright,
 )
-from agents.stress.families import DEFAULT, FAMILIES, family_random_params, offset
-from benchmarks import stress_report
-from benchmarks.report import Section
-from hoprover_env import RoverParams, core, simulate
-from hoprover_env.sim.simulate import make_state
-from hoprover_env.sim.testing import (
-    ENERGY_TOL,
-    KINEMATIC_TOL,
-    N_RECORDS,
-    PENETRATION_TOL,
-    V_BUDGET,
-    V_KINEMATICS,
-    V_NAN,
-    V_PEN_EVENT,
-    V_PEN_SAMPLE,
-    check_state,
-    kinematic_violations,
-    new_drift,
-)
+from research.stress.families import DEFAULT, FAMILIES, family_random_params, offset
 
 
 # ----------------------------------------------------------------------------------
@@ -246,7 +246,7 @@ def energy_by(results) -> tuple[dict, dict]:
 def violation_records(results, per_kind: int = 2) -> list:
     """Per record kind that occurred (hoprover_env.sim.testing RECORD_NAMES): the runs that
     hit it, and up to `per_kind` of them (from different families first) with their
-    replayed violating interval (agents.stress.replay)."""
+    replayed violating interval (research.stress.replay)."""
     out = []
     for k in range(N_RECORDS):
         if k == V_KINEMATICS:

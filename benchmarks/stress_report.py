@@ -8,7 +8,21 @@ import os
 
 import numpy as np
 
-from agents.stress.drivers import (
+from benchmarks.report import Section, table
+from hoprover_env import RoverParams, core
+from hoprover_env.sim.testing import (
+    KINEMATICS_OTHER,
+    N_VIOLATION_KINDS,
+    PEN_AT_BREAK,
+    RECORD_NAMES,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    VIOLATION_NAMES,
+    WRONG_TILT_ONLY,
+)
+from research.stress.drivers import (
     B_STATE,
     B_STEP,
     B_TORQUE,
@@ -37,21 +51,7 @@ from agents.stress.drivers import (
     R_VIOLATIONS,
     R_WRONG_TILT,
 )
-from agents.stress.families import DEFAULT
-from benchmarks.report import Section, table
-from hoprover_env import RoverParams, core
-from hoprover_env.sim.testing import (
-    KINEMATICS_OTHER,
-    N_VIOLATION_KINDS,
-    PEN_AT_BREAK,
-    RECORD_NAMES,
-    V_BUDGET,
-    V_KINEMATICS,
-    V_PEN_EVENT,
-    V_PEN_SAMPLE,
-    VIOLATION_NAMES,
-    WRONG_TILT_ONLY,
-)
+from research.stress.families import DEFAULT
 
 RUNS_HEADER = (["family", "integrator", "runs", "simulated s", "control steps", "events",
                 "impacts", "restarts after break", "max events / interval"]

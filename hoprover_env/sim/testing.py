@@ -2,7 +2,7 @@
 
 One home for the rules a correct state obeys (docs/MODEL.md section 4), so that the
 property tests (tests/sim/test_stress.py, tests/sim/test_regressions.py) and the stability
-stress benchmark (benchmarks/bench_stress.py, through agents/stress/drivers.py's driver) judge
+stress benchmark (benchmarks/bench_stress.py, through research/stress/drivers.py's driver) judge
 states by the same code:
 
 * `check_state` -- one kernel state vector: finite, no bottom corner under the ground,

@@ -1,9 +1,9 @@
-"""Clones of agents/plan_clone/clone_study.py leave as run directories that load_policy reads."""
+"""Clones of research/plan_clone/clone_study.py leave as run directories that load_policy reads."""
 import numpy as np
 import pytest
 
-from agents.plan_clone.clone_study import _model, _policy, export
 from hoprover_env.agents.policies import load_policy
+from research.plan_clone.clone_study import _model, _policy, export
 
 
 @pytest.mark.slow                # fits a clone

@@ -1,9 +1,7 @@
-"""agents/plan_clone/nudge.py: the nudge at the band's edge as a law of the observed state."""
+"""research/plan_clone/nudge.py: the nudge at the band's edge as a law of the observed state."""
 import numpy as np
 import pytest
 
-from agents.plan_clone import nudge
-from agents.plan_clone.plan_table import PlanTableTeacher, load_table
 from hoprover_env.tasks.observation import (
     OBS_DX,
     OBS_MODE,
@@ -13,6 +11,8 @@ from hoprover_env.tasks.observation import (
     RATE_SCALE,
     mirror,
 )
+from research.plan_clone import nudge
+from research.plan_clone.plan_table import PlanTableTeacher, load_table
 
 TABLE = "benchmarks/results/plan_clone_retry/table.npz"
 

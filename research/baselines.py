@@ -1,9 +1,9 @@
 """Baselines from scratch over several seeds, scored on the frozen suites as researchers
 report them: several seeds, intervals over them, learning curves and wall times.
 
-    python -m agents.baselines --config configs/ppo_scratch.yaml --seeds 0-4 \\
+    python -m research.baselines --config configs/ppo_scratch.yaml --seeds 0-4 \\
         --timesteps 4000000 --out runs/baselines/ppo_torque          # train, then score
-    python -m agents.baselines --config configs/ppo_scratch.yaml --seeds 0-4 \\
+    python -m research.baselines --config configs/ppo_scratch.yaml --seeds 0-4 \\
         --out runs/baselines/ppo_torque --score-only                  # score what is there
 
 Each seed trains with `train.py` in a process of its own, into `OUT/s<seed>` (a run
@@ -212,7 +212,7 @@ def main(argv=None) -> int:
         train(args.config, seeds, out, args.timesteps, args.torch_threads)
     result = score(out, seeds, args.name or out.resolve().name)
     budget = f" --timesteps {args.timesteps}" if args.timesteps else ""
-    result["command"] = (f"python -m agents.baselines --config {args.config} --seeds "
+    result["command"] = (f"python -m research.baselines --config {args.config} --seeds "
                          f"{args.seeds}{budget} --out runs/baselines/{out.resolve().name}")
     md = markdown(result)
     print("\n" + md)

@@ -1,12 +1,12 @@
 """Train the hop policy of the mission task (hoprover_env/agents/mission_hop.py) with PPO.
 
-    python -m agents.train_mission --config configs/ppo_mission_hop.yaml --seed 0 --out runs/mh0
-    python -m agents.baselines --config configs/ppo_mission_hop.yaml --seeds 0-2 \\
+    python -m research.train_mission --config configs/ppo_mission_hop.yaml --seed 0 --out runs/mh0
+    python -m research.baselines --config configs/ppo_mission_hop.yaml --seeds 0-2 \\
         --out runs/baselines/ppo_mission_hop          # several seeds, scored on the suite
 
 One environment step is one hop (`MissionHopEnv`: HopRoverMission-v0 under the estimator
 and the scripted hopper's flight controller), so the budget `timesteps` counts hops.
-The run directory gets what train.py writes, so agents.baselines scores and plots it
+The run directory gets what train.py writes, so research.baselines scores and plots it
 alike: config.yaml, evaluations.csv (validation success every evaluation.freq hops, on
 episodes the suite never uses), best_model.zip with its .json (what
 `hoprover_env.agents.mission_hop.load_mission_policy` and `load_policy` read),
@@ -84,7 +84,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--timesteps", type=int, default=None, help="hops (default: the config's)")
     ap.add_argument("--resume", action="store_true")
-    ap.add_argument("--no-progress", action="store_true", help="accepted for agents.baselines")
+    ap.add_argument("--no-progress", action="store_true", help="accepted for research.baselines")
     args = ap.parse_args(argv)
     try:
         cfg = load_config(args.config)
@@ -122,7 +122,7 @@ def main(argv=None) -> int:
         progress = {"evals": [], "best": -1.0, "wall_s": 0.0}
     meta = {"algo": "ppo", "policy": "mission_hop", "env_id": ENV_ID, "env_kwargs": env_kwargs,
             "seed": args.seed, "config": cfg, "git_commit": git_commit(),
-            "command": "python -m agents.train_mission " + " ".join(sys.argv[1:] if argv is None
+            "command": "python -m research.train_mission " + " ".join(sys.argv[1:] if argv is None
                                                                   else argv)}
     t0 = time.perf_counter()
     wall0 = progress["wall_s"]

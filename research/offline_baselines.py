@@ -1,7 +1,7 @@
 """Offline-RL baselines on hoprover's Minari datasets, scored on the frozen suites.
 
-    python -m agents.offline_baselines --data datasets --level expert --algo bc --seeds 0-2
-    python -m agents.offline_baselines --data datasets --level medium --algo iql --steps 50000
+    python -m research.offline_baselines --data datasets --level expert --algo bc --seeds 0-2
+    python -m research.offline_baselines --data datasets --level medium --algo iql --steps 50000
 
 Each (algorithm, seed) trains with d3rlpy on `hoprover/<task>/<level>-v0` (built into
 --data by hoprover_env.evaluation.datasets if it is not there), acts deterministically through
@@ -126,7 +126,7 @@ def main(argv=None) -> None:
     row = {**s.row(), "task": args.task, "level": args.level, "algo": args.algo,
            "seeds": seeds, "gradient_steps": args.steps, "dataset_steps": int(mdp.transition_count),
            "train_wall_s": walls,
-           "command": "python -m agents.offline_baselines " + " ".join(argv)}
+           "command": "python -m research.offline_baselines " + " ".join(argv)}
     done = json.loads(args.out.read_text())["rows"] if args.out.exists() else []
     done = [r for r in done if (r["task"], r["level"], r["algo"]) !=
             (args.task, args.level, args.algo)] + [row]

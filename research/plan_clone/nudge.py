@@ -17,7 +17,7 @@ offset, chosen by a grid search and made to change smoothly with the offset:
 
 `nudge_actions` is that law on HopRover-v0's observations (the teacher labels with it,
 and stored collections are relabelled with it), on the states `near_edge`
-(agents.plan_clone.gated) picks: nearly still within NUDGE_MAX of the target. `search` flies
+(research.plan_clone.gated) picks: nearly still within NUDGE_MAX of the target. `search` flies
 a grid of the three numbers for each offset in one vector env; `choose` picks per
 offset the point whose worst TTRTP over its grid neighbours (a clone's error: +-1 step
 of each number; `margin` steps with the pipeline's `nudge: {margin: k}`) is smallest,
@@ -26,17 +26,17 @@ with a penalty on jumps between neighbouring offsets.
 One network fitted to everything does not learn the law (its brakes are a few thousand
 samples among millions); `fit` fits a network to the law's states alone, and `assemble`
 puts it beside a plan-table clone as the nudge branch of a gated network
-(agents.plan_clone.gated), the bundled `plan_clone`. `gated_rounds` does this within
-`python -m agents.plan_clone.plan_table pipeline`, with DAgger rounds at the band's edge
+(research.plan_clone.gated), the bundled `plan_clone`. `gated_rounds` does this within
+`python -m research.plan_clone.plan_table pipeline`, with DAgger rounds at the band's edge
 (`collect_edge`); by hand:
 
-    python -m agents.plan_clone.nudge search --table runs/plan_table/table.npz \\
+    python -m research.plan_clone.nudge search --table runs/plan_table/table.npz \\
         --out runs/plan_table/table_nudge.npz
-    python -m agents.plan_clone.nudge relabel --table runs/plan_table/table_nudge.npz \\
+    python -m research.plan_clone.nudge relabel --table runs/plan_table/table_nudge.npz \\
         --data runs/plan_table/demo_*.npz --out-dir runs/plan_table/relabelled
-    python -m agents.plan_clone.nudge fit --data runs/plan_table/relabelled/*.npz \\
+    python -m research.plan_clone.nudge fit --data runs/plan_table/relabelled/*.npz \\
         --save runs/plan_table/nudge_branch.pkl --mirror
-    python -m agents.plan_clone.nudge assemble --main runs/plan_table \\
+    python -m research.plan_clone.nudge assemble --main runs/plan_table \\
         --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt \\
         --symmetric
 """
@@ -48,10 +48,10 @@ import time
 
 import numpy as np
 
-from agents.plan_clone.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
-from agents.plan_clone.plan_table import BAND_EDGE
 from hoprover_env.core.layout import MODE_B, MODE_E, MODE_F
 from hoprover_env.tasks.observation import OBS_DX, OBS_RATE, OBS_SIN, POS_SCALE, RATE_SCALE
+from research.plan_clone.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
+from research.plan_clone.plan_table import BAND_EDGE
 
 PIVOTS = tuple(range(MODE_B, MODE_E + 1))    # B-E: on one corner
 PREFIX = "nudge_"            # a table's arrays of the nudge family
@@ -176,8 +176,8 @@ def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: f
     edge, where its own errors decide where the rover goes next. Starts up to `inside`
     within the band show it where to stay still (the teacher's push begins at the
     edge, and a fit smooths that step into a small push just inside)."""
-    from agents.plan_clone.plan_table import CONTROL_DT, PlanTableTeacher
     from hoprover_env.training.imitation import collect
+    from research.plan_clone.plan_table import CONTROL_DT, PlanTableTeacher
     rng = np.random.default_rng(seed)
     targets = (rng.uniform(BAND_EDGE - inside, reach, n)
                * np.where(np.arange(n) % 2, -1.0, 1.0))
@@ -204,22 +204,22 @@ class _Noisy:
 def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, settings: dict,
                  shape: dict, log=print) -> dict:
     """The pipeline's last steps: the nudge branch fitted to the edge states of every
-    collection and the gated network of both (agents.plan_clone.gated, OUT/plan_clone.pt),
+    collection and the gated network of both (research.plan_clone.gated, OUT/plan_clone.pt),
     then each `edge_dagger` round: that network drives at the band's edge
     (`collect_edge`), the main branch is fitted again on everything where the round says
     `refit_main` (warm, `settings` updated by it), and the nudge branch is fitted again.
     The networks that drive the rounds have the ground gate; `flight` (the nudge branch
     also in slow flights), `hold` (zero torque at rest in the band) and `rest` (the gate
-    on the ground by the rest offset, agents.plan_clone.gated) are the last network's; the
+    on the ground by the rest offset, research.plan_clone.gated) are the last network's; the
     nudge branch is fitted to the rows of the teacher's own gate either way. Driven with
     the flight gate as well, the rounds gave a worse network
     (docs/studies/plan-clone.md, sections 9 and 10).
     Returns `judge`'s results for the last network."""
     from pathlib import Path
 
-    from agents.plan_clone.clone_study import fit, judge, report
-    from agents.plan_clone.gated import load_any as load_policy
     from hoprover_env.util.files import write_npz
+    from research.plan_clone.clone_study import fit, judge, report
+    from research.plan_clone.gated import load_any as load_policy
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
     hold, rest = bool(cfg.get("hold", False)), bool(cfg.get("rest", False))
     deadzone = float(cfg.get("deadzone", 0.01))
@@ -269,9 +269,9 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     assembled with `flight`), labelled by the teacher as collected. Returns the
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
-    from agents.plan_clone.clone_study import _model, _policy, save_clone
     from hoprover_env.tasks.observation import mirror as mirrored
     from hoprover_env.training.imitation import clone
+    from research.plan_clone.clone_study import _model, _policy, save_clone
     parts = []
     for p in data:
         with np.load(p) as d:
@@ -305,12 +305,12 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
 def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
              symmetric: bool = False, flight: bool = False, hold: bool = False,
              rest: bool = False) -> None:
-    """The gated network (agents.plan_clone.gated) of a main clone (a run directory) and a
+    """The gated network (research.plan_clone.gated) of a main clone (a run directory) and a
     nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`,
     `flight`, `hold`, `rest`: GatedNet's."""
-    from agents.plan_clone import gated
-    from agents.plan_clone.clone_study import load_clone
     from hoprover_env.agents.policies import load_policy
+    from research.plan_clone import gated
+    from research.plan_clone.clone_study import load_clone
     net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
                          gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
                                                           features="micro")),
@@ -353,8 +353,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     from pathlib import Path
 
-    from agents.plan_clone.plan_table import load_table
     from hoprover_env.util.files import write_npz
+    from research.plan_clone.plan_table import load_table
     log = lambda m: print(m, flush=True)       # noqa: E731
     if args.cmd == "relabel":
         table = load_table(args.table)

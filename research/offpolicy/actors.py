@@ -1,7 +1,7 @@
 """What a trained off-policy actor does, per contact state, and how large its critic's
 action gap is in flight against the one-step reward's.
 
-    python -m agents.offpolicy.actors --model runs/sac/checkpoints/model_100000.zip \\
+    python -m research.offpolicy.actors --model runs/sac/checkpoints/model_100000.zip \\
         --episodes 40 --out benchmarks/results/offpolicy/actors_sac.json
 
 Loads an SB3 model saved by train.py (with its _vecnormalize.pkl), plays `--episodes`

@@ -1,8 +1,8 @@
 """A torque network of two branches, one for the nudge at the band's edge.
 
-A clone of the plan-table teacher (agents/plan_clone/plan_table.py) flies the long and short hops
+A clone of the plan-table teacher (research/plan_clone/plan_table.py) flies the long and short hops
 within 1 % of the best-known plans, but one network fitted to everything at once does
-not also fit the teacher's nudge law at the band's edge (agents/plan_clone/nudge.py): its brakes
+not also fit the teacher's nudge law at the band's edge (research/plan_clone/nudge.py): its brakes
 are a few thousand samples among millions, and a network fitted to those states alone
 does fit them (docs/studies/plan-clone.md, section 3). So the network has two
 branches and a fixed gate:
@@ -191,7 +191,7 @@ def _branch(spec: dict, obs_dim: int = 19) -> Branch:
     from gymnasium import spaces
     from stable_baselines3.common.torch_layers import FlattenExtractor
 
-    from agents.plan_clone.features import MicroStateFeatures
+    from research.plan_clone.features import MicroStateFeatures
     space = spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
     features = MicroStateFeatures(space) if spec["micro"] else FlattenExtractor(space)
     mods, width = [], features.features_dim
@@ -276,10 +276,10 @@ def load_any(spec: str, **kwargs):
 GROUP = "Imitation of a planner"        # the leaderboard's group of a network made here
 HOW_MADE = ("two networks cloned by least squares and DAgger rounds from the plan-table "
             "teacher, joined by fixed, hand-written parts; no slope input, level ground only")
-TEACHER = ("the plan-table teacher (agents/plan_clone/plan_table.py): a table of best-known "
+TEACHER = ("the plan-table teacher (research/plan_clone/plan_table.py): a table of best-known "
            "plans searched with the simulator from the start state on level ground for a grid "
            "of targets, made alike between neighbours, and a nudge law for targets just beyond "
-           "the band's edge (agents/plan_clone/nudge.py)")
+           "the band's edge (research/plan_clone/nudge.py)")
 
 
 def hand_written(arch: dict) -> list[str]:
@@ -327,7 +327,7 @@ def export(net: GatedNet, path, meta: dict) -> None:
 
 
 def main(argv=None) -> int:
-    """python -m agents.plan_clone.gated export NET.pt OUT.pt2: a saved gated network as
+    """python -m research.plan_clone.gated export NET.pt OUT.pt2: a saved gated network as
     the package's self-describing policy file."""
     import argparse
     ap = argparse.ArgumentParser(description=main.__doc__)

@@ -2,9 +2,9 @@
 HopRoverMission-v0 suite (the terrain suite's episodes and references) as every noise
 of the task (and the actuator error) is scaled by 0, 0.5, 1, 2 and 4.
 
-    python -m agents.yardstick.mission_degradation                       # scripted on 200 episodes
-    python -m agents.yardstick.mission_degradation --policy mpc --episodes 40 --policy scripted
-    python -m agents.yardstick.mission_degradation --policy runs/mission_s0 --out results.json
+    python -m research.yardstick.mission_degradation                     # scripted on 200 episodes
+    python -m research.yardstick.mission_degradation --policy mpc --episodes 40 --policy scripted
+    python -m research.yardstick.mission_degradation --policy runs/mission_s0 --out results.json
 
 The agents act on what the task lets them see: the scripted hopper and mpc through the
 estimator (hoprover_env.agents.estimation), a learned policy on the observation. Episode e is

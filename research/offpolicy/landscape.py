@@ -2,7 +2,7 @@
 torque held for a control period and then follows a fixed rule, as a function of that
 torque. It is the landscape an off-policy actor climbs with the critic's gradient dQ/da.
 
-    python -m agents.offpolicy.landscape --out benchmarks/results/offpolicy/landscape.csv
+    python -m research.offpolicy.landscape --out benchmarks/results/offpolicy/landscape.csv
 
 For each action map (linear, cubic) and each opening action a on a grid over [-1, 1],
 the rover starts upright at rest with the target at `--target` m, holds a for one control

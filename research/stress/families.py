@@ -1,7 +1,7 @@
 """The families of runs of the stability stress benchmark (benchmarks/bench_stress.py).
 
 Each builder takes a numpy Generator and `quick` and returns the RunSpecs of one family
-(agents/stress/drivers.py runs them); tests/sim/test_rollout.py replays the scheduled ones through
+(research/stress/drivers.py runs them); tests/sim/test_rollout.py replays the scheduled ones through
 `simulate`.
 """
 from __future__ import annotations
@@ -10,7 +10,9 @@ import math
 
 import numpy as np
 
-from agents.stress.drivers import (
+from hoprover_env import RoverParams
+from hoprover_env.sim.simulate import make_state
+from research.stress.drivers import (
     CTRL_HOPPER,
     CTRL_SCHEDULE,
     HOPPER_FREE,
@@ -22,8 +24,6 @@ from agents.stress.drivers import (
     state_from,
     upright,
 )
-from hoprover_env import RoverParams
-from hoprover_env.sim.simulate import make_state
 
 DEFAULT = RoverParams()
 T_MAX = DEFAULT.torque_max

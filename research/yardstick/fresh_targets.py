@@ -11,12 +11,12 @@ ratio policy TTRTP / reference TTRTP (a miss is inf). Targets that start in the 
 count as the suites count them: staying still takes the judge's 5 s, and a policy that
 tips the rover out of the band is slower than that:
 
-    python -m agents.yardstick.fresh_targets --policy plan_clone --seed 9001
-    python -m agents.yardstick.fresh_targets --policy plan_clone --seed 9001 \\
+    python -m research.yardstick.fresh_targets --policy plan_clone --seed 9001
+    python -m research.yardstick.fresh_targets --policy plan_clone --seed 9001 \\
         --reference-table runs/plan_table/table_nudge.npz --out fresh.json
 
 The reference is `mpc` (the planning agent) or, with
-`--reference-table`, the plan-table teacher of that table (agents/plan_clone/plan_table.py, within
+`--reference-table`, the plan-table teacher of that table (research/plan_clone/plan_table.py, within
 0.1 % of the suites' references at the median). Use a seed you have not chosen
 anything on, once.
 
@@ -24,7 +24,7 @@ With `--task terrain` the episodes are drawn as the terrain suite's are (a targe
 slope from U(-0.2, 0.2) rad and its own bumps at roughness 0.05 rad each; no edge
 targets), and the policy acts in its own task (the terrain policy sees the slope):
 
-    python -m agents.yardstick.fresh_targets --task terrain --policy terrain --seed 4242 --n 200
+    python -m research.yardstick.fresh_targets --task terrain --policy terrain --seed 4242 --n 200
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ import sys
 
 import numpy as np
 
-EDGE = (0.1, 0.125)       # m: the band's edge (agents.plan_clone.plan_table.BAND_EDGE) and beyond
+EDGE = (0.1, 0.125)       # m: the band's edge (research.plan_clone.plan_table.BAND_EDGE) and beyond
 
 
 def draw(seed: int, n: int, edge: int) -> np.ndarray:
@@ -67,7 +67,7 @@ def summarise(targets, t_policy, t_reference, bound: float = 1.30) -> dict:
     """Success rates, ratios over every target and the targets above `bound`: the
     ratio is inf where the policy misses and the reference does not, and 1 where both
     miss (or take the same time); `in_band` counts the targets that start in the band."""
-    from agents.plan_clone.plan_table import BAND_EDGE
+    from research.plan_clone.plan_table import BAND_EDGE
     targets, tp, tr = (np.asarray(a, dtype=float) for a in (targets, t_policy, t_reference))
     with np.errstate(invalid="ignore", divide="ignore"):   # inf / inf, percentiles over inf
         ratio = np.where(tp == tr, 1.0, tp / tr)
@@ -114,7 +114,7 @@ def main(argv=None) -> int:
     ap.add_argument("--bound", type=float, default=1.30)
     ap.add_argument("--out", default=None, help="write the per-target times (JSON)")
     args = ap.parse_args(argv)
-    from agents.plan_clone.gated import load_any as load_policy  # a research .pt too
+    from research.plan_clone.gated import load_any as load_policy  # a research .pt too
     if args.edge is None:
         args.edge = 100 if args.task == "level" else 0
     if args.task == "terrain" and args.edge:
@@ -124,7 +124,7 @@ def main(argv=None) -> int:
     try:
         policy = load_policy(args.policy)
         if args.reference_table:
-            from agents.plan_clone.plan_table import PlanTableTeacher, load_table
+            from research.plan_clone.plan_table import PlanTableTeacher, load_table
             reference = PlanTableTeacher(load_table(args.reference_table))
         else:
             reference = load_policy("mpc")

@@ -1,6 +1,6 @@
 """Regenerate the frozen suites' best-known references.
 
-    python -m agents.yardstick.references [--suite level terrain contest] [--budget 12000]
+    python -m research.yardstick.references [--suite level terrain contest] [--budget 12000]
                                 [--agents scripted bundled scratch mpc] [--version 1]
                                 [--report runs/references.json]
 

@@ -96,4 +96,4 @@ def set_statistics(policy, vecnorm) -> None:
 # `policy.features` in a training config: the extractor it names
 FEATURE_EXTRACTORS = {"micro": MicroStateFeatures}
 # the same, as train.py's configs name them (policy.features_extractor)
-EXTRACTOR_PATHS = {"micro": "agents.plan_clone.features:MicroStateFeatures"}
+EXTRACTOR_PATHS = {"micro": "research.plan_clone.features:MicroStateFeatures"}

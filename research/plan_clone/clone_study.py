@@ -1,11 +1,11 @@
 """Cloning studies toward a learned policy within 5 % of the best-known plans: collect
 expert data once, then fit and judge clones of it in seconds to minutes.
 
-    python -m agents.plan_clone.clone_study collect --out runs/clone/demo_a.npz --seed 11 \\
+    python -m research.plan_clone.clone_study collect --out runs/clone/demo_a.npz --seed 11 \\
         --episodes 200
-    python -m agents.plan_clone.clone_study collect --out runs/clone/short.npz --seed 23 \\
+    python -m research.plan_clone.clone_study collect --out runs/clone/short.npz --seed 23 \\
         --episodes 200 --target-range -0.35 0.35                      # short hops only
-    python -m agents.plan_clone.clone_study fit --data runs/clone/demo_a.npz --epochs 100 \\
+    python -m research.plan_clone.clone_study fit --data runs/clone/demo_a.npz --epochs 100 \\
         --ground-weight 10 --save runs/clone/clone_a.pkl
 
 `collect` runs `hoprover_env.training.imitation.collect` with the expert (mpc by default) on
@@ -45,7 +45,7 @@ def _model(action_map: str, arch=None, activation: str | None = None,
     if activation:
         cfg["policy"]["activation_fn"] = activation
     if features:
-        from agents.plan_clone.features import EXTRACTOR_PATHS
+        from research.plan_clone.features import EXTRACTOR_PATHS
         cfg["policy"]["features_extractor"] = EXTRACTOR_PATHS[features]
     venv = build_env(cfg)
     return cfg, venv, make_agent(cfg, venv)
@@ -64,7 +64,7 @@ def _load(path, venv, model, log=None):
     are zero (the same function to start from), and the features get the statistics."""
     import torch
 
-    from agents.plan_clone.features import set_statistics
+    from research.plan_clone.features import set_statistics
     with open(path, "rb") as f:
         saved = pickle.load(f)
     state = model.policy.state_dict()
@@ -114,9 +114,9 @@ def export(cfg, venv, model, out) -> None:
 
 
 def collect_cmd(args) -> None:
-    from agents.plan_clone.gated import load_any as load_policy  # a research .pt too
     from hoprover_env.training.imitation import collect
     from hoprover_env.training.sb3_agents import env_kwargs
+    from research.plan_clone.gated import load_any as load_policy  # a research .pt too
     cfg, venv, model = _model(args.action_map, args.arch, args.activation, args.features)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
     learner = None
@@ -209,7 +209,7 @@ def fit_cmd(args) -> None:
 
 
 def main(argv=None) -> int:
-    from agents.plan_clone.features import FEATURE_EXTRACTORS
+    from research.plan_clone.features import FEATURE_EXTRACTORS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     c = sub.add_parser("collect", help="expert demonstrations or DAgger labels")
@@ -243,7 +243,7 @@ def main(argv=None) -> int:
         p.add_argument("--activation", default=None,
                        help="hidden activation (default: the config's tanh)")
         p.add_argument("--features", default=None, choices=sorted(FEATURE_EXTRACTORS),
-                       help="inputs at fine scales (agents.plan_clone.features)")
+                       help="inputs at fine scales (research.plan_clone.features)")
     args = ap.parse_args(argv)
     (collect_cmd if args.cmd == "collect" else fit_cmd)(args)
     return 0

@@ -28,15 +28,15 @@ change smoothly with the target; one flight law) and two kinds of short hop.
 the start and again, at once, from any rest state off target (the start shifted in x);
 other states keep the plan until its predicted TTRTP has passed, then mpc replans. So its
 labels are one function of the state and the target; `collect` records it with DART
-noise or shadowing a learner (DAgger), and `python -m agents.plan_clone.clone_study fit` fits the
+noise or shadowing a learner (DAgger), and `python -m research.plan_clone.clone_study fit` fits the
 network.
 
-    python -m agents.plan_clone.plan_table build --out runs/plan_table/table.npz
-    python -m agents.plan_clone.plan_table edge --table runs/plan_table/table.npz \\
+    python -m research.plan_clone.plan_table build --out runs/plan_table/table.npz
+    python -m research.plan_clone.plan_table edge --table runs/plan_table/table.npz \\
         --out runs/plan_table/table_edge.npz \\
         --offsets 0.1002 0.1004 0.1006 0.1008 0.101 0.1012
-    python -m agents.plan_clone.plan_table judge --table runs/plan_table/table.npz     # as an agent
-    python -m agents.plan_clone.plan_table collect --table runs/plan_table/table.npz \\
+    python -m research.plan_clone.plan_table judge --table runs/plan_table/table.npz   # as an agent
+    python -m research.plan_clone.plan_table collect --table runs/plan_table/table.npz \\
         --out runs/plan_table/demo_1.npz --noise 0 --seed 1
 """
 from __future__ import annotations
@@ -49,7 +49,6 @@ import time
 
 import numpy as np
 
-from agents.plan_clone.clone_study import BINS
 from hoprover_env import core
 from hoprover_env.agents.mpc import MPCPolicy
 from hoprover_env.agents.planning import (
@@ -62,6 +61,7 @@ from hoprover_env.agents.planning import (
 )
 from hoprover_env.core.params import RoverParams
 from hoprover_env.util.files import write_npz
+from research.plan_clone.clone_study import BINS
 
 # m: a target nearer than this to the start (the rover's half-width plus the band's) is
 # in the band at t = 0
@@ -275,8 +275,8 @@ class PlanTableTeacher(MPCPolicy):
         self.table_plans = 0
         self.until = []
         self.episode = ([], 600.0)   # (params, episode time) of the env `act` last saw
-        # the nudge at the band's edge, flown as state feedback (agents/plan_clone/nudge.py)
-        from agents.plan_clone.nudge import family_of
+        # the nudge at the band's edge, flown as state feedback (research/plan_clone/nudge.py)
+        from research.plan_clone.nudge import family_of
         self.nudge = family_of(table)
         self.nudged = np.zeros(0, dtype=bool)   # rows of the last `act` the nudge labelled
 
@@ -315,12 +315,12 @@ class PlanTableTeacher(MPCPolicy):
         self.episode = (venv.params, float(venv.config.episode_time))   # for needs_plan
         self.nudged = np.zeros(len(obs), dtype=bool)
         if self.nudge is not None:
-            from agents.plan_clone.nudge import near_edge
+            from research.plan_clone.nudge import near_edge
             self.nudged = near_edge(obs, float(self.nudge["offsets"].max())) & np.array(
                 [p == self.ground for p in venv.params])
         out = super().act(obs, venv)
         if self.nudged.any():
-            from agents.plan_clone.nudge import family_actions
+            from research.plan_clone.nudge import family_actions
             out[self.nudged, 0] = family_actions(obs[self.nudged], self.nudge)
         return out
 
@@ -364,7 +364,7 @@ def build(settings: dict, log=print) -> dict:
 
 
 def load_table(path) -> dict:
-    """A table written by `build` / `edge` (and `python -m agents.plan_clone.nudge search`: its
+    """A table written by `build` / `edge` (and `python -m research.plan_clone.nudge search`: its
     nudge_* arrays)."""
     with np.load(path) as f:
         return {k: f[k] for k in f.files
@@ -411,13 +411,13 @@ PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "cells", "demonstrations",
 
 
 def pipeline(config_path, out, log=print) -> dict:
-    """The whole recipe from one config (agents/plan_clone/plan_clone.yaml): the table, the
+    """The whole recipe from one config (research/plan_clone/plan_clone.yaml): the table, the
     demonstrations, a fit, and DAgger rounds each followed by a fit on everything so
     far (warm-started from the clone before it, with `dagger_fit` overriding `fit`'s
     settings); the last clone is exported as OUT/best_model.zip (loadable by `load_policy`)
     and judged into OUT/judge.json; with `nudge`, the nudge branch is then fitted and the
-    gated network of both (OUT/plan_clone.pt, agents.plan_clone.gated) is what is judged,
-    after `edge_dagger` rounds (`agents.plan_clone.nudge.gated_rounds`). With `cells`, the
+    gated network of both (OUT/plan_clone.pt, research.plan_clone.gated) is what is judged,
+    after `edge_dagger` rounds (`research.plan_clone.nudge.gated_rounds`). With `cells`, the
     demonstrations and DAgger rounds fly targets drawn within the grid rows' cells
     (`collect_table`). Each table, collection and main-branch clone is kept in OUT, so
     a killed run starts again from its last finished one (the last nudge branch is
@@ -426,8 +426,8 @@ def pipeline(config_path, out, log=print) -> dict:
 
     import yaml
 
-    from agents.plan_clone.clone_study import fit, load_clone, report
     from hoprover_env.util.files import write_json
+    from research.plan_clone.clone_study import fit, load_clone, report
     cfg = yaml.safe_load(Path(config_path).read_text())
     unknown = set(cfg) - PIPELINE_KEYS
     if unknown:
@@ -448,8 +448,8 @@ def pipeline(config_path, out, log=print) -> dict:
         if not epath.exists():
             write_npz(epath, **refine_edge(load_table(tpath), cfg["edge"], log=log))
         tpath = epath
-    if cfg.get("nudge"):       # the edge's nudges as state feedback (agents/plan_clone/nudge.py)
-        from agents.plan_clone.nudge import choose, search, with_family
+    if cfg.get("nudge"):       # the edge's nudges as state feedback (research/plan_clone/nudge.py)
+        from research.plan_clone.nudge import choose, search, with_family
         npath = out / "table_nudge.npz"
         if not npath.exists():
             write_npz(npath, **with_family(load_table(tpath),
@@ -497,7 +497,7 @@ def pipeline(config_path, out, log=print) -> dict:
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     if cfg.get("nudge"):
-        from agents.plan_clone.nudge import gated_rounds
+        from research.plan_clone.nudge import gated_rounds
         res = gated_rounds(cfg, out, table, data, str(out / f"clone_{len(rounds)}.pkl"),
                            {**fcfg, **cfg.get("dagger_fit", {})},
                            dict(activation=activation, arch=arch, features=features), log)
@@ -506,7 +506,7 @@ def pipeline(config_path, out, log=print) -> dict:
 
 
 def main(argv=None) -> int:
-    from agents.plan_clone.features import FEATURE_EXTRACTORS
+    from research.plan_clone.features import FEATURE_EXTRACTORS
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     b = sub.add_parser("build", help="search the grid and make the plans alike")
@@ -530,9 +530,9 @@ def main(argv=None) -> int:
     c.add_argument("--learner", default=None, help="a clone saved by clone_study fit --save")
     c.add_argument("--activation", default="relu", help="the learner's activation")
     c.add_argument("--features", default=None, choices=sorted(FEATURE_EXTRACTORS),
-                   help="the learner's input features (agents.plan_clone.features)")
+                   help="the learner's input features (research.plan_clone.features)")
     p = sub.add_parser("pipeline", help="table, demonstrations, fits and DAgger rounds")
-    p.add_argument("--config", default="agents/plan_clone/plan_clone.yaml")
+    p.add_argument("--config", default="research/plan_clone/plan_clone.yaml")
     p.add_argument("--out", required=True)
     args = ap.parse_args(argv)
     log = lambda m: print(m, flush=True)       # noqa: E731
@@ -548,13 +548,13 @@ def main(argv=None) -> int:
     elif args.cmd == "judge":
         import json
 
-        from agents.plan_clone.clone_study import judge
+        from research.plan_clone.clone_study import judge
         teacher = PlanTableTeacher(load_table(args.table), interpolate=args.interpolate)
         log(json.dumps(judge(teacher), indent=1))
     else:
         learner = None
         if args.learner:
-            from agents.plan_clone.clone_study import load_clone
+            from research.plan_clone.clone_study import load_clone
             learner = load_clone(args.learner, args.activation, features=args.features)
         t0 = time.perf_counter()
         obs, act, ret = collect_table(load_table(args.table), args.noise, args.seed,

@@ -1,7 +1,7 @@
 """Why an off-policy learner (SAC, TD3, TQC, CrossQ) does or does not learn HopRover: train
 from a config and, every `--every` steps, hold the learner still and measure.
 
-    python -m agents.offpolicy.diagnose --config configs/sac.yaml --steps 150000 \\
+    python -m research.offpolicy.diagnose --config configs/sac.yaml --steps 150000 \\
         --every 25000 --out runs/diagnose/sac
 
 At each checkpoint, 32 episodes are played with the behaviour the learner explores with
