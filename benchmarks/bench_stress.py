@@ -22,7 +22,7 @@ the cross-check below confirms it). Per control interval it counts:
                 lowest height after every event in S_MIN_HEIGHT);
 * pen_sample -- a bottom corner below -1e-9 m in a checked state;
 * kinematics -- the state letter contradicts the kinematics
-                (hoprover_env.sim.testing `check_state`, tolerance 1e-9);
+                (hoprover_env.sim.invariants `check_state`, tolerance 1e-9);
 * energy     -- an impact raised the kinetic energy by more than 1e-12 under the
                 `dissipative` law (which must never do so);
 * time       -- the interval did not end at its stop time, or time went backwards;
@@ -32,7 +32,7 @@ the cross-check below confirms it). Per control interval it counts:
 The runs are driven by a jitted loop over `core.advance`: some families take 1e7
 control steps, which a Python loop through `simulate` and a Python controller would
 make minutes long. The driver is cross-checked against `simulate` plus
-`hoprover_env.sim.testing.kinematic_violations` on the first runs of every family (identical
+`hoprover_env.sim.invariants.kinematic_violations` on the first runs of every family (identical
 final states, events and energy gains, the same verdicts), and its checker on hand-made
 states.
 
@@ -57,8 +57,7 @@ import numpy as np
 from benchmarks import stress_report
 from benchmarks.report import Section
 from hoprover_env import RoverParams, core, simulate
-from hoprover_env.sim.simulate import make_state
-from hoprover_env.sim.testing import (
+from hoprover_env.sim.invariants import (
     ENERGY_TOL,
     KINEMATIC_TOL,
     N_RECORDS,
@@ -72,6 +71,7 @@ from hoprover_env.sim.testing import (
     kinematic_violations,
     new_drift,
 )
+from hoprover_env.sim.simulate import make_state
 from research.stress.drivers import (
     B_FOUND,
     R_BREAKS,
@@ -155,7 +155,7 @@ def cross_check(spec: RunSpec, max_steps: int):
     """Run `spec` (shortened to max_steps control steps, no restart after a break)
     through the driver -- with and without the stops after impacts -- and through
     `simulate`; compare final state, events, energy gains and the verdicts of
-    hoprover_env.sim.testing.kinematic_violations and Rollout.min_corner_height.
+    hoprover_env.sim.invariants.kinematic_violations and Rollout.min_corner_height.
     Returns a list of disagreements (empty when all agree)."""
     spec = dataclasses.replace(spec, t_end=min(spec.t_end, max_steps * spec.control_dt))
     plain = execute(spec, restart_on_break=False, sample_impacts=False)
@@ -244,7 +244,7 @@ def energy_by(results) -> tuple[dict, dict]:
 
 
 def violation_records(results, per_kind: int = 2) -> list:
-    """Per record kind that occurred (hoprover_env.sim.testing RECORD_NAMES): the runs that
+    """Per record kind that occurred (hoprover_env.sim.invariants RECORD_NAMES): the runs that
     hit it, and up to `per_kind` of them (from different families first) with their
     replayed violating interval (research.stress.replay)."""
     out = []

@@ -8,7 +8,7 @@ expert data once, then fit and judge clones of it in seconds to minutes.
     python -m research.plan_clone.clone_study fit --data runs/clone/demo_a.npz --epochs 100 \\
         --ground-weight 10 --save runs/clone/clone_a.pkl
 
-`collect` runs `hoprover_env.training.imitation.collect` with the expert (mpc by default) on
+`collect` runs `hoprover_env.training.warm_start.collect` with the expert (mpc by default) on
 HopRover-v0 at `control_dt` 0.5 s with DART noise `--noise` on the executed actions, or,
 with `--learner PKL`, lets a saved clone drive while the expert labels (DAgger). `fit`
 fits the actor of configs/ppo_mpc.yaml's PPO policy to the collections
@@ -114,8 +114,8 @@ def export(cfg, venv, model, out) -> None:
 
 
 def collect_cmd(args) -> None:
-    from hoprover_env.training.imitation import collect
     from hoprover_env.training.sb3_agents import env_kwargs
+    from hoprover_env.training.warm_start import collect
     from research.plan_clone.gated import load_any as load_policy  # a research .pt too
     cfg, venv, model = _model(args.action_map, args.arch, args.activation, args.features)
     kwargs = {**env_kwargs(cfg), "target_range": tuple(args.target_range)}
@@ -162,7 +162,7 @@ def fit(data, *, epochs=100, batch_size=2048, lr=1e-3, lr_end=1e-5, ground_weigh
     statistics; `export_dir`: a run directory), and return `judge`'s results."""
     import torch
 
-    from hoprover_env.training.imitation import clone
+    from hoprover_env.training.warm_start import clone
     torch.set_num_threads(1)
     cfg, venv, model = _model(action_map, arch, activation, features)
     loaded = [np.load(p) for p in data]

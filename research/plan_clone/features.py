@@ -76,7 +76,7 @@ class MicroStateFeatures(BaseFeaturesExtractor):
 
     def use_statistics(self, mean, std) -> None:
         """The VecNormalize statistics the inputs are normalised with (the hook
-        hoprover_env.training.imitation.share_statistics calls)."""
+        hoprover_env.training.warm_start.share_statistics calls)."""
         self.mean.copy_(mean)
         self.std.copy_(std)
 

@@ -176,7 +176,7 @@ def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: f
     edge, where its own errors decide where the rover goes next. Starts up to `inside`
     within the band show it where to stay still (the teacher's push begins at the
     edge, and a fit smooths that step into a small push just inside)."""
-    from hoprover_env.training.imitation import collect
+    from hoprover_env.training.warm_start import collect
     from research.plan_clone.plan_table import CONTROL_DT, PlanTableTeacher
     rng = np.random.default_rng(seed)
     targets = (rng.uniform(BAND_EDGE - inside, reach, n)
@@ -270,7 +270,7 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     clone as a policy; `save` writes its weights and statistics as `clone_study fit
     --save` does."""
     from hoprover_env.tasks.observation import mirror as mirrored
-    from hoprover_env.training.imitation import clone
+    from hoprover_env.training.warm_start import clone
     from research.plan_clone.clone_study import _model, _policy, save_clone
     parts = []
     for p in data:

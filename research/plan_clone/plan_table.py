@@ -395,7 +395,7 @@ def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=No
     `cells`, each grid target is replaced by one drawn in its cell (`within_cells`): a
     network that sees only the grid's targets interpolates between neighbouring rows
     whose plans are of different kinds, and between them it flies a mix of both."""
-    from hoprover_env.training.imitation import collect
+    from hoprover_env.training.warm_start import collect
     teacher = PlanTableTeacher(table, budget=budget)
     rng = np.random.default_rng(seed)
     targets = np.concatenate([table["targets"], rng.uniform(-BAND_EDGE, BAND_EDGE, in_band)])

@@ -1,7 +1,7 @@
 """Stress controllers and the checking driver of the stability stress benchmark.
 
 `drive` runs one rover under a stress controller with `core.advance`, and checks the
-state (hoprover_env.sim.testing.check_state) after every control interval and, optionally,
+state (hoprover_env.sim.invariants.check_state) after every control interval and, optionally,
 right after every impact: it lets `core.advance` stop at each impact, through the
 kernel's stop-on-event slot, checks, and resumes (the physics is unchanged:
 benchmarks/bench_stress.py cross-checks the driver against `simulate`). Some stress
@@ -27,8 +27,7 @@ from hoprover_env.core import MODE_A, MODE_B, MODE_C, MODE_D, MODE_E, MODE_F, MO
 from hoprover_env.core.params import P_H, P_I, P_TMAX
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.sim.simulate import make_options, make_state
-from hoprover_env.sim.testing import (
+from hoprover_env.sim.invariants import (
     D_CORNER_VY,
     D_CORNER_Y,
     D_FG_TH,
@@ -57,9 +56,10 @@ from hoprover_env.sim.testing import (
     gained_energy,
     new_drift,
 )
+from hoprover_env.sim.simulate import make_options, make_state
 
 # Result slots of one driver call (R_*), a flat float vector: counters, then the drift
-# record of hoprover_env.sim.testing (D_* slots, from R_DRIFT on), then more counters and
+# record of hoprover_env.sim.invariants (D_* slots, from R_DRIFT on), then more counters and
 # one count per violation kind.
 R_STEPS, R_SIM_SECONDS, R_EVENTS, R_IMPACTS, R_GAINS, R_KERNEL_GAINS, R_BREAKS = range(7)
 R_DRIFT = 7

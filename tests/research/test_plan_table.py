@@ -69,7 +69,7 @@ def test_targets_within_cells_get_their_own_row_s_plan():
 
 
 def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
-    import hoprover_env.training.imitation as imitation
+    import hoprover_env.training.warm_start as imitation
     seen = []
     monkeypatch.setattr(imitation, "collect", lambda *a, targets, **k: seen.append(targets))
     monkeypatch.setattr(pt, "PlanTableTeacher", lambda *a, **k: None)

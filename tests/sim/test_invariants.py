@@ -1,4 +1,4 @@
-"""hoprover_env.sim.testing's checks flag what they must: the property tests and the stress
+"""hoprover_env.sim.invariants's checks flag what they must: the property tests and the stress
 benchmark trust an empty list from them."""
 import dataclasses
 
@@ -6,7 +6,7 @@ import numpy as np
 
 from helpers import launch_then_hold
 from hoprover_env import simulate
-from hoprover_env.sim.testing import (
+from hoprover_env.sim.invariants import (
     V_KINEMATICS,
     V_NAN,
     V_PEN_SAMPLE,

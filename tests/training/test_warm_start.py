@@ -1,10 +1,10 @@
-"""Cloning an expert (hoprover_env.training.imitation): the weighted fit, and mpc's labels while a
+"""Cloning an expert (hoprover_env.training.warm_start): the weighted fit, and mpc's labels while a
 learner drives (DAgger)."""
 import numpy as np
 import pytest
 import torch
 
-from hoprover_env.training.imitation import _fit, collect
+from hoprover_env.training.warm_start import _fit, collect
 
 
 def _constant_fit(weight, lr_end=None, epochs=200):
@@ -51,7 +51,7 @@ def test_mpc_replans_from_the_learners_flight_when_shadowing():
 
 def test_sample_weights_single_out_the_launch_and_the_first_decision():
     from hoprover_env.tasks.observation import OBS_DIM, OBS_MODE, OBS_TIME
-    from hoprover_env.training.imitation import sample_weights
+    from hoprover_env.training.warm_start import sample_weights
     obs = np.zeros((4, OBS_DIM), dtype=np.float32)
     obs[:, OBS_TIME] = np.array([0.0, 10.0, 30.0, 10.0]) / 600.0
     obs[3, OBS_MODE] = 1.0                               # the last one in flight
