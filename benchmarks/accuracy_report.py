@@ -19,7 +19,7 @@ SCENARIO = (
     "first touchdown through the bounces and the slide to rest. The target is the "
     "reference rest position + {target_offset} m, so that the rover stops inside the band "
     "and TTRTP exists. Each run is one call of a numba driver (`run_scenario` in "
-    "agents/launch_land.py) that loops `core.advance` and computes the PD torque itself: "
+    "research/launch_land.py) that loops `core.advance` and computes the PD torque itself: "
     "the wall times are the integrators', not Python's (simulate() with the same "
     "controller in Python takes {python_wall} per run on the contest grid, the driver "
     "{driver_grid_wall}). The driver reproduces simulate() (contest grid) and a RoverSim "

@@ -9,7 +9,7 @@ What is measured, in the order the code does it:
    control instants 0.1 s apart during the flight; the torque is zero from the first
    touchdown on, through the bounces and the final slide, until the rover rests (F)
    and the judge has decided. The whole run is one call of a small numba driver
-   (agents/launch_land.py `run_scenario`) that loops `core.advance` itself, so the wall time is the
+   (research/launch_land.py `run_scenario`) that loops `core.advance` itself: the wall time is the
    integrators' and not Python's (a Python controller costs ~8 us per control step,
    more than the event integrator's whole flight step).
 2. The reference: `event` at rtol REFERENCE_RTOL, cross-checked against an
@@ -44,7 +44,13 @@ import time
 import numpy as np
 from scipy.stats import wasserstein_distance
 
-from agents.launch_land import (
+from benchmarks import accuracy_report
+from benchmarks.accuracy_reference import scipy_launch_and_landing
+from benchmarks.report import Section, best_of
+from hoprover_env import RoverParams, RoverSim, core, simulate
+from hoprover_env.sim.controllers import attitude_hold
+from hoprover_env.sim.simulate import make_options, make_state
+from research.launch_land import (
     IDLE_CHUNK,
     N_RESULT,
     R_END_T,
@@ -64,12 +70,6 @@ from agents.launch_land import (
     repeat_launch,
     run_scenario,
 )
-from benchmarks import accuracy_report
-from benchmarks.accuracy_reference import scipy_launch_and_landing
-from benchmarks.report import Section, best_of
-from hoprover_env import RoverParams, RoverSim, core, simulate
-from hoprover_env.sim.controllers import attitude_hold
-from hoprover_env.sim.simulate import make_options, make_state
 
 # ----------------------------------------------------------------------------------
 # The scenario: launch, attitude hold in flight, idle once landed

@@ -2,7 +2,7 @@
 suites with rliable's intervals over seeds, with its learning curves against environment
 steps and against wall time.
 
-This section trains nothing: it reads what `python -m agents.baselines ... --record`
+This section trains nothing: it reads what `python -m research.baselines ... --record`
 wrote into benchmarks/results/baselines/ (one `NAME.json` with the score matrix summary,
 the per-seed rows and the command; `NAME.png`, the curves). One
 table per suite and task, then each baseline's per-seed table and curves. Rerun a row
@@ -23,14 +23,14 @@ RESULTS = ROOT / "benchmarks" / "results" / "baselines"
 
 
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
-    from agents.baselines import seed_table
-    from agents.yardstick.leaderboard import baseline_tables
+    from research.baselines import seed_table
+    from research.yardstick.leaderboard import baseline_tables
     names = sorted(p.stem for p in RESULTS.glob("*.json"))
     if not names:
-        return Section("Baselines over seeds", "None recorded yet: `python -m agents.baselines "
+        return Section("Baselines over seeds", "None recorded yet: `python -m research.baselines "
                        "--config CONFIG --seeds 0-4 --out runs/baselines/NAME --record`.")
     md = ["Each row: one config trained from scratch with several seeds (`python -m "
-          "agents.baselines`), each seed's best model (chosen on train.py's validation "
+          "research.baselines`), each seed's best model (chosen on train.py's validation "
           "targets, which the suites never share) playing its task's frozen suite. Success, "
           "median regret (TTRTP over the best-known reference's), mean and IQM normalised "
           "score, each with a 95 % stratified-bootstrap interval over seeds (rliable). "

@@ -10,8 +10,8 @@ their ranges, and control periods from 1e-4 s to 10 s. Each family runs with the
 integrator and, where affordable, the contest-style `euler` (dt 1e-3 s), under both
 impact laws.
 
-The driver (agents/stress/drivers.py `drive`, with the stress controllers there and the
-families of runs in agents/stress/families.py) checks the state after every control
+The driver (research/stress/drivers.py `drive`, with the stress controllers there and the
+families of runs in research/stress/families.py) checks the state after every control
 interval (a "sample", what `simulate`
 records) and also right after every impact (it lets `core.advance` stop at each impact,
 through the kernel's stop-on-event slot, checks, and resumes; the physics is unchanged,
@@ -22,7 +22,7 @@ the cross-check below confirms it). Per control interval it counts:
                 lowest height after every event in S_MIN_HEIGHT);
 * pen_sample -- a bottom corner below -1e-9 m in a checked state;
 * kinematics -- the state letter contradicts the kinematics
-                (hoprover_env.sim.testing `check_state`, tolerance 1e-9);
+                (hoprover_env.sim.invariants `check_state`, tolerance 1e-9);
 * energy     -- an impact raised the kinetic energy by more than 1e-12 under the
                 `dissipative` law (which must never do so);
 * time       -- the interval did not end at its stop time, or time went backwards;
@@ -32,7 +32,7 @@ the cross-check below confirms it). Per control interval it counts:
 The runs are driven by a jitted loop over `core.advance`: some families take 1e7
 control steps, which a Python loop through `simulate` and a Python controller would
 make minutes long. The driver is cross-checked against `simulate` plus
-`hoprover_env.sim.testing.kinematic_violations` on the first runs of every family (identical
+`hoprover_env.sim.invariants.kinematic_violations` on the first runs of every family (identical
 final states, events and energy gains, the same verdicts), and its checker on hand-made
 states.
 
@@ -54,7 +54,25 @@ import time
 
 import numpy as np
 
-from agents.stress.drivers import (
+from benchmarks import stress_report
+from benchmarks.report import Section
+from hoprover_env import RoverParams, core, simulate
+from hoprover_env.sim.invariants import (
+    ENERGY_TOL,
+    KINEMATIC_TOL,
+    N_RECORDS,
+    PENETRATION_TOL,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_NAN,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    check_state,
+    kinematic_violations,
+    new_drift,
+)
+from hoprover_env.sim.simulate import make_state
+from research.stress.drivers import (
     B_FOUND,
     R_BREAKS,
     R_DRIFT_CORNER_VY,
@@ -88,25 +106,7 @@ from agents.stress.drivers import (
     replay,
     upright,
 )
-from agents.stress.families import DEFAULT, FAMILIES, family_random_params, offset
-from benchmarks import stress_report
-from benchmarks.report import Section
-from hoprover_env import RoverParams, core, simulate
-from hoprover_env.sim.simulate import make_state
-from hoprover_env.sim.testing import (
-    ENERGY_TOL,
-    KINEMATIC_TOL,
-    N_RECORDS,
-    PENETRATION_TOL,
-    V_BUDGET,
-    V_KINEMATICS,
-    V_NAN,
-    V_PEN_EVENT,
-    V_PEN_SAMPLE,
-    check_state,
-    kinematic_violations,
-    new_drift,
-)
+from research.stress.families import DEFAULT, FAMILIES, family_random_params, offset
 
 
 # ----------------------------------------------------------------------------------
@@ -155,7 +155,7 @@ def cross_check(spec: RunSpec, max_steps: int):
     """Run `spec` (shortened to max_steps control steps, no restart after a break)
     through the driver -- with and without the stops after impacts -- and through
     `simulate`; compare final state, events, energy gains and the verdicts of
-    hoprover_env.sim.testing.kinematic_violations and Rollout.min_corner_height.
+    hoprover_env.sim.invariants.kinematic_violations and Rollout.min_corner_height.
     Returns a list of disagreements (empty when all agree)."""
     spec = dataclasses.replace(spec, t_end=min(spec.t_end, max_steps * spec.control_dt))
     plain = execute(spec, restart_on_break=False, sample_impacts=False)
@@ -244,9 +244,9 @@ def energy_by(results) -> tuple[dict, dict]:
 
 
 def violation_records(results, per_kind: int = 2) -> list:
-    """Per record kind that occurred (hoprover_env.sim.testing RECORD_NAMES): the runs that
+    """Per record kind that occurred (hoprover_env.sim.invariants RECORD_NAMES): the runs that
     hit it, and up to `per_kind` of them (from different families first) with their
-    replayed violating interval (agents.stress.replay)."""
+    replayed violating interval (research.stress.replay)."""
     out = []
     for k in range(N_RECORDS):
         if k == V_KINEMATICS:

@@ -8,7 +8,21 @@ import os
 
 import numpy as np
 
-from agents.stress.drivers import (
+from benchmarks.report import Section, table
+from hoprover_env import RoverParams, core
+from hoprover_env.sim.invariants import (
+    KINEMATICS_OTHER,
+    N_VIOLATION_KINDS,
+    PEN_AT_BREAK,
+    RECORD_NAMES,
+    V_BUDGET,
+    V_KINEMATICS,
+    V_PEN_EVENT,
+    V_PEN_SAMPLE,
+    VIOLATION_NAMES,
+    WRONG_TILT_ONLY,
+)
+from research.stress.drivers import (
     B_STATE,
     B_STEP,
     B_TORQUE,
@@ -37,21 +51,7 @@ from agents.stress.drivers import (
     R_VIOLATIONS,
     R_WRONG_TILT,
 )
-from agents.stress.families import DEFAULT
-from benchmarks.report import Section, table
-from hoprover_env import RoverParams, core
-from hoprover_env.sim.testing import (
-    KINEMATICS_OTHER,
-    N_VIOLATION_KINDS,
-    PEN_AT_BREAK,
-    RECORD_NAMES,
-    V_BUDGET,
-    V_KINEMATICS,
-    V_PEN_EVENT,
-    V_PEN_SAMPLE,
-    VIOLATION_NAMES,
-    WRONG_TILT_ONLY,
-)
+from research.stress.families import DEFAULT
 
 RUNS_HEADER = (["family", "integrator", "runs", "simulated s", "control steps", "events",
                 "impacts", "restarts after break", "max events / interval"]
@@ -68,7 +68,7 @@ HISTOGRAM_FAMILIES = (("1 random hopping", ("1 ",)), ("2 extreme torques", ("2 "
                       ("3-5 landings", ("3 ", "4", "5 ")), ("6 edge parameters", ("6 ",)),
                       ("7 control periods", ("7 ",)), ("9 terrain", ("9 ",)))
 
-TEXT = """{size} Every run is checked after every control interval and right after every impact (the driver stops `core.advance` at each impact and resumes it: {impact_samples:.0f} post-impact states besides {steps:.0f} control-instant samples). Violation kinds, counted once per control interval: **nan** non-finite state; **pen_event** a bottom corner below -1e-9 m at an event (the kernel's S_MIN_HEIGHT); **pen_sample** the same in a checked state; **kinematics** the state letter contradicts the kinematics (`hoprover_env.sim.testing.check_state`, tolerance 1e-9; "(wrong tilt)" counts those whose only fault is the sign of theta); **energy** an impact gained kinetic energy (ratio > 1 + 1e-12) under `dissipative`; **time** an interval did not end at its stop time; **budget** the event budget of a control interval (`core.event_budget`: {max_events} events for `event`, more for `euler`) ran out. A rover that breaks is restarted upright where it broke. Euler runs use `euler_dt` 1e-3 s.
+TEXT = """{size} Every run is checked after every control interval and right after every impact (the driver stops `core.advance` at each impact and resumes it: {impact_samples:.0f} post-impact states besides {steps:.0f} control-instant samples). Violation kinds, counted once per control interval: **nan** non-finite state; **pen_event** a bottom corner below -1e-9 m at an event (the kernel's S_MIN_HEIGHT); **pen_sample** the same in a checked state; **kinematics** the state letter contradicts the kinematics (`hoprover_env.sim.invariants.check_state`, tolerance 1e-9; "(wrong tilt)" counts those whose only fault is the sign of theta); **energy** an impact gained kinetic energy (ratio > 1 + 1e-12) under `dissipative`; **time** an interval did not end at its stop time; **budget** the event budget of a control interval (`core.event_budget`: {max_events} events for `event`, more for `euler`) ran out. A rover that breaks is restarted upright where it broke. Euler runs use `euler_dt` 1e-3 s.
 
 Families (seeded, family i draws from `numpy.random.default_rng([2015, i])`; {runs} runs): 1 a hopper (random launch torque in [-T_max, T_max] held to lift-off, random rests) for {hop_horizon} s per run at control 0.1 s, holding its attitude in flight with -I (0.15 theta + 0.9 omega), or with no torque in flight; 2 torques +-T_max alternating, random-sign +-T_max and uniform random, switching every control step (0.01, 0.1, 1 s); 3 a hopper pressing the bouncing corner down after each touchdown (control 1e-3..1 s) and drops onto a corner under a pressing torque (control 1e-3..10 s); 4a a corner reaching the ground at 1e-9..1e-5 m/s (set at the touchdown instant, height 0..1e-12 m) or falling from an apex 1e-16..1e-9 m high; 4b landings with theta 1e-14..1e-6 rad; 5 flat landings at 1e-8..1e-2 m/s, sliding or not; 6 random valid parameter sets at the edges of their ranges ({skipped} Painleve sets skipped); 7 control periods 1e-4, 1e-3, 0.01, 0.1, 1, 10 s; 8 the four cases found by this section when it was written (below), replayed every time; 9 terrain: random slopes in [-0.5, 0.5] rad and roughness in [0, 0.3] rad (docs/MODEL.md section 11), each set with its own seeded bumps, a hopper (attitude hold) and uniform random torques. Landings are followed by zero, random or +-T_max torques.
 
@@ -328,7 +328,7 @@ def section(m: dict, fig_dir: str) -> Section:
     summary, examples = violations_report(m["violations"])
     passed, n_good, flagged, n_bad = m["self_test"]
     agreement = ("identical final states, event counts and energy gains, and the same "
-                 "kinematic and penetration verdicts as `hoprover_env.sim.testing`"
+                 "kinematic and penetration verdicts as `hoprover_env.sim.invariants`"
                  if not m["disagreements"] else
                  "**disagreements**: " + "; ".join(m["disagreements"]))
     md = TEXT.format(

@@ -42,7 +42,7 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))           # agents/ of this checkout, run from anywhere
+sys.path.insert(0, str(ROOT))           # research/ of this checkout, run from anywhere
 from hoprover_env.training.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
 
 ENV_NAME = "hoprover"

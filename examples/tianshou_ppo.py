@@ -45,7 +45,7 @@ from torch import nn
 from torch.distributions import Independent, Normal
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))           # agents/ (the project's evaluation code)
+sys.path.insert(0, str(ROOT))           # research/ (the project's evaluation code)
 
 import hoprover_env  # noqa: E402,F401  (registers the envs)
 

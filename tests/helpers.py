@@ -1,5 +1,5 @@
 """Small shared pieces of the tests (contest-signature controllers). The state checks
-live in hoprover_env.sim.testing, shared with the benchmarks."""
+live in hoprover_env.sim.invariants, shared with the benchmarks."""
 import math
 
 import numpy as np

@@ -45,7 +45,7 @@ def _blocks(text: str):
 def _sources_newer(gif: Path, root: Path) -> bool:
     """Whether any simulator, agent or bundled-policy file changed after `gif` was made."""
     made = gif.stat().st_mtime
-    files = [*root.glob("hoprover_env/**/*.py"), *root.glob("agents/*.py"),
+    files = [*root.glob("hoprover_env/**/*.py"), *root.glob("research/*.py"),
              *root.glob("hoprover_env/agents/policies/*")]
     return any(f.stat().st_mtime > made for f in files)
 

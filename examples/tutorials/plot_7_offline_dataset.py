@@ -8,7 +8,7 @@ native vector env, load it back as any Minari user would, check that an episode 
 bit for bit from its recorded seed, train behaviour cloning with a few lines of PyTorch,
 and score the clone on the task's frozen suite against the best-known references.
 The same steps at full size (1 M steps, d3rlpy's BC, IQL and CQL, three seeds) are
-``python -m agents.offline_baselines``; their results are in docs/studies/offline.md.
+``python -m research.offline_baselines``; their results are in docs/studies/offline.md.
 
 Needs: ``pip install 'hoprover[offline,scores]'`` (Minari and h5py for the dataset,
 rliable for the score intervals).

@@ -18,7 +18,7 @@ the problem as a flight team would:
   unknown ground and the actuator's scale error, which it never observes.
 
 `MissionHopEnv` is the same loop seen from the decisions (a Gymnasium env, one step per
-hop, the mission env's reward summed over the hop): what `agents/train_mission.py`
+hop, the mission env's reward summed over the hop): what `research/train_mission.py`
 trains PPO on. `MissionHopPolicy` runs a trained network in HopRoverMission-v0 through
 `ControllerPolicy`, as `evaluate.py --env HopRoverMission-v0 --policy mission` does.
 """
@@ -174,7 +174,7 @@ class MissionHopEnv(gym.Env):
 
 
 def load_mission_policy(path, name: str = "mission", control_dt: float | None = None):
-    """A hop network saved by agents/train_mission.py (an SB3 PPO .zip, with its .json
+    """A hop network saved by research/train_mission.py (an SB3 PPO .zip, with its .json
     beside it) as a `ControllerPolicy` of `LearnedHopper`s: ``act(obs, venv)`` on
     HopRoverMission-v0 (on the estimate) or on any torque task (on the exact state).
     Raises FileNotFoundError for a missing file."""

@@ -32,9 +32,10 @@ from pathlib import Path
 import numpy as np
 
 LEVELS = ("random", "medium", "expert", "mixed")
-# the bundled policy each dataset's expert level plays (agents/policies: which of them is
-# the best learned one for an id is a fact about the bundled files, not about the task),
-# and the mid-training checkpoints of the medium level; the datasets' tasks are these ids
+# the bundled policy each dataset's expert level plays (agents/policies of the package:
+# which of them is the best learned one for an id is a fact about the bundled files, not
+# about the task), and the mid-training checkpoints of the medium level; the datasets'
+# tasks are these ids
 EXPERT = {"HopRover-v0": "scratch", "HopRoverHop-v0": "hop", "HopRoverTerrain-v0": "terrain"}
 MEDIUM = {"HopRover-v0": "scratch_medium"}
 TASKS = tuple(EXPERT)

@@ -32,7 +32,7 @@ torque after the schedule's end. It is *best-known*, not optimal.
 `simulate(ep.reference_schedule, t_end=600, control_dt=ep.control_dt,
 target_x=ep.target_x, params=RoverParams(slope=ep.slope, roughness=ep.roughness),
 seed=ep.terrain_seed)` reproduces `ep.reference_ttrtp` bit for bit (`ep.replay()`).
-`python -m agents.yardstick.references` regenerates them (docs/studies/references.md gives
+`python -m research.yardstick.references` regenerates them (docs/studies/references.md gives
 its budget).
 
 What a suite file holds (an .npz, `save` and `load`): per episode the columns of
@@ -222,7 +222,7 @@ class Suite:
 def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
     """The episodes of a suite, drawn from its seed (no references): columns of
     FIELDS[:5]. `seed` and `n` draw `n` other episodes the same way (fresh ones, for a
-    check on episodes nothing was chosen on: agents/yardstick/fresh_targets.py)."""
+    check on episodes nothing was chosen on: research/yardstick/fresh_targets.py)."""
     if name == "contest":
         return {"target_x": np.array([CONTEST_TARGET]), "slope": np.zeros(1),
                 "roughness": np.zeros(1), "terrain_seed": np.full(1, NO_TERRAIN_SEED),

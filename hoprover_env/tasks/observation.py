@@ -71,7 +71,7 @@ MIRROR_ORDER[OBS_MODE + MODE_B:OBS_MODE + MODE_E + 1] = OBS_MODE + np.array(
 def mirror(obs):
     """Observations (N, OBS_DIM; numpy or torch) of the mirror image of each rover and
     its target on level ground, where the mirror image of a good action is its negative
-    (agents.plan_clone.gated's symmetric networks act as odd functions of this map)."""
+    (research.plan_clone.gated's symmetric networks act as odd functions of this map)."""
     if isinstance(obs, np.ndarray):
         return obs[:, MIRROR_ORDER] * MIRROR_SIGN.astype(obs.dtype)
     import torch

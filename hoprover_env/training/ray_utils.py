@@ -6,7 +6,7 @@ Which code the tasks run (docs/SCALING.md, "Running on a cluster"):
   one already running here (join that one with `--address auto`).
 * An address (`host:port`, `ray://host:10001`, `auto`, or RAY_ADDRESS), by default: the
   tasks import the hoprover installed on each node (an editable install of a checkout,
-  in a container image or by a setup step), and that checkout's agents/ and train.py.
+  in a container image or by a setup step), and that checkout's research/ and train.py.
   Before any work, one probe task per node reports its version and source hash
   (hoprover_env.util.buildinfo); a node that differs from the driver stops the run with a
   message naming it. The installed package's numba cache (its __pycache__, or

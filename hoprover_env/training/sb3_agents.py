@@ -346,7 +346,7 @@ def features_extractor(spec):
     """The SB3 features extractor class a config names as "module:Class" (importable from
     where train.py runs). ConfigError names the key when it cannot be imported or is not
     a BaseFeaturesExtractor. An extractor with `frozen_statistics = True` reads the
-    observation statistics through `use_statistics(mean, std)` (training.imitation)."""
+    observation statistics through `use_statistics(mean, std)` (training.warm_start)."""
     import importlib
 
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor

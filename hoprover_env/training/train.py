@@ -264,7 +264,7 @@ class Trainer:
         import copy
 
         from hoprover_env.agents.policies import load_policy
-        from hoprover_env.training.imitation import clone, collect
+        from hoprover_env.training.warm_start import clone, collect
         pt = pretrain_settings(self.cfg)
         ekw = env_kwargs(self.cfg)
         expert = load_policy(pt["expert"], control_dt=ekw.get("control_dt", 0.5))

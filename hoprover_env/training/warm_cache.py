@@ -3,8 +3,8 @@
 Builds and steps every registered environment (the single env and the native vector
 env, threaded and not) and runs `simulate` and `simulate_batch` with both integrators
 (the event one on smooth and on rough ground) once, which compiles every kernel into
-numba's cache; in a checkout it also runs one short episode of the scripted hopper and
-of a bundled learned policy (agents/). Every later process on the machine, a Ray
+numba's cache; it also runs one short episode of the scripted hopper and of a bundled
+learned policy (hoprover_env.agents). Every later process on the machine, a Ray
 worker included, loads the compiled code instead of compiling it (10-16 s per process
 on a cold cache).
 
@@ -72,11 +72,9 @@ def warm(log=None) -> None:
         ground = "smooth" if params is None else "rough"
         say(f"  simulate, simulate_batch ({integrator}, {ground} ground): "
             f"{time.perf_counter() - t0:.1f} s")
-    try:        # a checkout: its agents/ run the scripted hopper and the learned policies
-        from hoprover_env.agents.policies import load_policy
-        from hoprover_env.evaluation.episodes import run_episodes
-    except ImportError:
-        return
+    # the layers above this one, imported here so that the cache warms without them
+    from hoprover_env.agents.policies import load_policy
+    from hoprover_env.evaluation.episodes import run_episodes
     for name in ("scripted", "scratch"):
         t0 = time.perf_counter()
         run_episodes(load_policy(name, control_dt=0.5), np.array([0.5]))

@@ -113,7 +113,7 @@ def require(expected: dict) -> None:
 
 def use_checkout() -> None:
     """Ray worker setup hook: the checkout this hoprover_env was installed from goes on
-    sys.path, so that tasks import its agents/ and train.py as well."""
+    sys.path, so that tasks import its research/ and train.py as well."""
     root = _checkout_root()
     if root is not None and str(root) not in sys.path:
         sys.path.insert(0, str(root))

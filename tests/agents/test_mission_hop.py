@@ -96,8 +96,8 @@ def _tiny_config(tmp_path, **extra):
 def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
     import csv
 
-    from agents import train_mission
     from hoprover_env.agents.policies import load_policy
+    from research import train_mission
     cfg, out = _tiny_config(tmp_path), tmp_path / "run"
     assert train_mission.main(["--config", cfg, "--out", str(out)]) == 0
     first = list(csv.DictReader(open(out / "evaluations.csv")))
@@ -116,7 +116,7 @@ def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path)
 
 
 def test_the_trainer_names_an_unknown_config_key(tmp_path, capsys):
-    from agents import train_mission
+    from research import train_mission
     with pytest.raises(SystemExit):
         train_mission.main(["--config", _tiny_config(tmp_path, n_env=3), "--out",
                             str(tmp_path / "run")])
@@ -144,7 +144,7 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
 
     from hoprover_env.training.sb3_agents import ConfigError, load_config
     path = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
-    with pytest.raises(ConfigError, match="agents.train_mission"):
+    with pytest.raises(ConfigError, match="research.train_mission"):
         load_config(path)
 
 
@@ -152,7 +152,7 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
 def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
     import json
 
-    from agents import baselines
+    from research import baselines
     out = tmp_path / "runs"
     out.mkdir()
     baselines.train(_tiny_config(tmp_path), [0], out, timesteps=16)

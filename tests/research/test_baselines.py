@@ -1,11 +1,11 @@
-"""agents/baselines.py: seeds trained one after another, resumed, and scored on the
+"""research/baselines.py: seeds trained one after another, resumed, and scored on the
 suite with intervals over seeds."""
 import json
 
 import pytest
 import yaml
 
-from agents import baselines
+from research import baselines
 
 # the fast tier (pytest -m "not slow") leaves this file out:
 # trains seeds one after another
@@ -74,6 +74,6 @@ def test_torch_threads_reach_train_py_and_a_custom_trainer_refuses_them(tmp_path
     assert calls[0][calls[0].index("--torch-threads") + 1] == "1"
     baselines.train(str(cfg), [1], tmp_path / "runs", None)
     assert "--torch-threads" not in calls[1]
-    cfg.write_text(yaml.safe_dump({**TINY, "trainer": "agents.train_mission"}))
+    cfg.write_text(yaml.safe_dump({**TINY, "trainer": "research.train_mission"}))
     with pytest.raises(SystemExit, match="--torch-threads is train.py's flag"):
         baselines.train(str(cfg), [2], tmp_path / "runs", None, torch_threads=1)

@@ -1,9 +1,9 @@
-"""Clones of agents/plan_clone/clone_study.py leave as run directories that load_policy reads."""
+"""Clones of research/plan_clone/clone_study.py leave as run directories that load_policy reads."""
 import numpy as np
 import pytest
 
-from agents.plan_clone.clone_study import _model, _policy, export
 from hoprover_env.agents.policies import load_policy
+from research.plan_clone.clone_study import _model, _policy, export
 
 
 @pytest.mark.slow                # fits a clone
@@ -21,7 +21,7 @@ def test_an_exported_clone_loads_and_acts_as_it_was_fitted(tmp_path):
 
 
 def test_a_warm_start_keeps_the_statistics_its_weights_were_fitted_to():
-    from hoprover_env.training.imitation import clone
+    from hoprover_env.training.warm_start import clone
     cfg, venv, model = _model("linear")
     rng = np.random.default_rng(1)
     obs = rng.normal(2.0, 3.0, size=(64, 19)).astype(np.float32)

@@ -1,19 +1,19 @@
-"""agents.plan_clone.features: inputs at fine scales, part of the network."""
+"""research.plan_clone.features: inputs at fine scales, part of the network."""
 import pickle
 
 import numpy as np
 import pytest
 import torch
 
-from agents.plan_clone.clone_study import _load, _model, _policy, export
-from agents.plan_clone.features import (
+from hoprover_env.agents.policies import load_policy
+from hoprover_env.training.sb3_agents import ConfigError, load_config, validate
+from research.plan_clone.clone_study import _load, _model, _policy, export
+from research.plan_clone.features import (
     MicroStateFeatures,
     micro_features,
     n_features,
     set_statistics,
 )
-from hoprover_env.agents.policies import load_policy
-from hoprover_env.training.sb3_agents import ConfigError, load_config, validate
 
 
 def test_the_layer_passes_the_observation_on_and_appends_the_numpy_features():
@@ -75,10 +75,10 @@ def test_an_exported_clone_with_them_keeps_its_statistics_in_the_weights(tmp_pat
 
 def test_a_config_asks_for_them_by_name_with_frozen_statistics():
     cfg = load_config("configs/ppo_mpc.yaml")
-    micro = "agents.plan_clone.features:MicroStateFeatures"
+    micro = "research.plan_clone.features:MicroStateFeatures"
     cfg["policy"]["features_extractor"] = micro
     validate(cfg)
-    for bad in ("agents.plan_clone.features:Fourier", "micro", "numpy:ndarray"):
+    for bad in ("research.plan_clone.features:Fourier", "micro", "numpy:ndarray"):
         cfg["policy"]["features_extractor"] = bad
         with pytest.raises(ConfigError, match="policy.features_extractor"):
             validate(cfg)

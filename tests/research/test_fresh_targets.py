@@ -1,11 +1,11 @@
-"""agents/yardstick/fresh_targets.py: a policy against a reference on freshly drawn targets."""
+"""research/yardstick/fresh_targets.py: a policy against a reference on freshly drawn targets."""
 import json
 import math
 
 import numpy as np
 import pytest
 
-from agents.yardstick import fresh_targets
+from research.yardstick import fresh_targets
 
 
 def test_draw_is_seeded_in_range_and_puts_the_edge_set_beyond_the_band():

@@ -1,14 +1,14 @@
-"""agents.plan_clone.gated: the two-branch torque network and the bundled `plan_clone`."""
+"""research.plan_clone.gated: the two-branch torque network and the bundled `plan_clone`."""
 import json
 
 import numpy as np
 import pytest
 import torch
 
-from agents.plan_clone import gated
-from agents.plan_clone.clone_study import _model, _policy
-from agents.plan_clone.features import set_statistics
 from hoprover_env.agents.policies import load_policy
+from research.plan_clone import gated
+from research.plan_clone.clone_study import _model, _policy
+from research.plan_clone.features import set_statistics
 
 
 def _random_obs(rng, n=400):
@@ -298,10 +298,10 @@ def test_the_exported_module_acts_as_the_network_and_loads_with_no_research_code
 @pytest.mark.slow                # rebuilds and compares the research network
 def test_the_bundled_plan_clone_is_the_research_network_exported():
     """The package's plan_clone.pt2 acts exactly as the state-dict network the pipeline
-    made (agents/plan_clone/plan_clone.pt), on observations of real episodes."""
+    made (research/plan_clone/plan_clone.pt), on observations of real episodes."""
     import gymnasium as gym
     bundled = load_policy("plan_clone")
-    research = gated.load_policy(gated.Path(__file__).parents[2] / "agents" / "plan_clone"
+    research = gated.load_policy(gated.Path(__file__).parents[2] / "research" / "plan_clone"
                                  / "plan_clone.pt")
     envs = gym.make_vec("HopRover-v0", num_envs=32)
     obs, _ = envs.reset(seed=4)

@@ -1,4 +1,4 @@
-"""The leaderboard groups its agents by how they were made (agents/yardstick/leaderboard.py):
+"""The leaderboard groups its agents by how they were made (research/yardstick/leaderboard.py):
 every row of benchmarks/results/leaderboard.json carries one of four groups, read from
 the bundled models' .json files, and an imitation names its hand-written parts."""
 import json
@@ -57,7 +57,7 @@ def test_every_bundled_model_says_its_group_and_the_rows_agree(results):
 
 
 def test_the_page_has_one_heading_per_group_in_order():
-    from agents.yardstick.leaderboard import GROUPS as BUILDER
+    from research.yardstick.leaderboard import GROUPS as BUILDER
     assert tuple(BUILDER) == GROUPS
     page = (ROOT / "docs" / "leaderboard.md").read_text()
     at = [page.index(f"### {heading}\n") for heading, _ in BUILDER.values()]

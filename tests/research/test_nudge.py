@@ -1,9 +1,7 @@
-"""agents/plan_clone/nudge.py: the nudge at the band's edge as a law of the observed state."""
+"""research/plan_clone/nudge.py: the nudge at the band's edge as a law of the observed state."""
 import numpy as np
 import pytest
 
-from agents.plan_clone import nudge
-from agents.plan_clone.plan_table import PlanTableTeacher, load_table
 from hoprover_env.tasks.observation import (
     OBS_DX,
     OBS_MODE,
@@ -13,6 +11,8 @@ from hoprover_env.tasks.observation import (
     RATE_SCALE,
     mirror,
 )
+from research.plan_clone import nudge
+from research.plan_clone.plan_table import PlanTableTeacher, load_table
 
 TABLE = "benchmarks/results/plan_clone_retry/table.npz"
 
@@ -100,7 +100,7 @@ def test_a_teacher_with_a_nudge_family_flies_the_family_s_time(monkeypatch):
 def test_the_branch_fit_with_mirror_also_fits_the_mirror_images(tmp_path, monkeypatch):
     """`fit_branch(mirror=True)` hands the fit each edge state and its mirror image with
     the negated action, and nothing from off the edge."""
-    from hoprover_env.training import imitation
+    from hoprover_env.training import warm_start as imitation
     obs = np.array([_obs(0.105, 5), _obs(-0.104, 3, -0.003, -0.001), _obs(0.3, 0)],
                    dtype=np.float32)
     path = tmp_path / "c.npz"

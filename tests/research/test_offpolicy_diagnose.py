@@ -1,4 +1,4 @@
-"""agents/offpolicy/diagnose.py: the measurement behind docs/studies/off-policy.md runs
+"""research/offpolicy/diagnose.py: the measurement behind docs/studies/off-policy.md runs
 for SAC and TD3 and writes finite, consistent rows."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 import yaml
 
 pytest.importorskip("torch")
-from agents.offpolicy import diagnose  # noqa: E402
+from research.offpolicy import diagnose  # noqa: E402
 
 # the fast tier (pytest -m "not slow") leaves this file out:
 # SAC and TD3 runs
@@ -69,10 +69,10 @@ def test_every_recorded_variant_is_a_config_train_py_accepts(path):
 
 
 def test_the_landscape_holds_still_below_the_tipping_torque_and_flies_with_the_hold(tmp_path):
-    """agents/offpolicy/landscape.py: an opening torque of zero leaves the rover at rest
+    """research/offpolicy/landscape.py: an opening torque of zero leaves the rover at rest
     where it started for the whole episode under either rule, and under the attitude
     hold no opening of the three (-1, 0, 1) breaks it."""
-    from agents.offpolicy import landscape
+    from research.offpolicy import landscape
     out = tmp_path / "landscape.csv"
     assert landscape.main(["--out", str(out), "--points", "3"]) == 0
     rows = list(csv.DictReader(open(out)))

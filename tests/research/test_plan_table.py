@@ -1,11 +1,11 @@
-"""The plan table (agents/plan_clone/plan_table.py): plans made alike keep their cost, and the
+"""The plan table (research/plan_clone/plan_table.py): plans made alike keep their cost, and the
 teacher flies them as the search did."""
 import numpy as np
 import pytest
 
-from agents.plan_clone import plan_table as pt
 from hoprover_env.evaluation.episodes import run_episodes
 from hoprover_env.tasks.observation import OBS_DX, OBS_TIME, POS_SCALE
+from research.plan_clone import plan_table as pt
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +69,7 @@ def test_targets_within_cells_get_their_own_row_s_plan():
 
 
 def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
-    import hoprover_env.training.imitation as imitation
+    import hoprover_env.training.warm_start as imitation
     seen = []
     monkeypatch.setattr(imitation, "collect", lambda *a, targets, **k: seen.append(targets))
     monkeypatch.setattr(pt, "PlanTableTeacher", lambda *a, **k: None)
@@ -100,14 +100,14 @@ def test_the_teacher_flies_the_table_plans(table):
 def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
     import yaml
 
-    import agents.plan_clone.clone_study as cs
+    import research.plan_clone.clone_study as cs
     from hoprover_env.agents.policies import load_policy
     judged = []
     # the real judge runs 300 episodes per fit: a stand-in that records the call
     monkeypatch.setattr(cs, "judge", lambda policy: judged.append(policy) or {
         "validation_success": 0.0, "validation_median": float("nan"), "suite_success": 0.0,
         "median_regret": float("inf"), "worst_regret": float("inf"), "by_distance": []})
-    import agents.plan_clone.nudge as nudge
+    import research.plan_clone.nudge as nudge
     # a nudge family searched on a tiny grid at two offsets
     monkeypatch.setattr(nudge, "PUSH_GRID", np.array([0.06, 0.07]))
     monkeypatch.setattr(nudge, "TILT_GRID", np.array([1.17e-3]))
@@ -156,14 +156,14 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     policy = load_policy(str(out))
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
-    from agents.plan_clone.gated import load_policy as gated_load
+    from research.plan_clone.gated import load_policy as gated_load
     gated = gated_load(out / "plan_clone.pt")
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
     assert gated.net.symmetric and gated.net.flight and gated.net.hold and gated.net.rest
     assert gated.net.deadzone == 0.0
     import torch
 
-    from agents.plan_clone.gated import Branch
+    from research.plan_clone.gated import Branch
     refit = Branch.from_sb3(load_policy(str(out / "main_edge_1")))   # what it was made of
     obs = torch.as_tensor(np.random.default_rng(0).normal(size=(8, 19)), dtype=torch.float32)
     assert torch.equal(gated.net.main(obs), refit(obs))

@@ -117,8 +117,8 @@ def test_threads_and_record_do_not_change_results():
 
 def test_event_logs_grow_per_batch():
     # a stress case with thousands of Euler events in one run, next to quiet runs
-    from agents.stress import families as stress_families
-    from agents.stress.drivers import TARGET_X
+    from research.stress import families as stress_families
+    from research.stress.drivers import TARGET_X
     spec = next(s for s in stress_families.family_found_cases(np.random.default_rng(0), True)
                 if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
     init = np.array([spec.initial, (0, 0.05, 0, 0, 0, 0), spec.initial])

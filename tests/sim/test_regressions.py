@@ -7,7 +7,7 @@ import pytest
 
 from hoprover_env import RoverParams, simulate
 from hoprover_env.core import params
-from hoprover_env.sim.testing import kinematic_violations
+from hoprover_env.sim.invariants import kinematic_violations
 
 
 def test_near_flat_impact_leaves_no_corner_under_the_ground():

@@ -11,10 +11,10 @@ import numba
 import numpy as np
 import pytest
 
-from agents.stress import families
-from agents.stress.drivers import CTRL_SCHEDULE, TARGET_X
 from hoprover_env import RoverParams, simulate
 from hoprover_env.sim.controllers import attitude_hold
+from research.stress import families
+from research.stress.drivers import CTRL_SCHEDULE, TARGET_X
 
 
 def replay(schedule):

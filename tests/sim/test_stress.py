@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from helpers import attitude_hold
 from hoprover_env import RoverParams, simulate
-from hoprover_env.sim.testing import kinematic_violations
+from hoprover_env.sim.invariants import kinematic_violations
 
 
 @st.composite

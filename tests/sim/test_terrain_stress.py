@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from test_stress import run, scenario
 
-from hoprover_env.sim.testing import kinematic_violations
+from hoprover_env.sim.invariants import kinematic_violations
 
 
 @st.composite

@@ -224,7 +224,7 @@ def test_interrupt_during_cloning_is_reported(tmp_path, monkeypatch, capsys):
 def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, capsys):
     # collecting from the expert is the slow part of cloning: a run interrupted during its
     # pretraining starts again from the collections it kept, unless its settings changed
-    from hoprover_env.training import imitation
+    from hoprover_env.training import warm_start as imitation
     cfg = {**TINY, "timesteps": 512, "pretrain": {"episodes": 4, "epochs": 1,
                                                   "value_epochs": 0, "dagger_rounds": 1,
                                                   "dagger_episodes": 2}}

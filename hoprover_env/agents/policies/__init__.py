@@ -46,7 +46,7 @@ BUNDLED = {"bundled": "ppo_hoprover", "scratch": "ppo_scratch", "hop": "ppo_hop"
 # bundled modules that are not SB3 models (TorchPolicy: a torch.export .pt2 that carries
 # its own pre- and post-processing and metadata; the .json beside it repeats the
 # metadata for people): the clone of the plan table with its nudge branch, made by the
-# research pipeline in agents/plan_clone/ of the repository
+# research pipeline in research/plan_clone/ of the repository
 BUNDLED_NETS = {"plan_clone": "plan_clone"}
 # the algorithms a model may be trained with (train.py's `algo`) and loaded with: name ->
 # (module, class, the policy train.py builds); sb3-contrib's need the contrib extra

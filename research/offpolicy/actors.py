@@ -1,0 +1,217 @@
+"""What a trained off-policy actor does, per contact state, and how large its critic's
+action gap is in flight against the one-step reward's.
+
+    python -m research.offpolicy.actors --model runs/sac/checkpoints/model_100000.zip \\
+        --episodes 40 --out benchmarks/results/offpolicy/actors_sac.json
+
+Loads an SB3 model saved by train.py (with its _vecnormalize.pkl), plays `--episodes`
+episodes with its deterministic actor from rest (the contest's start, seeded targets in
+[-1, 1] m) and splits its decisions by the contact state they were taken in:
+
+- rest (state F): the median |a| and the share of decisions whose torque tips a rover at
+  rest (|T| > m g r);
+- ground contact (B-E, G: pivoting or sliding on a corner or the face);
+- flight (A): the median |a|, the median |omega| and the correlation of the torque with
+  -omega (1: a damper that brakes the spin).
+
+Per episode: broken, success, whether it ended in flight (cut by the 600 s limit before
+landing), the median flight's duration (decisions in a row in flight, times the control
+period) and that of each episode's longest flight, the opening action, its correlation
+with the target, and the final distance to the target.
+
+The action gap (`--gap-states`, 8 by default): at flight states the actor reached, the
+critic's Q(s, a) and the one-step reward r(s, a) (the env re-played from that state with
+each a, the same physics) over 21 actions in [-1, 1]: their ranges (max - min), the
+argmax of each, and whether the two argmaxes agree to within one grid step. A critic that
+learnt Q for a potential-shaped reward shows no attitude credit as a difference between
+actions; a per-decision cost puts it back.
+
+Writes one JSON (atomically) and prints a summary.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+from gymnasium.vector import AutoresetMode
+
+import hoprover_env  # noqa: F401  (registers the ids)
+from hoprover_env.agents.policies import load_sb3
+from hoprover_env.core.params import RoverParams
+from hoprover_env.envs.registry import env_class, task, vector_env_class
+from hoprover_env.evaluation.episodes import seeded_targets
+from hoprover_env.util.files import atomic_write
+
+REST, FLIGHT = 5, 0
+GROUPS = {"rest": (REST,), "contact": (1, 2, 3, 4, 6), "flight": (FLIGHT,)}
+GRID = np.linspace(-1.0, 1.0, 21)
+
+
+def env_arguments(policy) -> dict:
+    """The env arguments the policy was trained with over its id's own, less the
+    training-only start distribution (every episode here starts as the contest's)."""
+    kw = {**task(policy.env_id).kwargs, **policy.env_kwargs}
+    kw.pop("flight_start", None)
+    kw.pop("target_x", None)
+    return kw
+
+
+def play(policy, targets: np.ndarray, seed: int) -> dict:
+    """The deterministic actor's episodes side by side, every decision recorded."""
+    n = len(targets)
+    venv = vector_env_class(policy.env_id)(n, autoreset_mode=AutoresetMode.SAME_STEP,
+                                           info_level="full", **env_arguments(policy))
+    obs, info = venv.reset(seed=seed, options={"target_x": targets})
+    policy.reset(n)
+    modes, acts, omegas, states = [], [], [], []
+    open_ = np.ones(n, bool)
+    first = np.full(n, np.nan)
+    out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
+    run = np.zeros(n, int)               # decisions in the current flight
+    longest = np.zeros(n, int)           # each episode's longest flight
+    flights: list[int] = []              # each finished flight's decisions
+    final = np.full(n, np.nan)
+    while open_.any():
+        a = np.asarray(policy.act(obs, venv), dtype=np.float32)
+        mode = np.asarray(info["state"]).copy()
+        rs = np.asarray(info["rover_state"]).copy()
+        for i in np.flatnonzero(open_):
+            modes.append(mode[i])
+            acts.append(float(a[i, 0]))
+            omegas.append(rs[i, 5])
+            if mode[i] == FLIGHT:
+                states.append(rs[i])
+                run[i] += 1
+                longest[i] = max(longest[i], run[i])
+            elif run[i]:
+                flights.append(int(run[i]))
+                run[i] = 0
+            if math.isnan(first[i]):
+                first[i] = a[i, 0]
+        a[~open_] = 0.0
+        obs, _, term, trunc, info = venv.step(a)
+        ended = open_ & (np.asarray(term) | np.asarray(trunc))
+        if ended.any():
+            fin = info["final_info"]
+            for i in np.flatnonzero(ended):
+                out["broken"][i] = bool(fin["broken"][i])
+                out["success"][i] = bool(fin["is_success"][i])
+                out["ended_in_flight"][i] = int(fin["state"][i]) == FLIGHT
+                final[i] = float(fin["rover_state"][i][0]) - targets[i]
+        open_ &= ~ended
+    venv.close()
+    return {"flights": np.asarray(flights + [int(r) for r in run if r]), "longest": longest,
+            "mode": np.asarray(modes), "action": np.asarray(acts), "omega": np.asarray(omegas),
+            "flight_states": np.asarray(states), "opening": first, "final": final, **out}
+
+
+def control_dt(policy) -> float:
+    """The policy's control period [s]."""
+    return float(env_arguments(policy).get("control_dt", 0.5))
+
+
+def tipping_action(policy) -> float:
+    """|a| whose torque equals m g r under the policy's action map (linear or cubic)."""
+    p = RoverParams()
+    frac = p.mass * p.gravity * p.half_width / p.torque_max
+    scale = policy.env_kwargs.get("action_scale", 1.0)
+    if policy.env_kwargs.get("action_map", "linear") == "cubic":
+        return (frac / scale) ** (1.0 / 3.0)
+    return frac / scale
+
+
+def per_state(run: dict, tip: float) -> dict:
+    rows = {}
+    for name, codes in GROUPS.items():
+        sel = np.isin(run["mode"], codes)
+        a, w = run["action"][sel], run["omega"][sel]
+        row = {"decisions": int(sel.sum())}
+        if sel.any():
+            row["median_abs_action"] = float(np.median(np.abs(a)))
+            row["tipping_share"] = float(np.mean(np.abs(a) > tip))
+        if name == "flight" and sel.sum() > 2:
+            row["median_abs_omega"] = float(np.median(np.abs(w)))
+            row["corr_action_minus_omega"] = float(np.corrcoef(a, -w)[0, 1]) \
+                if a.std() > 0 and w.std() > 0 else float("nan")
+        rows[name] = row
+    return rows
+
+
+def action_gap(policy, states: np.ndarray, targets, k: int,
+               rng: np.random.Generator) -> list[dict]:
+    """Critic and one-step reward over GRID at k flight states."""
+    model = policy.model
+    if len(states) == 0:
+        return []
+    pick = rng.choice(len(states), size=min(k, len(states)), replace=False)
+    env_kw = env_arguments(policy)
+    rows = []
+    for j in pick:
+        x0 = states[j]
+        target = float(targets[j % len(targets)])
+        env = env_class(policy.env_id)(target_x=target, **env_kw)
+        obs, _ = env.reset(seed=0, options={"initial_state": x0})
+        r = []
+        for a in GRID:
+            env.reset(seed=0, options={"initial_state": x0})
+            _, rew, *_ = env.step(np.array([a], dtype=np.float32))
+            r.append(float(rew))
+        env.close()
+        o = torch.as_tensor(policy.normalize(obs[None]), dtype=torch.float32).repeat(len(GRID), 1)
+        act = torch.as_tensor(GRID[:, None], dtype=torch.float32)
+        with torch.no_grad():
+            q = model.critic(o, act)
+            q = q.mean(dim=(1, 2)) if isinstance(q, torch.Tensor) else \
+                torch.min(torch.cat(q, dim=1), dim=1).values
+        q = q.numpy()
+        rows.append({"omega": float(x0[5]), "theta": float(x0[2]),
+                     "reward_range": float(np.ptp(r)), "q_range": float(np.ptp(q)),
+                     "reward_argmax": float(GRID[int(np.argmax(r))]),
+                     "q_argmax": float(GRID[int(np.argmax(q))]),
+                     "agree": bool(abs(np.argmax(r) - np.argmax(q)) <= 1)})
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--model", type=Path, required=True, help="an SB3 .zip saved by train.py")
+    ap.add_argument("--episodes", type=int, default=40)
+    ap.add_argument("--gap-states", type=int, default=8)
+    ap.add_argument("--seed", type=int, default=2015, help="the targets' seed")
+    ap.add_argument("--out", type=Path, required=True, help="the JSON to write")
+    args = ap.parse_args(argv)
+    torch.set_num_threads(1)
+    policy = load_sb3(args.model)
+    targets = seeded_targets(args.episodes, args.seed)
+    run = play(policy, targets, args.seed)
+    opening_corr = float(np.corrcoef(run["opening"], targets)[0, 1]) \
+        if np.std(run["opening"]) > 0 else float("nan")
+    report = {
+        "model": str(args.model), "env_id": policy.env_id, "episodes": args.episodes,
+        "per_state": per_state(run, tipping_action(policy)),
+        "broken": int(run["broken"].sum()), "success": int(run["success"].sum()),
+        "median_final_distance_m": float(np.median(np.abs(run["final"]))),
+        "ended_in_flight": int(run["ended_in_flight"].sum()),
+        "median_flight_s": float(np.median(run["flights"]) * control_dt(policy))
+        if len(run["flights"]) else float("nan"),
+        "median_longest_flight_s": float(np.median(run["longest"]) * control_dt(policy)),
+        "median_abs_opening": float(np.median(np.abs(run["opening"]))),
+        "corr_opening_target": opening_corr,
+        "action_gap": action_gap(policy, run["flight_states"], targets,
+                                 args.gap_states, np.random.default_rng(args.seed))}
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write(args.out, json.dumps(report, indent=1) + "\n")
+    print(json.dumps({k: v for k, v in report.items() if k != "action_gap"}, indent=1))
+    for g in report["action_gap"]:
+        print(f"  flight state omega {g['omega']:+.2f}: reward range {g['reward_range']:.3f}, "
+              f"Q range {g['q_range']:.3f}, argmax r {g['reward_argmax']:+.1f} Q "
+              f"{g['q_argmax']:+.1f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
