@@ -125,7 +125,9 @@ def _probe(extra_env=None, code=PROBE, timeout=1800):
 def test_hoprover_leaves_numba_llvmlite_openmp_torch_env_warnings_and_signals_alone():
     import hoprover_env
     result = _probe()
-    assert result["ran"] == list(hoprover_env.ENVS) + ["simulate", "simulate_batch"]
+    # the package's own ids (an earlier test in this process may have added a toy task)
+    ours = [i for i, task in hoprover_env.ENVS.items() if task.module.startswith("hoprover_env.")]
+    assert result["ran"] == ours + ["simulate", "simulate_batch"]
     assert result["changed"] == [], json.dumps(result["detail"], indent=1)
 
 
