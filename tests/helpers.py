@@ -1,5 +1,6 @@
 """Small shared pieces of the tests (contest-signature controllers). The state checks
 live in hoprover_env.sim.invariants, shared with the benchmarks."""
+import dataclasses
 import math
 
 import numpy as np
@@ -62,3 +63,28 @@ def batch_on_one_and_all_threads(*args, **kw):
     finally:
         numba.set_num_threads(before)
     return one, many
+
+
+def replay(schedule):
+    """A Python controller that returns schedule[k] at the k-th control instant."""
+    step = [0]
+
+    def control(pos, vel, the, omg, posT, t, smt, state):
+        k = step[0]
+        step[0] += 1
+        return float(schedule[k]) if k < len(schedule) else 0.0
+
+    return control
+
+
+def assert_identical(a, b):
+    for f in dataclasses.fields(a):
+        if not f.compare:               # replay_args: how to run it again, not the run
+            continue
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if isinstance(x, np.ndarray):
+            assert x.dtype == y.dtype and x.shape == y.shape, f.name
+            # bit for bit: compare the raw bytes (NaN and -0.0 included)
+            assert np.ascontiguousarray(x).tobytes() == np.ascontiguousarray(y).tobytes(), f.name
+        else:
+            assert x == y, f.name

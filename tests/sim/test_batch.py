@@ -4,9 +4,8 @@ import math
 import numba
 import numpy as np
 import pytest
-from test_rollout import assert_identical
 
-from helpers import batch_on_one_and_all_threads
+from helpers import assert_identical, batch_on_one_and_all_threads
 from hoprover_env import BatchRollout, RoverParams, simulate, simulate_batch
 from hoprover_env.core.params import FIELDS, as_arrays, invalid_rows
 from hoprover_env.sim import batch as batch_module
@@ -113,23 +112,6 @@ def test_threads_and_record_do_not_change_results():
     assert np.array_equal(one.x, many.x, equal_nan=True)
     assert summary.x.shape == (16, 0)
     assert_identical(summary.rollout(7), one.rollout(7))
-
-
-def test_event_logs_grow_per_batch():
-    # a stress case with thousands of Euler events in one run, next to quiet runs
-    from research.stress import families as stress_families
-    from research.stress.drivers import TARGET_X
-    spec = next(s for s in stress_families.family_found_cases(np.random.default_rng(0), True)
-                if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
-    init = np.array([spec.initial, (0, 0.05, 0, 0, 0, 0), spec.initial])
-    sched = np.array([[spec.sched[0]], [0.0], [0.5 * spec.sched[0]]])
-    kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, integrator="euler",
-              impact_law=spec.law)
-    b = simulate_batch(sched, np.full(3, TARGET_X), initial_states=init, **kw)
-    assert b.n_logged[0] > 1000 and b.event_log.shape[1] >= b.n_logged.max()
-    for i in range(3):
-        assert_identical(b.rollout(i), simulate(sched[i], target_x=TARGET_X,
-                                                initial_state=init[i], **kw))
 
 
 @numba.njit

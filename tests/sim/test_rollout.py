@@ -1,75 +1,19 @@
-"""The compiled whole-run loop (hoprover_env/sim/rollout.py) against simulate's Python loop.
+"""The compiled whole-run loop (hoprover_env/sim/rollout.py) against simulate's Python loop
+(on the stress benchmark's schedules too: tests/research/test_stress_replays.py).
 
 A torque schedule or a compiled controller runs in one kernel call; a plain Python
 callable runs the Python loop. Replaying a schedule through a Python callable therefore
 exercises the old path on the same torques, and the two Rollouts must agree bit for bit.
 """
-import dataclasses
 import math
 
 import numba
 import numpy as np
 import pytest
 
+from helpers import assert_identical, replay
 from hoprover_env import RoverParams, simulate
 from hoprover_env.sim.controllers import attitude_hold
-from research.stress import families
-from research.stress.drivers import CTRL_SCHEDULE, TARGET_X
-
-
-def replay(schedule):
-    """A Python controller that returns schedule[k] at the k-th control instant."""
-    step = [0]
-
-    def control(pos, vel, the, omg, posT, t, smt, state):
-        k = step[0]
-        step[0] += 1
-        return float(schedule[k]) if k < len(schedule) else 0.0
-
-    return control
-
-
-def assert_identical(a, b):
-    for f in dataclasses.fields(a):
-        if not f.compare:               # replay_args: how to run it again, not the run
-            continue
-        x, y = getattr(a, f.name), getattr(b, f.name)
-        if isinstance(x, np.ndarray):
-            assert x.dtype == y.dtype and x.shape == y.shape, f.name
-            # bit for bit: compare the raw bytes (NaN and -0.0 included)
-            assert np.ascontiguousarray(x).tobytes() == np.ascontiguousarray(y).tobytes(), f.name
-        else:
-            assert x == y, f.name
-
-
-def stress_schedule_specs(max_per_family=6):
-    """Scheduled runs of the stress benchmark that `simulate` can start (make_state-able)."""
-    rng = np.random.default_rng(11)
-    specs = []
-    for family in (families.family_extreme_torques, families.family_near_flat,
-                   families.family_flat, families.family_random_params,
-                   families.family_found_cases):
-        got = [s for s in family(rng, True)
-               if s.kind == CTRL_SCHEDULE and s.initial is not None]
-        step = max(1, len(got) // max_per_family)
-        specs += got[::step][:max_per_family]
-    return specs
-
-
-SPECS = stress_schedule_specs()
-
-
-@pytest.mark.parametrize("spec", SPECS, ids=[f"{s.family}|{s.integrator}|{s.law}|{s.label}"
-                                             for s in SPECS])
-def test_compiled_loop_equals_python_loop_on_stress_schedules(spec):
-    t_end = min(spec.t_end, 400 * spec.control_dt)        # keep the Python side short
-    kw = dict(t_end=t_end, control_dt=spec.control_dt, target_x=TARGET_X,
-              integrator=spec.integrator, impact_law=spec.law, params=spec.params,
-              initial_state=spec.initial, euler_dt=spec.euler_dt)
-    fast = simulate(spec.sched, **kw)
-    slow = simulate(replay(spec.sched), **kw)
-    assert_identical(fast, slow)
-    assert len(fast.t) > 1
 
 
 @pytest.mark.parametrize("kw", [
@@ -81,18 +25,6 @@ def test_compiled_loop_equals_python_loop_variants(kw):
     sched = 4e-4 * np.sin(np.arange(200) * 0.37)
     assert_identical(simulate(sched, target_x=0.1, **kw),
                      simulate(replay(sched), target_x=0.1, **kw))
-
-
-def test_event_log_grows_past_its_first_size():
-    # Euler bounces of a corner pressed down (a stress benchmark case) log an event every
-    # other step: the log starts at 256 rows and the run resumes after each enlargement
-    spec = next(s for s in families.family_found_cases(np.random.default_rng(0), True)
-                if s.integrator == "euler" and s.label.startswith("Euler micro-bounces"))
-    kw = dict(t_end=spec.t_end, control_dt=spec.control_dt, target_x=TARGET_X,
-              integrator="euler", impact_law=spec.law, initial_state=spec.initial)
-    fast = simulate(np.full(1, spec.sched[0]), **kw)
-    assert len(fast.events) > 1000
-    assert_identical(fast, simulate(replay(spec.sched), **kw))
 
 
 def test_broken_run_stops_like_the_python_loop():
