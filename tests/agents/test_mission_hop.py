@@ -78,51 +78,6 @@ def test_a_non_finite_hop_action_is_refused_by_name(bad):
         env.step([bad])
 
 
-def _tiny_config(tmp_path, **extra):
-    from pathlib import Path
-
-    import yaml
-    config = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
-    cfg = yaml.safe_load(open(config))
-    cfg.update(n_envs=2, timesteps=32, evaluation={"freq": 16, "episodes": 2})
-    cfg["hyperparams"].update(n_steps=16, batch_size=16, n_epochs=1)
-    cfg.update(extra)
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    return str(path)
-
-
-@pytest.mark.slow                # trains and resumes
-def test_the_trainer_resumes_and_its_model_loads_as_the_mission_policy(tmp_path):
-    import csv
-
-    from hoprover_env.agents.policies import load_policy
-    from research import train_mission
-    cfg, out = _tiny_config(tmp_path), tmp_path / "run"
-    assert train_mission.main(["--config", cfg, "--out", str(out)]) == 0
-    first = list(csv.DictReader(open(out / "evaluations.csv")))
-    assert int(first[-1]["timesteps"]) == 32
-    assert train_mission.main(["--config", cfg, "--out", str(out), "--resume",
-                               "--timesteps", "64"]) == 0
-    rows = list(csv.DictReader(open(out / "evaluations.csv")))
-    assert rows[:len(first)] == first and int(rows[-1]["timesteps"]) == 64
-    policy = load_policy(str(out))
-    assert isinstance(policy, ControllerPolicy) and policy.env_id == "HopRoverMission-v0"
-    venv = HopRoverMissionVectorEnv(2, control_dt=0.5)
-    policy.reset(2)
-    obs, _ = venv.reset(seed=0)
-    act = policy.act(obs, venv)
-    assert act.shape == (2, 1) and np.all(np.isfinite(act))
-
-
-def test_the_trainer_names_an_unknown_config_key(tmp_path, capsys):
-    from research import train_mission
-    with pytest.raises(SystemExit):
-        train_mission.main(["--config", _tiny_config(tmp_path, n_env=3), "--out",
-                            str(tmp_path / "run")])
-    assert "n_env" in capsys.readouterr().err
-
-
 @pytest.mark.slow                # whole suite episodes
 def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     """The bar of 90 % on the suite, on the suite's first 40 episodes; the whole
@@ -146,18 +101,6 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
     path = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="research.train_mission"):
         load_config(path)
-
-
-@pytest.mark.slow                # trains through the baselines driver
-def test_baselines_run_a_config_through_the_trainer_it_names(tmp_path):
-    import json
-
-    from research import baselines
-    out = tmp_path / "runs"
-    out.mkdir()
-    baselines.train(_tiny_config(tmp_path), [0], out, timesteps=16)
-    assert (out / "s0" / "done").exists()
-    assert json.loads((out / "s0" / "best_model.json").read_text())["policy"] == "mission_hop"
 
 
 def test_an_episode_that_needs_no_hop_is_refused_when_the_options_fix_it():
