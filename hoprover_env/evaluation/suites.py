@@ -218,6 +218,13 @@ class Suite:
         """The ids this suite holds frozen start conditions for."""
         return sorted({i for e in self.episodes for i in e.start})
 
+    def start_conditions(self) -> dict:
+        """The frozen start conditions as `save` takes them: {env_id: {reset option: one
+        value per episode}} (what a new version of the same episodes carries over)."""
+        terrain = set(self.terrain())
+        return {env_id: {k: v for k, v in self.conditions(env_id).items() if k not in terrain}
+                for env_id in self.start_ids()}
+
 
 def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
     """The episodes of a suite, drawn from its seed (no references): columns of

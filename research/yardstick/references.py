@@ -166,6 +166,23 @@ def search_references(name, problems, cols, budget, check, entry):
     return scheds, best, wall, evals
 
 
+def carried_start(name: str, cols: dict) -> dict:
+    """The frozen start conditions of the newest stored version of the suite `name` (what
+    its episodes' draws gave the tasks that draw more than the episode's options fix,
+    such as the mission's sensors), carried over when its episodes are these; {} (and a
+    warning) when there are none to carry: the tasks then draw them from episode e's
+    seed."""
+    have = suites.versions(name)
+    if have:
+        old = suites._read(suites.path_of(name, have[-1]), name, have[-1])
+        same = all(np.array_equal(old.column(f), cols[f]) for f in suites.FIELDS[:5])
+        if same:
+            return old.start_conditions()
+    print(f"[{name}] no stored version with these episodes: the new file carries no frozen "
+          f"start conditions", file=sys.stderr)
+    return {}
+
+
 def build(name: str, budget: int, agents: list[str], version: int, check: bool,
           report: dict, stored: bool = False) -> None:
     """Search (or, with `stored`, take the stored references), let the agents' plans
@@ -209,7 +226,8 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     meta = {"budget": budget, "agents": sorted(set(agents_before + agents)), "search_s": wall,
             "candidates": evals, "created": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
             "env_ids": sorted(suites.suite_ids(name))}
-    path = suites.save(name, version, cols, scheds, sources, meta)
+    path = suites.save(name, version, cols, scheds, sources, meta,
+                       start=carried_start(name, cols))
     entry["reference_ttrtp"] = final.tolist()
     entry["sources"] = sources
     print(f"[{name}] wrote {path}: median reference {np.median(final):.1f} s", flush=True)

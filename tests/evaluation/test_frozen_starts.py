@@ -143,3 +143,17 @@ def test_save_and_read_back_start_conditions(tmp_path):
     assert s[1].start == {MISSION: {"sensor_seed": 2**62, "mu_static": 0.31}}
     assert json.loads(json.dumps(s.meta))["start"] == {MISSION: ["mu_static", "sensor_seed"]}
     assert s.conditions(MISSION)["sensor_seed"].dtype == np.int64
+
+
+def test_a_new_version_of_the_same_episodes_carries_the_start_conditions_over(tmp_path):
+    # what research/yardstick/references.py does when it saves new references
+    suite = suites.load(MISSION)
+    cols = {f: suite.column(f) for f in suites.FIELDS}
+    meta = {k: v for k, v in suite.meta.items() if k not in ("sha256", "start_sha256")}
+    path = suites.save(suite.name, 9, cols, [e.reference_schedule for e in suite],
+                       [e.reference_source for e in suite], meta, directory=tmp_path,
+                       start=suite.start_conditions())
+    again = suites._read(path, suite.name, 9)
+    assert again.meta["start_sha256"] == suite.meta["start_sha256"]
+    for k, v in suite.conditions(MISSION).items():
+        assert np.array_equal(again.conditions(MISSION)[k], v), k
