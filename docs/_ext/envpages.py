@@ -13,8 +13,11 @@ itself), an animation of the bundled `policy` on `target` [m] (made at build tim
 docs/_ext/animations.py; HopRoverContest-v0 always uses its fixed target), and the env
 module's docstring (its Markdown sections: description, action and observation spaces,
 rewards, start, end, arguments), i.e. its task module's (hoprover_env/tasks/*.py).
-Adding an environment = adding its task (docs/ARCHITECTURE.md) and one such file (the
-toctree of docs/envs/index.md globs).
+Adding an environment = adding its task (docs/ARCHITECTURE.md): a registered id of the
+package without a page of its own gets one written at the start of the build
+(docs/envs/generated-ID.md, ignored by git: its title and the block, so the whole page
+is the module's); a page of its own (ID.md) adds an introduction and the animation's
+policy and target. The toctree of docs/envs/index.md globs both.
 """
 from __future__ import annotations
 
@@ -141,7 +144,29 @@ def source_read(app, docname: str, source: list) -> None:
     source[0] = "".join(out) + text[last:]
 
 
+GENERATED = "generated-{}.md"
+
+
+def write_missing_pages(app) -> None:
+    """A page for every id the package registers that has none of its own (see the
+    module docstring); stale generated pages are removed."""
+    from hoprover_env.envs.registry import ENVS
+    envs = Path(app.srcdir) / "envs"
+    want = {GENERATED.format(env_id): env_id for env_id, spec in ENVS.items()
+            if spec.module.startswith("hoprover_env.")
+            and not (envs / f"{env_id}.md").exists()}
+    for old in envs.glob(GENERATED.format("*")):
+        if old.name not in want:
+            old.unlink()
+    for name, env_id in want.items():
+        text = f"# {env_id}\n\n```{{hoprover-env}} {env_id}\n```\n"
+        path = envs / name
+        if not path.exists() or path.read_text() != text:
+            path.write_text(text)
+
+
 def setup(app):
+    app.connect("builder-inited", write_missing_pages)
     app.connect("builder-inited", make_animations)
     app.connect("source-read", source_read)
     return {"version": "1", "parallel_read_safe": True, "parallel_write_safe": True}
