@@ -33,7 +33,8 @@ import yaml
 from hoprover_env.agents.policies import ALGOS, SB3_ALGOS, _algo_class
 
 TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
-            "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from"}
+            "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from",
+            "demonstrations"}
 # hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
 # learning rate fall linearly from `learning_rate` to it over the run
 OWN_HYPER_KEYS = {"learning_rate_end"}
@@ -58,6 +59,7 @@ ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "Leak
 DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed": 0,
             "env": {}, "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
             "policy": {}, "hyperparams": {}, "pretrain": None, "init_from": None,
+            "demonstrations": None,
             "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
             "checkpoint": {"freq": 200_000, "seconds": 300.0}}
 
@@ -233,6 +235,13 @@ def validate(cfg: dict) -> None:
         if cfg["algo"] != "ppo":
             raise ConfigError("config section 'pretrain' (behaviour cloning) is only "
                               "supported with algo: ppo")
+    if cfg.get("demonstrations") is not None:
+        from hoprover_env.training import demonstrations
+        _check_keys("demonstrations", cfg["demonstrations"], demonstrations.KEYS)
+        if cfg["algo"] not in demonstrations.OFF_POLICY:
+            raise ConfigError("config section 'demonstrations' (a replay buffer filled "
+                              "before learning) needs an off-policy algo: "
+                              f"{', '.join(demonstrations.OFF_POLICY)}")
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
@@ -240,6 +249,7 @@ def validate(cfg: dict) -> None:
     _check_value("seed", cfg["seed"], INT)
     for section, types in (("normalize", NORMALIZE_TYPES), ("policy", POLICY_TYPES),
                            ("hyperparams", HYPER_TYPES), ("pretrain", PRETRAIN_TYPES),
+                           ("demonstrations", DEMONSTRATION_TYPES),
                            ("evaluation", EVAL_TYPES), ("checkpoint", CHECKPOINT_TYPES)):
         for key, value in (cfg.get(section) or {}).items():
             if key in types:
@@ -297,6 +307,8 @@ POLICY_TYPES = {"net_arch": NET_ARCH, "log_std_init": REAL, "ortho_init": BOOL,
                 "batch_norm_eps": POS_REAL, "renorm_warmup_steps": NONNEG_INT,
                 "lstm_hidden_size": POS_INT, "n_lstm_layers": POS_INT, "shared_lstm": BOOL,
                 "enable_critic_lstm": BOOL}
+DEMONSTRATION_TYPES = {"policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
+                       "steps": POS_INT, "seed": INT}
 PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
                   "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
                   "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,

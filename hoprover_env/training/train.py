@@ -217,6 +217,19 @@ class Trainer:
         self.model = make_agent(self.cfg, self.venv, tensorboard_dir(self.out), self.device)
         if self.cfg.get("pretrain"):
             self._pretrain()
+        if self.cfg.get("demonstrations"):
+            self._demonstrate()
+
+    def _demonstrate(self):
+        """The config's demonstrations into the replay buffer (training/demonstrations.py)."""
+        from hoprover_env.training.demonstrations import collect_demonstrations, prefill
+        t0 = time.perf_counter()
+        added = prefill(self.model, self.venv,
+                        collect_demonstrations(self.cfg, env_kwargs(self.cfg)))
+        self.meta_base["demonstrations"] = added
+        print(f"demonstrations: {added['transitions']} transitions of {added['episodes']} "
+              f"episodes in the replay buffer ({time.perf_counter() - t0:.0f} s)",
+              file=sys.stderr)
 
     def _init_from(self, spec: str):
         """A fresh run (this config's hyperparameters, schedule and env) that starts from
