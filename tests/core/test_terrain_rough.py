@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from flat_cases import HopSequence
-from helpers import batch_on_one_and_all_threads
+from helpers import assert_identical, batch_on_one_and_all_threads
 from hoprover_env import RoverParams, RoverSim, core, simulate, simulate_batch
 from hoprover_env.sim.simulate import make_state
 
@@ -136,17 +136,6 @@ def test_tilted_impacts_never_leave_a_corner_moving_into_the_mean_plane(law):
             assert ratio <= 1.0 + 1e-12 and ke1 <= ke0 * (1 + 1e-12)
 
 
-def fields_identical(a, b):
-    for f in dataclasses.fields(a):
-        if not f.compare:               # replay_args: how to run it again, not the run
-            continue
-        x, y = getattr(a, f.name), getattr(b, f.name)
-        if isinstance(x, np.ndarray):
-            assert x.dtype == y.dtype and x.tobytes() == y.tobytes(), f.name
-        else:
-            assert x == y, f.name
-
-
 def test_same_seed_same_bits_across_threads_batch_positions_and_simulate():
     n = 6
     rng = np.random.default_rng(0)
@@ -165,10 +154,10 @@ def test_same_seed_same_bits_across_threads_batch_positions_and_simulate():
         ref = simulate(sched[i], t_end=150.0, params=plist[i], target_x=targets[i],
                        seed=2**63 + 12345, rover=i)
         assert ref.seed == 2**63 + 12345
-        fields_identical(one.rollout(i), ref)
-        fields_identical(many.rollout(i), ref)
+        assert_identical(one.rollout(i), ref)
+        assert_identical(many.rollout(i), ref)
         if i < 3:
-            fields_identical(prefix.rollout(i), ref)
+            assert_identical(prefix.rollout(i), ref)
     # the key matters: another rover index or seed bounces differently
     i = int(np.argmax(one.n_impacts))
     for seed, rover in ((2**63 + 12345, i + 1), (2**63 + 12346, i)):
@@ -183,11 +172,11 @@ def test_fresh_seed_is_recorded_and_replays():
     b = simulate(sched, t_end=150.0, params=ROUGH)
     assert isinstance(a.seed, int) and 0 <= a.seed < 2**64 and a.seed != b.seed
     again = simulate(sched, t_end=150.0, params=ROUGH, seed=a.seed)
-    fields_identical(a, again)
+    assert_identical(a, again)
     assert len(a.impact_energy_ratios) >= 1     # (the first touchdown draws)
     batch = simulate_batch(sched[None, :], [0.5], t_end=150.0, params=ROUGH)
     assert isinstance(batch.seed, int)
-    fields_identical(batch.rollout(0), simulate(sched, t_end=150.0, params=ROUGH,
+    assert_identical(batch.rollout(0), simulate(sched, t_end=150.0, params=ROUGH,
                                                 seed=batch.seed, target_x=0.5))
     assert simulate(sched[:5], t_end=1.0).seed is None
 
@@ -214,5 +203,5 @@ def test_rough_euler_runs_and_reproduces():
     sched = np.r_[np.full(20, 3e-4), np.zeros(1480)]
     kw = dict(t_end=150.0, params=ROUGH, integrator="euler", seed=9)
     a, b = simulate(sched, **kw), simulate(sched, **kw)
-    fields_identical(a, b)
+    assert_identical(a, b)
     assert len(a.impact_energy_ratios) > 0
