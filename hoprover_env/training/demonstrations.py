@@ -24,7 +24,6 @@ import numpy as np
 
 DEFAULTS = {"policy": "scripted", "steps": 20_000, "seed": 0}
 KEYS = set(DEFAULTS)
-OFF_POLICY = ("sac", "td3", "tqc", "crossq")
 
 
 def settings(cfg: dict) -> dict:

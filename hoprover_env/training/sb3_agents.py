@@ -238,10 +238,11 @@ def validate(cfg: dict) -> None:
     if cfg.get("demonstrations") is not None:
         from hoprover_env.training import demonstrations
         _check_keys("demonstrations", cfg["demonstrations"], demonstrations.KEYS)
-        if cfg["algo"] not in demonstrations.OFF_POLICY:
+        from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+        if not issubclass(algo_class(cfg["algo"]), OffPolicyAlgorithm):
             raise ConfigError("config section 'demonstrations' (a replay buffer filled "
-                              "before learning) needs an off-policy algo: "
-                              f"{', '.join(demonstrations.OFF_POLICY)}")
+                              "before learning) needs an off-policy algo (sac, td3, tqc, "
+                              f"crossq), got {cfg['algo']!r}")
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
