@@ -4,6 +4,7 @@ The command `hoprover-evaluate` (installed with the package); this file runs it 
 checkout as `python evaluate.py`. The code and its full description:
 hoprover_env/training/evaluate.py.
 """
+
 import sys
 
 from hoprover_env.training.evaluate import main

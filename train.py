@@ -3,6 +3,7 @@
 The command `hoprover-train` (installed with the package); this file runs it from a
 checkout as `python train.py`. The code and its full description: hoprover_env/training/train.py.
 """
+
 import sys
 
 from hoprover_env.training.train import main

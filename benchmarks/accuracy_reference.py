@@ -14,8 +14,9 @@ from hoprover_env.sim.controllers import attitude_hold
 from hoprover_env.sim.reference import Ref
 
 
-def scipy_launch_and_landing(params: RoverParams, torque: float, kp: float, kd: float,
-                             control_dt: float, t_end: float) -> dict:
+def scipy_launch_and_landing(
+    params: RoverParams, torque: float, kp: float, kd: float, control_dt: float, t_end: float
+) -> dict:
     """Lift-off by scipy, then the flight under the attitude hold in closed form.
 
     The hold T = -I (kp theta + kd omega) is applied every `control_dt` seconds from the
@@ -26,8 +27,15 @@ def scipy_launch_and_landing(params: RoverParams, torque: float, kp: float, kd: 
     found by Brent's method in the first interval (past the apex) whose end is below the
     ground.
     """
-    ref = Ref(m=params.mass, I=params.inertia, r=params.half_width, h=params.half_height,
-              g=params.gravity, mus=params.mu_static, mud=params.mu_dynamic)
+    ref = Ref(
+        m=params.mass,
+        I=params.inertia,
+        r=params.half_width,
+        h=params.half_height,
+        g=params.gravity,
+        mus=params.mu_static,
+        mud=params.mu_dynamic,
+    )
     t_lo, s_lo, modes = ref.launch(torque)
     x0, y0, theta, vx, vy0, omega = (float(v) for v in s_lo)
     g, inertia, ell, alpha = ref.g, ref.I, ref.l, ref.alpha
@@ -49,9 +57,13 @@ def scipy_launch_and_landing(params: RoverParams, torque: float, kp: float, kd: 
 
         if t_b > t_apex and lowest_corner(t_b) < 0.0:
             t_land = brentq(lowest_corner, t_a, t_b, xtol=1e-15, rtol=8.9e-16)
-            return {"liftoff_t": t_lo, "liftoff_state": np.asarray(s_lo, float),
-                    "modes": "".join(modes), "land_t": t_land,
-                    "land_x": x0 + vx * (t_land - t_lo)}
+            return {
+                "liftoff_t": t_lo,
+                "liftoff_state": np.asarray(s_lo, float),
+                "modes": "".join(modes),
+                "land_t": t_land,
+                "land_x": x0 + vx * (t_land - t_lo),
+            }
         theta = theta + omega * (t_b - t_a) + 0.5 * beta * (t_b - t_a) ** 2
         omega = omega + beta * (t_b - t_a)
         t_a = t_b

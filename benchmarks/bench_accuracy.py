@@ -35,6 +35,7 @@ RoverSim (event-triggered switches) bit for bit before anything is timed.
 This module measures; benchmarks/accuracy_report.py writes the section from what it
 measured.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -74,35 +75,47 @@ from research.launch_land import (
 # ----------------------------------------------------------------------------------
 # The scenario: launch, attitude hold in flight, idle once landed
 # ----------------------------------------------------------------------------------
-KP, KD = 0.15, 0.9          # PD attitude hold in flight [1/s^2, 1/s]
-CONTROL_DT = 0.1            # s between control instants
-T_END = 600.0               # s, a cap; a run ends once the rover rests and is judged
-TARGET_OFFSET = 0.02        # m: target = reference rest x + this (rests inside the band)
+KP, KD = 0.15, 0.9  # PD attitude hold in flight [1/s^2, 1/s]
+CONTROL_DT = 0.1  # s between control instants
+T_END = 600.0  # s, a cap; a run ends once the rover rests and is judged
+TARGET_OFFSET = 0.02  # m: target = reference rest x + this (rests inside the band)
 
 # Launch torques of the point-by-point comparison [N m], and how many evenly spread
 # ones the statistics use.
 TORQUES = {"quick": (3e-5, 2e-4, 5e-4), "full": (3e-5, 6e-5, 1e-4, 2e-4, 3.5e-4, 5e-4)}
 STAT_TORQUES = {"quick": 12, "full": 40}
-EULER_DTS = {"quick": (1e-2, 3e-3, 1e-3, 3e-4, 1e-4),
-             "full": (1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6)}
-EVENT_RTOLS = {"quick": (1e-4, 1e-6, 1e-8, 1e-10, 1e-11, 1e-12),
-               "full": (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13)}
+EULER_DTS = {
+    "quick": (1e-2, 3e-3, 1e-3, 3e-4, 1e-4),
+    "full": (1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5, 3e-6, 1e-6),
+}
+EVENT_RTOLS = {
+    "quick": (1e-4, 1e-6, 1e-8, 1e-10, 1e-11, 1e-12),
+    "full": (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13),
+}
 STAT_EULER_DTS = {"quick": (1e-2, 1e-3, 1e-4), "full": (1e-2, 1e-3, 1e-4, 1e-5)}
 STAT_EVENT_RTOLS = (1e-6, 1e-11)
 GRID_METHODS = (("event", 1e-4), ("event", 1e-8), ("event", 1e-11), ("euler", 1e-3))
 # The reference. 1e-15, the API's floor, moves the landing times by ~1e-13 s only
 # (round-off); 1e-14 keeps a margin from it.
 REFERENCE_RTOL = 1e-14
-DEFAULT_RTOL = 1e-11        # simulate()'s default, quoted in the headline
+DEFAULT_RTOL = 1e-11  # simulate()'s default, quoted in the headline
 
-TIMING_BUDGET = 0.2         # s of repeats per cheap timed run (best of them is kept)
+TIMING_BUDGET = 0.2  # s of repeats per cheap timed run (best of them is kept)
 MAX_REPEATS = 30
-BOUNCE_TORQUE, BOUNCE_DT = 5e-4, 1e-2     # the bounce sequence shown in the text
+BOUNCE_TORQUE, BOUNCE_DT = 5e-4, 1e-2  # the bounce sequence shown in the text
 # what the report quotes of the set-up
-SETTINGS = {"kp": KP, "kd": KD, "control_dt": CONTROL_DT, "target_offset": TARGET_OFFSET,
-            "reference_rtol": REFERENCE_RTOL, "default_rtol": DEFAULT_RTOL,
-            "max_repeats": MAX_REPEATS, "timing_budget": TIMING_BUDGET,
-            "bounce_torque": BOUNCE_TORQUE, "bounce_dt": BOUNCE_DT}
+SETTINGS = {
+    "kp": KP,
+    "kd": KD,
+    "control_dt": CONTROL_DT,
+    "target_offset": TARGET_OFFSET,
+    "reference_rtol": REFERENCE_RTOL,
+    "default_rtol": DEFAULT_RTOL,
+    "max_repeats": MAX_REPEATS,
+    "timing_budget": TIMING_BUDGET,
+    "bounce_torque": BOUNCE_TORQUE,
+    "bounce_dt": BOUNCE_DT,
+}
 
 
 # ----------------------------------------------------------------------------------
@@ -114,6 +127,7 @@ JUDGE_EVENTS = ("band_in", "band_out", "ttrtp")
 @dataclasses.dataclass(frozen=True)
 class Method:
     """An integrator and its accuracy knob: rtol for `event`, the step for `euler`."""
+
     integrator: str
     value: float
 
@@ -135,6 +149,7 @@ class Method:
 @dataclasses.dataclass
 class Run:
     """What one run_scenario call found (times in s, positions in m)."""
+
     liftoff_t: float
     land_t: float
     land_x: float
@@ -143,10 +158,10 @@ class Run:
     ttrtp: float
     end_t: float
     n_impacts: int
-    flag: int                  # 0 fine, 1 broken, 2 kernel error, 3 no rest by T_END
-    seq: tuple                 # mode-sequence codes (event kind * 8 + mode after)
-    final: np.ndarray          # (x, y, theta, vx, vy, omega) when the driver stopped
-    wall: float = math.nan     # best wall time of the run [s]
+    flag: int  # 0 fine, 1 broken, 2 kernel error, 3 no rest by T_END
+    seq: tuple  # mode-sequence codes (event kind * 8 + mode after)
+    final: np.ndarray  # (x, y, theta, vx, vy, omega) when the driver stopped
+    wall: float = math.nan  # best wall time of the run [s]
 
 
 class Driver:
@@ -160,8 +175,14 @@ class Driver:
         self.res = np.zeros(N_RESULT)
         self.seq = np.zeros(SEQ_LEN, dtype=np.int64)
 
-    def run(self, method: Method, torque: float, target_x: float,
-            timing: int = TIMING_EVENTS, repeats: int = 1) -> Run:
+    def run(
+        self,
+        method: Method,
+        torque: float,
+        target_x: float,
+        timing: int = TIMING_EVENTS,
+        repeats: int = 1,
+    ) -> Run:
         """Run the scenario `repeats` times (it is deterministic); wall = the best."""
         o = method.options()
         s0 = make_state(self.params, target_x)
@@ -169,28 +190,56 @@ class Driver:
         for _ in range(repeats):
             s = s0.copy()
             t0 = time.perf_counter()
-            run_scenario(s, self.p, o, timing, torque, KP, KD, CONTROL_DT, T_END, self.ev,
-                         self.w, self.res, self.seq)
+            run_scenario(
+                s,
+                self.p,
+                o,
+                timing,
+                torque,
+                KP,
+                KD,
+                CONTROL_DT,
+                T_END,
+                self.ev,
+                self.w,
+                self.res,
+                self.seq,
+            )
             best = min(best, time.perf_counter() - t0)
         r = self.res
         n_seq = int(r[R_N_SEQ])
         if n_seq > SEQ_LEN:
-            raise RuntimeError(f"{method.label}, torque {torque:g}: {n_seq} mode changes, "
-                               f"more than SEQ_LEN = {SEQ_LEN} can be compared")
-        return Run(liftoff_t=r[R_LIFTOFF_T], land_t=r[R_LAND_T], land_x=r[R_LAND_X],
-                   rest_t=r[R_REST_T], rest_x=r[R_REST_X], ttrtp=r[R_TTRTP],
-                   end_t=r[R_END_T], n_impacts=int(r[R_N_IMPACTS]), flag=int(r[R_FLAG]),
-                   seq=tuple(int(c) for c in self.seq[:n_seq]), final=s[:6].copy(),
-                   wall=best)
+            raise RuntimeError(
+                f"{method.label}, torque {torque:g}: {n_seq} mode changes, "
+                f"more than SEQ_LEN = {SEQ_LEN} can be compared"
+            )
+        return Run(
+            liftoff_t=r[R_LIFTOFF_T],
+            land_t=r[R_LAND_T],
+            land_x=r[R_LAND_X],
+            rest_t=r[R_REST_T],
+            rest_x=r[R_REST_X],
+            ttrtp=r[R_TTRTP],
+            end_t=r[R_END_T],
+            n_impacts=int(r[R_N_IMPACTS]),
+            flag=int(r[R_FLAG]),
+            seq=tuple(int(c) for c in self.seq[:n_seq]),
+            final=s[:6].copy(),
+            wall=best,
+        )
 
-    def timed_run(self, method: Method, torque: float, target_x: float,
-                  timing: int = TIMING_EVENTS) -> Run:
+    def timed_run(
+        self, method: Method, torque: float, target_x: float, timing: int = TIMING_EVENTS
+    ) -> Run:
         """Best of several runs: the machine is shared, so a cheap run is repeated for
         ~TIMING_BUDGET s (at most 1 + MAX_REPEATS runs), one under a second 3 times,
         a longer one once."""
         run = self.run(method, torque, target_x, timing)
-        more = 0 if run.wall >= 1.0 else \
-            max(2, min(MAX_REPEATS, int(TIMING_BUDGET / max(run.wall, 1e-9))))
+        more = (
+            0
+            if run.wall >= 1.0
+            else max(2, min(MAX_REPEATS, int(TIMING_BUDGET / max(run.wall, 1e-9))))
+        )
         if more:
             again = self.run(method, torque, target_x, timing, repeats=more)
             assert again.seq == run.seq and np.array_equal(again.final, run.final)
@@ -217,36 +266,52 @@ class Driver:
 
 def seq_of_events(events) -> tuple:
     """The driver's mode-sequence codes from a Rollout's / RoverSim's event list."""
-    return tuple(core.EVENT_NAMES.index(e[1]) * 8 + core.MODE_LETTERS.index(e[3])
-                 for e in events if e[1] not in JUDGE_EVENTS)
+    return tuple(
+        core.EVENT_NAMES.index(e[1]) * 8 + core.MODE_LETTERS.index(e[3])
+        for e in events
+        if e[1] not in JUDGE_EVENTS
+    )
 
 
 # ----------------------------------------------------------------------------------
 # The driver against the public API (run before anything is timed)
 # ----------------------------------------------------------------------------------
-def check_grid_against_simulate(driver: Driver, method: Method, torque: float,
-                                target_x: float) -> float:
+def check_grid_against_simulate(
+    driver: Driver, method: Method, torque: float, target_x: float
+) -> float:
     """Largest difference (state, lift-off and landing times, TTRTP) between the driver
     on the contest grid and simulate() with the same controller in Python; raises if
     the mode sequences differ."""
     run = driver.run(method, torque, target_x, TIMING_GRID)
-    roll = simulate(contest_controller(torque, driver.params.inertia, KP, KD), t_end=run.end_t,
-                    control_dt=CONTROL_DT, target_x=target_x, params=driver.params,
-                    **method.kwargs())
+    roll = simulate(
+        contest_controller(torque, driver.params.inertia, KP, KD),
+        t_end=run.end_t,
+        control_dt=CONTROL_DT,
+        target_x=target_x,
+        params=driver.params,
+        **method.kwargs(),
+    )
     if seq_of_events(roll.events) != run.seq:
-        raise AssertionError(f"driver and simulate() differ in mode sequence "
-                             f"({method.label}, torque {torque:g})")
-    final = np.array([roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1],
-                      roll.omega[-1]])
+        raise AssertionError(
+            f"driver and simulate() differ in mode sequence ({method.label}, torque {torque:g})"
+        )
+    final = np.array(
+        [roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1], roll.omega[-1]]
+    )
     liftoff = next(e[0] for e in roll.events if e[1] == "liftoff")
     landing = next(e[0] for e in roll.events if e[1] == "impact" and e[0] >= liftoff)
     ttrtp = math.nan if roll.ttrtp is None else roll.ttrtp
-    return max(float(np.max(np.abs(final - run.final))), abs(liftoff - run.liftoff_t),
-               abs(landing - run.land_t), _nan_diff(ttrtp, run.ttrtp))
+    return max(
+        float(np.max(np.abs(final - run.final))),
+        abs(liftoff - run.liftoff_t),
+        abs(landing - run.land_t),
+        _nan_diff(ttrtp, run.ttrtp),
+    )
 
 
-def check_events_against_roversim(driver: Driver, method: Method, torque: float,
-                                  target_x: float) -> float:
+def check_events_against_roversim(
+    driver: Driver, method: Method, torque: float, target_x: float
+) -> float:
     """Largest difference between the driver with event-triggered switches and the
     same schedule written in Python over RoverSim.advance(stop_on=...)."""
     run = driver.run(method, torque, target_x, TIMING_EVENTS)
@@ -260,16 +325,23 @@ def check_events_against_roversim(driver: Driver, method: Method, torque: float,
         cmd = attitude_hold(sim.s[core.S_TH], sim.s[core.S_W], inertia, KP, KD)
         events += sim.advance(cmd, min(t_liftoff + k * CONTROL_DT, T_END), stop_on="impact")
     t_land, x_land = sim.t, sim.state[0]
-    while not (sim.mode == "F" and (sim.s[core.S_INBAND] == 0.0 or sim.ttrtp is not None)) \
-            and sim.t < T_END:
+    while (
+        not (sim.mode == "F" and (sim.s[core.S_INBAND] == 0.0 or sim.ttrtp is not None))
+        and sim.t < T_END
+    ):
         events += sim.advance(0.0, min(sim.t + IDLE_CHUNK, T_END))
     if seq_of_events(events) != run.seq:
-        raise AssertionError(f"driver and RoverSim differ in mode sequence "
-                             f"({method.label}, torque {torque:g})")
+        raise AssertionError(
+            f"driver and RoverSim differ in mode sequence ({method.label}, torque {torque:g})"
+        )
     ttrtp = math.nan if sim.ttrtp is None else sim.ttrtp
-    return max(float(np.max(np.abs(sim.state - run.final))), abs(t_liftoff - run.liftoff_t),
-               abs(t_land - run.land_t), abs(x_land - run.land_x),
-               _nan_diff(ttrtp, run.ttrtp))
+    return max(
+        float(np.max(np.abs(sim.state - run.final))),
+        abs(t_liftoff - run.liftoff_t),
+        abs(t_land - run.land_t),
+        abs(x_land - run.land_x),
+        _nan_diff(ttrtp, run.ttrtp),
+    )
 
 
 def _nan_diff(a: float, b: float) -> float:
@@ -286,8 +358,17 @@ def warm_up(driver: Driver) -> float:
     t0 = time.perf_counter()
     for m in (Method("event", DEFAULT_RTOL), Method("euler", 1e-2)):
         driver.run(m, 3e-4, 0.5)
-        repeat_launch(make_state(driver.params, 0.5), np.zeros(core.N_STATE), driver.p,
-                      m.options(), 3e-4, T_END, driver.ev, driver.w, 1)
+        repeat_launch(
+            make_state(driver.params, 0.5),
+            np.zeros(core.N_STATE),
+            driver.p,
+            m.options(),
+            3e-4,
+            T_END,
+            driver.ev,
+            driver.w,
+            1,
+        )
     return time.perf_counter() - t0
 
 
@@ -296,8 +377,9 @@ def warm_up(driver: Driver) -> float:
 # ----------------------------------------------------------------------------------
 def launch_modes(events) -> str:
     """'FBCA'-style letters of the launch, as tests/sim/test_reference.py writes them."""
-    return "".join([events[0][2]] + [e[3] for e in events
-                                     if e[1] in ("tip", "slip", "stick", "liftoff")])
+    return "".join(
+        [events[0][2]] + [e[3] for e in events if e[1] in ("tip", "slip", "stick", "liftoff")]
+    )
 
 
 def cross_check(driver: Driver, torques, reference_runs, targets) -> list:
@@ -308,16 +390,21 @@ def cross_check(driver: Driver, torques, reference_runs, targets) -> list:
         sim = RoverSim(driver.params, target_x=targets[torque], rtol=REFERENCE_RTOL)
         events = sim.advance(torque, T_END, stop_on="liftoff")
         ref = reference_runs[torque]
-        rows.append({
-            "torque": torque, "modes": sp["modes"],
-            "same_modes": launch_modes(events) == sp["modes"],
-            "liftoff_t": sp["liftoff_t"], "land_t": sp["land_t"], "land_x": sp["land_x"],
-            "d_liftoff_t": abs(sim.t - sp["liftoff_t"]),
-            "d_liftoff_pos": float(np.max(np.abs(sim.state[:3] - sp["liftoff_state"][:3]))),
-            "d_liftoff_vel": float(np.max(np.abs(sim.state[3:] - sp["liftoff_state"][3:]))),
-            "d_land_t": abs(ref.land_t - sp["land_t"]),
-            "d_land_x": abs(ref.land_x - sp["land_x"]),
-        })
+        rows.append(
+            {
+                "torque": torque,
+                "modes": sp["modes"],
+                "same_modes": launch_modes(events) == sp["modes"],
+                "liftoff_t": sp["liftoff_t"],
+                "land_t": sp["land_t"],
+                "land_x": sp["land_x"],
+                "d_liftoff_t": abs(sim.t - sp["liftoff_t"]),
+                "d_liftoff_pos": float(np.max(np.abs(sim.state[:3] - sp["liftoff_state"][:3]))),
+                "d_liftoff_vel": float(np.max(np.abs(sim.state[3:] - sp["liftoff_state"][3:]))),
+                "d_land_t": abs(ref.land_t - sp["land_t"]),
+                "d_land_x": abs(ref.land_x - sp["land_x"]),
+            }
+        )
     return rows
 
 
@@ -326,8 +413,11 @@ def cross_check(driver: Driver, torques, reference_runs, targets) -> list:
 # ----------------------------------------------------------------------------------
 # (key, column title, unit): before the first impact every run has the reference's
 # mode sequence, so these are compared point by point for every run ...
-EARLY = (("liftoff_t", "lift-off t", "s"), ("land_t", "landing t", "s"),
-         ("land_x", "landing x", "m"))
+EARLY = (
+    ("liftoff_t", "lift-off t", "s"),
+    ("land_t", "landing t", "s"),
+    ("land_x", "landing x", "m"),
+)
 # ... after it, only runs whose whole mode sequence equals the reference's.
 LATE = (("rest_x", "rest x", "m"), ("rest_t", "rest t", "s"), ("ttrtp", "TTRTP", "s"))
 
@@ -335,14 +425,15 @@ LATE = (("rest_x", "rest x", "m"), ("rest_t", "rest t", "s"), ("ttrtp", "TTRTP",
 @dataclasses.dataclass
 class SweepPoint:
     """One method setting over the launch torques: worst errors and mean wall times."""
+
     method: Method
-    errors: dict               # key -> largest |error| over the torques (NaN: none compared)
-    same_seq: int              # runs whose mode sequence equals the reference's
+    errors: dict  # key -> largest |error| over the torques (NaN: none compared)
+    same_seq: int  # runs whose mode sequence equals the reference's
     n_runs: int
-    wall: float                # mean over the torques of a whole run's best wall time [s]
-    launch_wall: float         # mean over the torques of the launch's wall time [s]
-    runs: dict                 # torque -> Run
-    same_early: int = 0        # runs whose mode sequence up to the first impact is the ref's
+    wall: float  # mean over the torques of a whole run's best wall time [s]
+    launch_wall: float  # mean over the torques of the launch's wall time [s]
+    runs: dict  # torque -> Run
+    same_early: int = 0  # runs whose mode sequence up to the first impact is the ref's
 
 
 def errors_of(run: Run, ref: Run) -> dict:
@@ -353,8 +444,9 @@ def errors_of(run: Run, ref: Run) -> dict:
     return out
 
 
-def sweep_point(driver: Driver, method: Method, torques, refs, targets,
-                timing: int = TIMING_EVENTS) -> SweepPoint:
+def sweep_point(
+    driver: Driver, method: Method, torques, refs, targets, timing: int = TIMING_EVENTS
+) -> SweepPoint:
     """Run `method` on every torque (best-of wall times) and compare with `refs`."""
     runs, errs = {}, []
     for torque in torques:
@@ -365,18 +457,27 @@ def sweep_point(driver: Driver, method: Method, torques, refs, targets,
         vals = [e[key] for e in errs if not math.isnan(e[key])]
         worst[key] = max(vals) if vals else math.nan
     same = sum(runs[t].seq == refs[t].seq and runs[t].flag == 0 for t in torques)
-    same_early = sum(_to_first_impact(runs[t].seq) == _to_first_impact(refs[t].seq)
-                     for t in torques)
-    return SweepPoint(method, worst, same, len(torques),
-                      float(np.mean([runs[t].wall for t in torques])),
-                      float(np.mean([driver.launch_wall(method, t) for t in torques]))
-                      if timing == TIMING_EVENTS else math.nan, runs, same_early)
+    same_early = sum(
+        _to_first_impact(runs[t].seq) == _to_first_impact(refs[t].seq) for t in torques
+    )
+    return SweepPoint(
+        method,
+        worst,
+        same,
+        len(torques),
+        float(np.mean([runs[t].wall for t in torques])),
+        float(np.mean([driver.launch_wall(method, t) for t in torques]))
+        if timing == TIMING_EVENTS
+        else math.nan,
+        runs,
+        same_early,
+    )
 
 
 def _to_first_impact(seq: tuple) -> tuple:
     """The mode-sequence codes up to and including the first impact."""
     first = [i for i, c in enumerate(seq) if c // 8 == core.EV_IMPACT]
-    return seq[:first[0] + 1] if first else seq
+    return seq[: first[0] + 1] if first else seq
 
 
 def comparable(points, key: str) -> list:
@@ -384,15 +485,17 @@ def comparable(points, key: str) -> list:
     over fewer runs than the others (some mode sequence differed): the worst case of a
     smaller set would bend the fitted slope."""
     late = key in [k for k, _, _ in LATE]
-    return [p.errors[key] if (not late or p.same_seq == p.n_runs) else math.nan
-            for p in points]
+    return [p.errors[key] if (not late or p.same_seq == p.n_runs) else math.nan for p in points]
 
 
 def fitted_order(steps, errors, floor: float = 0.0) -> float:
     """Least-squares slope of log(error) against log(step or rtol), over the points whose
     error stands clear (100x) of the reference's own noise `floor`; NaN if < 3 points."""
-    pts = [(s, e) for s, e in zip(steps, errors)
-           if e is not None and math.isfinite(e) and e > max(100.0 * floor, 0.0) and e > 0]
+    pts = [
+        (s, e)
+        for s, e in zip(steps, errors)
+        if e is not None and math.isfinite(e) and e > max(100.0 * floor, 0.0) and e > 0
+    ]
     if len(pts) < 3:
         return math.nan
     x = np.log10([p[0] for p in pts])
@@ -404,7 +507,7 @@ def step_for_error(steps, errors, wanted: float) -> float:
     """The step at which the (log-log interpolated) worst error equals `wanted`: the
     largest step that meets it. inf if every step meets it, NaN if none does."""
     pairs = sorted((s, e) for s, e in zip(steps, errors) if math.isfinite(e))
-    pairs.reverse()                                         # large steps first
+    pairs.reverse()  # large steps first
     if all(e <= wanted for _, e in pairs):
         return math.inf
     for (s0, e0), (s1, e1) in zip(pairs, pairs[1:]):
@@ -457,17 +560,40 @@ def statistics(driver: Driver, methods, n_torques: int) -> tuple:
                 d = r.n_impacts - q.n_impacts
                 extra[d] = extra.get(d, 0) + 1
         extra_txt = ", ".join(f"{d:+d}: {c}" for d, c in sorted(extra.items())) or "-"
-        rows.append([method.integrator, method.label.split(" ", 1)[1],
-                     f"{same.sum()}/{n_torques}", float(np.mean(xs[ok])), float(np.std(xs[ok])),
-                     float(wasserstein_distance(xs[ok], ref_x)),
-                     float(np.median(diff[ok])), float(np.max(diff[ok])),
-                     float(np.max(diff[~same & ok])) if np.any(~same & ok) else "-",
-                     float(np.mean([r.n_impacts for r in runs])), extra_txt,
-                     int(np.sum(~ok))])
+        rows.append(
+            [
+                method.integrator,
+                method.label.split(" ", 1)[1],
+                f"{same.sum()}/{n_torques}",
+                float(np.mean(xs[ok])),
+                float(np.std(xs[ok])),
+                float(wasserstein_distance(xs[ok], ref_x)),
+                float(np.median(diff[ok])),
+                float(np.max(diff[ok])),
+                float(np.max(diff[~same & ok])) if np.any(~same & ok) else "-",
+                float(np.mean([r.n_impacts for r in runs])),
+                extra_txt,
+                int(np.sum(~ok)),
+            ]
+        )
         rest[method.label] = xs
-    rows.insert(0, ["event", f"{REFERENCE_RTOL:.0e} (reference)", "-", float(np.mean(ref_x)),
-                    float(np.std(ref_x)), 0.0, 0.0, 0.0, "-",
-                    float(np.mean([r.n_impacts for r in refs])), "-", 0])
+    rows.insert(
+        0,
+        [
+            "event",
+            f"{REFERENCE_RTOL:.0e} (reference)",
+            "-",
+            float(np.mean(ref_x)),
+            float(np.std(ref_x)),
+            0.0,
+            0.0,
+            0.0,
+            "-",
+            float(np.mean([r.n_impacts for r in refs])),
+            "-",
+            0,
+        ],
+    )
     return torques, rows, rest
 
 
@@ -476,8 +602,13 @@ def measure(quick: bool) -> dict:
     size = "quick" if quick else "full"
     params = RoverParams()
     driver = Driver(params)
-    m = {"compile_s": warm_up(driver), "torques": TORQUES[size], "settings": SETTINGS,
-         "early": EARLY, "late": LATE}
+    m = {
+        "compile_s": warm_up(driver),
+        "torques": TORQUES[size],
+        "settings": SETTINGS,
+        "early": EARLY,
+        "late": LATE,
+    }
     torques = m["torques"]
     ref_method = Method("event", REFERENCE_RTOL)
     default = Method("event", DEFAULT_RTOL)
@@ -486,18 +617,32 @@ def measure(quick: bool) -> dict:
     m["check_max"], m["n_checks"] = 0.0, 0
     for torque in torques:
         for method in (default, Method("euler", 1e-3)):
-            m["check_max"] = max(m["check_max"],
-                                 check_grid_against_simulate(driver, method, torque, 0.5),
-                                 check_events_against_roversim(driver, method, torque, 0.5))
+            m["check_max"] = max(
+                m["check_max"],
+                check_grid_against_simulate(driver, method, torque, 0.5),
+                check_events_against_roversim(driver, method, torque, 0.5),
+            )
             m["n_checks"] += 2
     # What the Python controller would have cost: simulate() on the contest grid with
     # it, against the driver on the same grid.
-    m["python_wall"] = np.mean([best_of(lambda t=t: simulate(
-        contest_controller(t, params.inertia, KP, KD),
-        t_end=driver.run(default, t, 0.5, TIMING_GRID).end_t, control_dt=CONTROL_DT,
-        target_x=0.5, params=params, **default.kwargs()))[0] for t in torques])
-    m["driver_grid_wall"] = np.mean([driver.timed_run(default, t, 0.5, TIMING_GRID).wall
-                                     for t in torques])
+    m["python_wall"] = np.mean(
+        [
+            best_of(
+                lambda t=t: simulate(
+                    contest_controller(t, params.inertia, KP, KD),
+                    t_end=driver.run(default, t, 0.5, TIMING_GRID).end_t,
+                    control_dt=CONTROL_DT,
+                    target_x=0.5,
+                    params=params,
+                    **default.kwargs(),
+                )
+            )[0]
+            for t in torques
+        ]
+    )
+    m["driver_grid_wall"] = np.mean(
+        [driver.timed_run(default, t, 0.5, TIMING_GRID).wall for t in torques]
+    )
 
     # 2. The reference: find where each launch comes to rest, put the target 2 cm
     #    beyond it (so that the rover stops inside the band and TTRTP exists), rerun.
@@ -509,50 +654,61 @@ def measure(quick: bool) -> dict:
             raise RuntimeError(f"reference run failed for torque {torque:g}: {refs[torque]}")
     m["refs"], m["targets"] = refs, targets
     # its own noise: the API's tightest rtol against it
-    tightest = [errors_of(driver.run(Method("event", 1e-15), t, targets[t]), refs[t])
-                for t in torques]
+    tightest = [
+        errors_of(driver.run(Method("event", 1e-15), t, targets[t]), refs[t]) for t in torques
+    ]
     m["floors"] = {k: float(np.nanmax([e[k] for e in tightest])) for k, _, _ in EARLY + LATE}
     m["xcheck"] = cross_check(driver, torques, refs, targets)
-    m["flight_intervals"] = [(refs[t].land_t - refs[t].liftoff_t) / CONTROL_DT
-                             for t in torques]
+    m["flight_intervals"] = [(refs[t].land_t - refs[t].liftoff_t) / CONTROL_DT for t in torques]
 
     # 3. The sweeps, and the orders of convergence they show.
-    m["euler"] = [sweep_point(driver, Method("euler", dt), torques, refs, targets)
-                  for dt in EULER_DTS[size]]
-    m["event"] = [sweep_point(driver, Method("event", rtol), torques, refs, targets)
-                  for rtol in EVENT_RTOLS[size]]
+    m["euler"] = [
+        sweep_point(driver, Method("euler", dt), torques, refs, targets) for dt in EULER_DTS[size]
+    ]
+    m["event"] = [
+        sweep_point(driver, Method("event", rtol), torques, refs, targets)
+        for rtol in EVENT_RTOLS[size]
+    ]
     dts = [p.method.value for p in m["euler"]]
     rtols = [p.method.value for p in m["event"]]
-    m["euler_order"] = {k: fitted_order(dts, comparable(m["euler"], k))
-                        for k, _, _ in EARLY + LATE}
-    m["event_order"] = {k: fitted_order(rtols, comparable(m["event"], k), m["floors"][k])
-                        for k, _, _ in EARLY + LATE}
-    m["comparable"] = {name: {k: comparable(m[name], k) for k, _, _ in EARLY + LATE}
-                       for name in ("euler", "event")}
+    m["euler_order"] = {k: fitted_order(dts, comparable(m["euler"], k)) for k, _, _ in EARLY + LATE}
+    m["event_order"] = {
+        k: fitted_order(rtols, comparable(m["event"], k), m["floors"][k])
+        for k, _, _ in EARLY + LATE
+    }
+    m["comparable"] = {
+        name: {k: comparable(m[name], k) for k, _, _ in EARLY + LATE} for name in ("euler", "event")
+    }
     m["dt_1mm_land"] = step_for_error(dts, comparable(m["euler"], "land_x"), 1e-3)
     m["dt_1mm_rest"] = step_for_error(dts, comparable(m["euler"], "rest_x"), 1e-3)
 
     # 4. Past the first impact: distributions over many torques.
-    stat_methods = [Method("event", r) for r in STAT_EVENT_RTOLS] + \
-        [Method("euler", dt) for dt in STAT_EULER_DTS[size]]
-    m["stat_torques"], m["stat_rows"], _ = statistics(driver, stat_methods,
-                                                      STAT_TORQUES[size])
+    stat_methods = [Method("event", r) for r in STAT_EVENT_RTOLS] + [
+        Method("euler", dt) for dt in STAT_EULER_DTS[size]
+    ]
+    m["stat_torques"], m["stat_rows"], _ = statistics(driver, stat_methods, STAT_TORQUES[size])
     m["bounce_ref"] = bounce_speeds(params, ref_method, BOUNCE_TORQUE)
     m["bounce_euler"] = bounce_speeds(params, Method("euler", BOUNCE_DT), BOUNCE_TORQUE)
 
     # 5. The contest's control grid: every switch at a 0.1 s instant.
     grid_refs = {t: driver.run(ref_method, t, 0.5, TIMING_GRID) for t in torques}
-    m["grid"] = [sweep_point(driver, Method(i, v), torques, grid_refs,
-                             {t: 0.5 for t in torques}, TIMING_GRID)
-                 for i, v in GRID_METHODS]
+    m["grid"] = [
+        sweep_point(
+            driver, Method(i, v), torques, grid_refs, {t: 0.5 for t in torques}, TIMING_GRID
+        )
+        for i, v in GRID_METHODS
+    ]
     by_label = {p.method.label: p for p in m["euler"] + m["event"]}
     m["default_point"] = by_label[default.label]
     m["euler_1e4_point"] = by_label[Method("euler", 1e-4).label]
     grid_event = [p for p in m["grid"] if p.method.integrator == "event"]
     m["grid_event_rtols"] = [p.method.value for p in grid_event]
     m["grid_identical"] = all(
-        np.array_equal(p.runs[t].final, grid_event[0].runs[t].final) and
-        p.runs[t].seq == grid_event[0].runs[t].seq for p in grid_event for t in torques)
+        np.array_equal(p.runs[t].final, grid_event[0].runs[t].final)
+        and p.runs[t].seq == grid_event[0].runs[t].seq
+        for p in grid_event
+        for t in torques
+    )
     return m
 
 

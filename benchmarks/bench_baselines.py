@@ -11,6 +11,7 @@ recorded, relative to the repository root (where BENCHMARKS.md is).
 
     python -m benchmarks --only baselines
 """
+
 from __future__ import annotations
 
 import json
@@ -25,22 +26,30 @@ RESULTS = ROOT / "benchmarks" / "results" / "baselines"
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     from research.baselines import seed_table
     from research.yardstick.leaderboard import baseline_tables
+
     names = sorted(p.stem for p in RESULTS.glob("*.json"))
     if not names:
-        return Section("Baselines over seeds", "None recorded yet: `python -m research.baselines "
-                       "--config CONFIG --seeds 0-4 --out runs/baselines/NAME --record`.")
-    md = ["Each row: one config trained from scratch with several seeds (`python -m "
-          "research.baselines`), each seed's best model (chosen on train.py's validation "
-          "targets, which the suites never share) playing its task's frozen suite. Success, "
-          "median regret (TTRTP over the best-known reference's), mean and IQM normalised "
-          "score, each with a 95 % stratified-bootstrap interval over seeds (rliable). "
-          "docs/studies/baselines.md and docs/studies/off-policy.md read them.",
-          baseline_tables(RESULTS)]
+        return Section(
+            "Baselines over seeds",
+            "None recorded yet: `python -m research.baselines "
+            "--config CONFIG --seeds 0-4 --out runs/baselines/NAME --record`.",
+        )
+    md = [
+        "Each row: one config trained from scratch with several seeds (`python -m "
+        "research.baselines`), each seed's best model (chosen on train.py's validation "
+        "targets, which the suites never share) playing its task's frozen suite. Success, "
+        "median regret (TTRTP over the best-known reference's), mean and IQM normalised "
+        "score, each with a 95 % stratified-bootstrap interval over seeds (rliable). "
+        "docs/studies/baselines.md and docs/studies/off-policy.md read them.",
+        baseline_tables(RESULTS),
+    ]
     for name in names:
         res = json.loads((RESULTS / f"{name}.json").read_text())
         part = f"### {name}\n\n`{res.get('command', '?')}`\n\n{seed_table(res['runs'])}"
-        if (RESULTS / f"{name}.png").exists():      # the recorded curves, linked where they are
-            part += (f"\n\n![{name}: validation success against steps and wall time]"
-                     f"(benchmarks/results/baselines/{name}.png)")
+        if (RESULTS / f"{name}.png").exists():  # the recorded curves, linked where they are
+            part += (
+                f"\n\n![{name}: validation success against steps and wall time]"
+                f"(benchmarks/results/baselines/{name}.png)"
+            )
         md.append(part)
     return Section("Baselines over seeds", "\n\n".join(md))

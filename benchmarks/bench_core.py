@@ -12,6 +12,7 @@ and time `simulate_batch` against a Python loop over `simulate` on 1 and all thr
 Ratios are within this one run. Compile time is measured in fresh subprocesses: cold
 (empty numba cache) and cached.
 """
+
 import argparse
 import os
 import subprocess
@@ -28,13 +29,18 @@ from hoprover_env import RoverParams, core, simulate, simulate_batch
 from hoprover_env.agents.compiled import hop_plan, plan_torque
 from hoprover_env.sim.simulate import make_options, make_state
 
-RUNS = [("event", {}), ("euler dt=1e-3", {"integrator": "euler", "euler_dt": 1e-3}),
-        ("euler dt=1e-4", {"integrator": "euler", "euler_dt": 1e-4})]
+RUNS = [
+    ("event", {}),
+    ("euler dt=1e-3", {"integrator": "euler", "euler_dt": 1e-3}),
+    ("euler dt=1e-4", {"integrator": "euler", "euler_dt": 1e-4}),
+]
 
-FIRST_CALL = ("import time; t0 = time.perf_counter(); import numpy as np; "
-              "from hoprover_env import simulate; t1 = time.perf_counter(); "
-              "simulate(np.zeros(3), t_end=3.0, control_dt=1.0); "
-              "print(t1 - t0, time.perf_counter() - t1)")
+FIRST_CALL = (
+    "import time; t0 = time.perf_counter(); import numpy as np; "
+    "from hoprover_env import simulate; t1 = time.perf_counter(); "
+    "simulate(np.zeros(3), t_end=3.0, control_dt=1.0); "
+    "print(t1 - t0, time.perf_counter() - t1)"
+)
 
 
 @njit(cache=True, error_model="numpy", _nrt=False)
@@ -49,8 +55,15 @@ def replay(S, P, O, torques, control_dt, ev, W):
 def kernel_replay(sched, control_dt, integrator="event", euler_dt=1e-3):
     p = RoverParams()
     s = make_state(p, 0.0)
-    replay(s, p.as_array(), make_options(integrator, "contest", 1e-11, euler_dt), sched,
-           control_dt, np.zeros((0, core.EV_COLS)), np.zeros(core.N_WORK))
+    replay(
+        s,
+        p.as_array(),
+        make_options(integrator, "contest", 1e-11, euler_dt),
+        sched,
+        control_dt,
+        np.zeros((0, core.EV_COLS)),
+        np.zeros(core.N_WORK),
+    )
     return s
 
 
@@ -58,24 +71,29 @@ def closed_loop_schedules(control_dt=0.1, t_end=600.0):
     """Torque schedules recorded from closed-loop HopSequence runs (three torque cycles)."""
     out = []
     for torques in ((3e-4, 1.5e-4, 4e-4, 2e-4), (2e-4, 5e-4), (1e-4, 3.5e-4, 2.5e-4)):
-        roll = simulate(HopSequence(torques), t_end=t_end, control_dt=control_dt,
-                        target_x=0.0)
+        roll = simulate(HopSequence(torques), t_end=t_end, control_dt=control_dt, target_x=0.0)
         out.append(np.asarray(roll.torque_cmd[:-1]))
     return out
 
 
 def schedule_table(scheds, t_end, repeat):
     """simulate(schedule) per episode for each integrator (mean over the schedules)."""
-    print(f"\nsimulate() with a torque schedule ({len(scheds)} closed-loop schedules "
-          "recorded from HopSequence variants, replayed; the whole run in one kernel call):")
+    print(
+        f"\nsimulate() with a torque schedule ({len(scheds)} closed-loop schedules "
+        "recorded from HopSequence variants, replayed; the whole run in one kernel call):"
+    )
     print(f"{'integrator':<16}{'ms/episode':>12}{'x event':>10}{'events':>8}")
     base, out = None, {}
     for name, kw in RUNS:
-        simulate(scheds[0][:10], t_end=1.0, control_dt=0.1, **kw)     # load the kernel
+        simulate(scheds[0][:10], t_end=1.0, control_dt=0.1, **kw)  # load the kernel
         walls, events = [], 0
         for sched in scheds:
-            wall, roll = best_of(lambda sched=sched, kw=kw: simulate(
-                sched, t_end=t_end, control_dt=0.1, target_x=0.0, **kw), repeat)
+            wall, roll = best_of(
+                lambda sched=sched, kw=kw: simulate(
+                    sched, t_end=t_end, control_dt=0.1, target_x=0.0, **kw
+                ),
+                repeat,
+            )
             walls.append(wall)
             events += roll.n_events
         wall = float(np.mean(walls))
@@ -98,13 +116,14 @@ def compiled_controller_table(t_end, repeat):
     def python_twin(pos, vel, the, omg, posT, t, smt, state):
         return plan_torque.py_func(plan, the, omg, t, core.MODE_LETTERS.index(state))
 
-    simulate(compiled, t_end=1.0)                       # compile the controller
+    simulate(compiled, t_end=1.0)  # compile the controller
     res = {}
     print("\ncontroller (a hop plan: launch windows, PD attitude hold in flight; event):")
     print(f"{'controller':<28}{'ms/episode':>12}{'x compiled':>12}{'TTRTP':>10}")
     for name, ctrl in (("numba-compiled, in kernel", compiled), ("Python twin", python_twin)):
-        wall, roll = best_of(lambda ctrl=ctrl: simulate(ctrl, t_end=t_end, control_dt=0.1,
-                                                         target_x=0.5), repeat)
+        wall, roll = best_of(
+            lambda ctrl=ctrl: simulate(ctrl, t_end=t_end, control_dt=0.1, target_x=0.5), repeat
+        )
         res[name] = (wall, roll)
     base = res["numba-compiled, in kernel"][0]
     assert np.array_equal(res["Python twin"][1].x, res["numba-compiled, in kernel"][1].x)
@@ -122,8 +141,10 @@ def batch_table(scheds, t_end, n_runs, repeat):
     targets = rng.uniform(-1, 1, n_runs)
 
     def loop():
-        return [simulate(sched[i], t_end=t_end, control_dt=0.1, target_x=targets[i]).ttrtp
-                for i in range(n_runs)]
+        return [
+            simulate(sched[i], t_end=t_end, control_dt=0.1, target_x=targets[i]).ttrtp
+            for i in range(n_runs)
+        ]
 
     def batch():
         return simulate_batch(sched, targets, t_end=t_end, control_dt=0.1, record=False)
@@ -133,9 +154,13 @@ def batch_table(scheds, t_end, n_runs, repeat):
     try:
         for threads in sorted({1, numba.config.NUMBA_NUM_THREADS}):
             numba.set_num_threads(threads)
-            batch()                                        # compile / warm
-            rows.append((f"simulate_batch, {threads} thread{'s' * (threads > 1)}",
-                         best_of(batch, repeat)[0]))
+            batch()  # compile / warm
+            rows.append(
+                (
+                    f"simulate_batch, {threads} thread{'s' * (threads > 1)}",
+                    best_of(batch, repeat)[0],
+                )
+            )
     finally:
         numba.set_num_threads(before)
     print(f"\nbatch: {n_runs} episodes of {t_end:g} s at control_dt 0.1 (event):")
@@ -152,8 +177,13 @@ def compile_times():
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         for label in ("cold", "cached"):
-            out = subprocess.run([sys.executable, "-c", FIRST_CALL], env=env,
-                                 capture_output=True, text=True, check=True).stdout.split()
+            out = subprocess.run(
+                [sys.executable, "-c", FIRST_CALL],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
+            ).stdout.split()
             res[label] = tuple(float(v) for v in out)
     return res
 
@@ -166,11 +196,10 @@ def main(argv=None):
     ap.add_argument("--batch", type=int, default=64, help="episodes in the batch table")
     args = ap.parse_args(argv)
 
-    simulate(np.zeros(2), t_end=1.0)                      # warm (compiled or cached)
+    simulate(np.zeros(2), t_end=1.0)  # warm (compiled or cached)
     print(f"# bench_core: {args.t_end:g} s simulated per run, best of {args.repeat}\n")
     print("closed loop (HopSequence controller through the contest interface):")
-    print(f"{'integrator':<16}{'wall s':>10}{'x event':>10}{'events':>8}"
-          f"{'hops':>6}{'final x':>10}")
+    print(f"{'integrator':<16}{'wall s':>10}{'x event':>10}{'events':>8}{'hops':>6}{'final x':>10}")
     base = None
     for name, kw in RUNS:
         ctrl = HopSequence()
@@ -182,14 +211,18 @@ def main(argv=None):
         wall, roll = best_of(run, args.repeat)
         base = base or wall
         hops = sum(1 for e in roll.events if e[1] == "liftoff")
-        print(f"{name:<16}{wall:>10.4f}{wall / base:>10.1f}{roll.n_events:>8}{hops:>6}"
-              f"{roll.x[-1]:>10.4f}")
+        print(
+            f"{name:<16}{wall:>10.4f}{wall / base:>10.1f}{roll.n_events:>8}{hops:>6}"
+            f"{roll.x[-1]:>10.4f}"
+        )
 
     scheds = closed_loop_schedules(0.1, args.t_end)
     walls = schedule_table(scheds, args.t_end, args.repeat)
-    print(f"euler dt=1e-4 / event through simulate(): "
-          f"{walls['euler dt=1e-4'] / walls['event']:.0f}x; event "
-          f"{walls['event'] * 1e3:.2f} ms per {args.t_end:g} s episode")
+    print(
+        f"euler dt=1e-4 / event through simulate(): "
+        f"{walls['euler dt=1e-4'] / walls['event']:.0f}x; event "
+        f"{walls['event'] * 1e3:.2f} ms per {args.t_end:g} s episode"
+    )
     compiled_controller_table(args.t_end, args.repeat)
     batch_table(scheds, args.t_end, args.batch, args.repeat)
 
@@ -198,8 +231,12 @@ def main(argv=None):
     print(f"{'integrator':<16}{'wall s':>10}{'x event':>10}{'final x':>10}")
     base = None
     for name, kw in RUNS:
-        wall, s = best_of(lambda kw=kw: kernel_replay(sched, 0.1, kw.get("integrator", "event"),
-                                                        kw.get("euler_dt", 1e-3)), args.repeat)
+        wall, s = best_of(
+            lambda kw=kw: kernel_replay(
+                sched, 0.1, kw.get("integrator", "event"), kw.get("euler_dt", 1e-3)
+            ),
+            args.repeat,
+        )
         base = base or wall
         print(f"{name:<16}{wall:>10.5f}{wall / base:>10.1f}{s[core.S_X]:>10.4f}")
 

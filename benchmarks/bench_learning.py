@@ -11,6 +11,7 @@ curves are train.py's own evaluations (`evaluations.csv`: 100 validation targets
     python -m benchmarks.bench_learning [--quick] [--runs runs/learning] [--seeds 0,1,2]
                                         [--tasks scratch,hop,clone] [--finished-only]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,13 +30,17 @@ import yaml
 from benchmarks.report import Section, table
 
 ROOT = Path(__file__).resolve().parent.parent
-TASKS = {     # label, config, what it is
+TASKS = {  # label, config, what it is
     "scratch": ("configs/ppo_scratch.yaml", "HopRover-v0, PPO from scratch"),
     "hop": ("configs/ppo_hop.yaml", "HopRoverHop-v0, PPO from scratch"),
     "clone": ("configs/ppo.yaml", "HopRover-v0, cloning of the scripted hopper + PPO"),
 }
-QUICK = {"timesteps": 4096, "n_envs": 8, "evaluation": {"freq": 2048, "episodes": 4, "seed": 7},
-         "checkpoint": {"freq": 2048}}
+QUICK = {
+    "timesteps": 4096,
+    "n_envs": 8,
+    "evaluation": {"freq": 2048, "episodes": 4, "seed": 7},
+    "checkpoint": {"freq": 2048},
+}
 QUICK_PRETRAIN = {"episodes": 4, "epochs": 1, "dagger_rounds": 1, "dagger_episodes": 2}
 
 
@@ -58,8 +63,17 @@ def train(task: str, seed: int, runs: Path, quick: bool, tmp: Path) -> Path:
     out = runs / f"{task}_s{seed}"
     if (out / "final_model.json").exists():
         return out
-    cmd = [sys.executable, str(ROOT / "train.py"), "--config", str(_config_for(task, quick, tmp)),
-           "--seed", str(seed), "--out", str(out), "--no-progress"]
+    cmd = [
+        sys.executable,
+        str(ROOT / "train.py"),
+        "--config",
+        str(_config_for(task, quick, tmp)),
+        "--seed",
+        str(seed),
+        "--out",
+        str(out),
+        "--no-progress",
+    ]
     if (out / "checkpoints" / "last.json").exists():
         cmd.append("--resume")
     print(f"[bench_learning] {' '.join(cmd)}", file=sys.stderr, flush=True)
@@ -70,17 +84,32 @@ def train(task: str, seed: int, runs: Path, quick: bool, tmp: Path) -> Path:
 def read_run(out: Path) -> dict:
     """A run's evaluation curve and its cost."""
     meta = json.loads((out / "final_model.json").read_text())
-    offset = float(meta.get("pretrain_s") or 0.0)        # cloning happens before RL
+    offset = float(meta.get("pretrain_s") or 0.0)  # cloning happens before RL
     rows = list(csv.DictReader(open(out / "evaluations.csv")))
 
     def num(v):
         return float(v) if v not in ("", "nan", "None", None) else math.nan
-    curve = np.array([[num(r["timesteps"]), num(r["wall_s"]) + offset, num(r["success_rate"]),
-                       num(r["median_ttrtp"])] for r in rows])
+
+    curve = np.array(
+        [
+            [
+                num(r["timesteps"]),
+                num(r["wall_s"]) + offset,
+                num(r["success_rate"]),
+                num(r["median_ttrtp"]),
+            ]
+            for r in rows
+        ]
+    )
     wall = float(meta["wall_s"])
-    return {"curve": curve, "steps": int(meta["timesteps"]), "rl_wall": wall,
-            "wall": wall + offset, "env_share": float(meta.get("env_s", math.nan)) / wall,
-            "steps_per_s": int(meta["timesteps"]) / wall}
+    return {
+        "curve": curve,
+        "steps": int(meta["timesteps"]),
+        "rl_wall": wall,
+        "wall": wall + offset,
+        "env_share": float(meta.get("env_s", math.nan)) / wall,
+        "steps_per_s": int(meta["timesteps"]) / wall,
+    }
 
 
 def first_reaching(curve: np.ndarray, level: float) -> tuple[float, float]:
@@ -102,6 +131,7 @@ def _band(runs: list[dict], col: int, ycol: int, grid: np.ndarray):
     ys = np.array(ys)
     with np.errstate(all="ignore"):
         import warnings
+
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             return np.nanmean(ys, 0), np.nanmin(ys, 0), np.nanmax(ys, 0)
@@ -111,14 +141,18 @@ def scripted_median(episodes: int = 100) -> float:
     """The scripted hopper's median TTRTP on train.py's validation targets (seed 7)."""
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
+
     return summarize(run_episodes(load_policy("scripted"), seeded_targets(episodes, 7)))[
-        "median_ttrtp"]
+        "median_ttrtp"
+    ]
 
 
 def figure(results: dict, path: str, reference: float | None = None) -> None:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     fig, axes = plt.subplots(2, 2, figsize=(12, 8))
     for (task, runs), color in zip(results.items(), ("C0", "C1", "C2")):
         for col, ax_col, xlabel in ((0, 0, "environment steps"), (1, 1, "wall seconds")):
@@ -138,8 +172,9 @@ def figure(results: dict, path: str, reference: float | None = None) -> None:
         ax.grid(alpha=0.3)
     axes[1, 0].legend(fontsize=8)
     axes[0, 0].legend(fontsize=8)
-    fig.suptitle("PPO learning curves on hoprover: mean over seeds, band = min..max "
-                 "(100 validation targets)")
+    fig.suptitle(
+        "PPO learning curves on hoprover: mean over seeds, band = min..max (100 validation targets)"
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
@@ -149,47 +184,84 @@ def finished(task: str, seed: int, runs: Path) -> bool:
     return (runs / f"{task}_s{seed}" / "final_model.json").exists()
 
 
-def run(quick: bool = False, fig_dir: str = "benchmarks/figures", runs_dir: str | None = None,
-        seeds=(0, 1, 2), tasks=tuple(TASKS), finished_only: bool = False) -> Section:
+def run(
+    quick: bool = False,
+    fig_dir: str = "benchmarks/figures",
+    runs_dir: str | None = None,
+    seeds=(0, 1, 2),
+    tasks=tuple(TASKS),
+    finished_only: bool = False,
+) -> Section:
     """finished_only: read the finished runs and train none (a task keeps the seeds it has)."""
     tmp = Path(tempfile.mkdtemp())
     runs = Path(runs_dir) if runs_dir else (tmp / "runs" if quick else ROOT / "runs" / "learning")
     if quick:
         seeds = seeds[:1]
-    used = {task: [s for s in seeds if not finished_only or finished(task, s, runs)]
-            for task in tasks}
-    results = {task: [read_run(train(task, s, runs, quick, tmp)) for s in used[task]]
-               for task in tasks if used[task]}
+    used = {
+        task: [s for s in seeds if not finished_only or finished(task, s, runs)] for task in tasks
+    }
+    results = {
+        task: [read_run(train(task, s, runs, quick, tmp)) for s in used[task]]
+        for task in tasks
+        if used[task]
+    }
     rows = []
     for task, rs in results.items():
         final_s = [r["curve"][-1, 2] for r in rs]
         best_s = [float(np.nanmax(r["curve"][:, 2])) for r in rs]
         final_m = [r["curve"][-1, 3] for r in rs]
         reach = [first_reaching(r["curve"], 0.95) for r in rs]
-        rows.append([task, TASKS[task][1], ", ".join(map(str, used[task])),
-                     " / ".join(f"{v:.0%}" for v in final_s),
-                     " / ".join(f"{v:.0%}" for v in best_s),
-                     " / ".join(f"{v:.0f}" for v in final_m),
-                     " / ".join("-" if math.isnan(w) else f"{w:.0f}" for _, w in reach),
-                     " / ".join(f"{r['wall']:.0f}" for r in rs),
-                     float(np.mean([r["steps_per_s"] for r in rs])),
-                     float(np.mean([r["env_share"] for r in rs]))])
+        rows.append(
+            [
+                task,
+                TASKS[task][1],
+                ", ".join(map(str, used[task])),
+                " / ".join(f"{v:.0%}" for v in final_s),
+                " / ".join(f"{v:.0%}" for v in best_s),
+                " / ".join(f"{v:.0f}" for v in final_m),
+                " / ".join("-" if math.isnan(w) else f"{w:.0f}" for _, w in reach),
+                " / ".join(f"{r['wall']:.0f}" for r in rs),
+                float(np.mean([r["steps_per_s"] for r in rs])),
+                float(np.mean([r["env_share"] for r in rs])),
+            ]
+        )
     os.makedirs(fig_dir, exist_ok=True)
     fig = os.path.join(fig_dir, "learning_curves.png")
     ref = scripted_median(4 if quick else 100)
     figure(results, fig, ref)
-    md = [f"Runs in `{runs}` (one `train.py` run per task and seed; seeds "
-          f"{', '.join(map(str, seeds))}). Per seed, separated by /: the success rate and "
-          "median TTRTP of the last evaluation, the best success rate, the wall seconds "
-          "until the first evaluation at >= 95 % ('-': never), and the run's wall seconds "
-          "(cloning included). steps/s and the environment's share are over the RL phase. "
-          f"The scripted hopper's median TTRTP on the same targets: {ref:.1f} s.",
-          table(["task", "what", "seeds", "final success", "best success", "final median TTRTP s",
-                 "wall s to 95 %", "wall s", "RL steps/s", "env share"], rows,
-                {"RL steps/s": ",.0f", "env share": ".0%"})]
-    return Section("Learning curves", "\n\n".join(md), [fig],
-                   {f"{t}_final_success": float(np.mean([r["curve"][-1, 2] for r in rs]))
-                    for t, rs in results.items()})
+    md = [
+        f"Runs in `{runs}` (one `train.py` run per task and seed; seeds "
+        f"{', '.join(map(str, seeds))}). Per seed, separated by /: the success rate and "
+        "median TTRTP of the last evaluation, the best success rate, the wall seconds "
+        "until the first evaluation at >= 95 % ('-': never), and the run's wall seconds "
+        "(cloning included). steps/s and the environment's share are over the RL phase. "
+        f"The scripted hopper's median TTRTP on the same targets: {ref:.1f} s.",
+        table(
+            [
+                "task",
+                "what",
+                "seeds",
+                "final success",
+                "best success",
+                "final median TTRTP s",
+                "wall s to 95 %",
+                "wall s",
+                "RL steps/s",
+                "env share",
+            ],
+            rows,
+            {"RL steps/s": ",.0f", "env share": ".0%"},
+        ),
+    ]
+    return Section(
+        "Learning curves",
+        "\n\n".join(md),
+        [fig],
+        {
+            f"{t}_final_success": float(np.mean([r["curve"][-1, 2] for r in rs]))
+            for t, rs in results.items()
+        },
+    )
 
 
 def main(argv=None) -> int:
@@ -199,11 +271,20 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--tasks", default=",".join(TASKS))
     ap.add_argument("--fig-dir", default=str(ROOT / "benchmarks" / "figures"))
-    ap.add_argument("--finished-only", action="store_true",
-                    help="tabulate and plot the finished runs only; train nothing")
+    ap.add_argument(
+        "--finished-only",
+        action="store_true",
+        help="tabulate and plot the finished runs only; train nothing",
+    )
     args = ap.parse_args(argv)
-    sec = run(args.quick, args.fig_dir, args.runs, tuple(int(s) for s in args.seeds.split(",")),
-              tuple(args.tasks.split(",")), args.finished_only)
+    sec = run(
+        args.quick,
+        args.fig_dir,
+        args.runs,
+        tuple(int(s) for s in args.seeds.split(",")),
+        tuple(args.tasks.split(",")),
+        args.finished_only,
+    )
     print(sec.markdown)
     return 0
 

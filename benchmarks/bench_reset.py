@@ -9,6 +9,7 @@ the step resets them and moves none), each in microseconds per rover. Runs on an
 version of the package (it uses only the public API and the NextStep flags), so that
 two checkouts can be compared in alternating runs.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,6 +28,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     import hoprover_env  # noqa: F401
     from hoprover_env.envs.registry import vector_env_class
+
     n = args.n
     threads = {"auto": None, "on": True, "off": False}[args.threads]
     venv = vector_env_class(args.env)(n, threads=threads)
@@ -42,15 +44,24 @@ def main(argv=None):
         t0 = time.perf_counter()
         venv.step(acts)
         step.append(time.perf_counter() - t0)
-        venv._autoreset[:] = True                  # every rover ended in the last step
+        venv._autoreset[:] = True  # every rover ended in the last step
         t0 = time.perf_counter()
         venv.step(acts)
         auto.append(time.perf_counter() - t0)
-    us = lambda v: round(float(np.median(v)) / n * 1e6, 3)   # noqa: E731
-    print(json.dumps({"env": args.env, "n": n, "threads": args.threads,
-                      "reset_us_per_rover": us(reset),
-                      "step_us_per_rover": us(step), "autoreset_step_us_per_rover": us(auto),
-                      "file": hoprover_env.__file__}))
+    us = lambda v: round(float(np.median(v)) / n * 1e6, 3)  # noqa: E731
+    print(
+        json.dumps(
+            {
+                "env": args.env,
+                "n": n,
+                "threads": args.threads,
+                "reset_us_per_rover": us(reset),
+                "step_us_per_rover": us(step),
+                "autoreset_step_us_per_rover": us(auto),
+                "file": hoprover_env.__file__,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@
 * the cold wall time to the first step with the parallel-compile helper (the default)
   and without it, in alternating runs.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,7 +31,7 @@ import numpy as np
 from benchmarks import bench_core
 from benchmarks.report import Section, table
 
-COLD_SCRIPT = r'''
+COLD_SCRIPT = r"""
 import json, sys, time
 from numba.core import event as ev
 stack, records = [], []
@@ -66,7 +67,7 @@ if sys.argv[1] == "step":
     env.step(np.array([0.5], np.float32))
     mark("first env.step", c0, w0)
 print(json.dumps({"phases": phases, "records": records}))
-'''
+"""
 
 
 def cold_start(what: str = "step", parallel: bool = False, warm: bool = True) -> dict:
@@ -74,11 +75,17 @@ def cold_start(what: str = "step", parallel: bool = False, warm: bool = True) ->
     helper's are not seen), cold (empty numba cache), then warm unless warm=False."""
     out = {}
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache,
-                   HOPROVER_PARALLEL_COMPILE="1" if parallel else "0")
+        env = dict(
+            os.environ, NUMBA_CACHE_DIR=cache, HOPROVER_PARALLEL_COMPILE="1" if parallel else "0"
+        )
         for label in ("cold", "warm") if warm else ("cold",):
-            res = subprocess.run([sys.executable, "-c", COLD_SCRIPT, what], env=env,
-                                 check=True, capture_output=True, text=True)
+            res = subprocess.run(
+                [sys.executable, "-c", COLD_SCRIPT, what],
+                env=env,
+                check=True,
+                capture_output=True,
+                text=True,
+            )
             out[label] = json.loads(res.stdout.strip().splitlines()[-1])
     return out
 
@@ -107,8 +114,9 @@ def per_function(records) -> list:
 
 def cold_markdown(cs: dict, top: int) -> tuple[str, dict]:
     cold, warm = cs["cold"], cs["warm"]
-    phases = [[label, c, w, wc, ww] for (label, c, w), (_, wc, ww)
-              in zip(cold["phases"], warm["phases"])]
+    phases = [
+        [label, c, w, wc, ww] for (label, c, w), (_, wc, ww) in zip(cold["phases"], warm["phases"])
+    ]
     total = [sum(p[i] for p in phases) for i in (1, 2, 3, 4)]
     phases.append(["total", *total])
     funcs = per_function(cold["records"])
@@ -120,23 +128,39 @@ def cold_markdown(cs: dict, top: int) -> tuple[str, dict]:
         m[1] += n
         m[2] += excl
     twice = [f for f in funcs if f[1] > 1 and f[0].startswith("hoprover_env.")]
-    md = "\n\n".join([
-        table(["phase", "cold CPU s", "cold wall s", "warm CPU s", "warm wall s"], phases,
-              {c: ".2f" for c in ("cold CPU s", "cold wall s", "warm CPU s", "warm wall s")}),
-        "Compile time per module (cold; exclusive CPU seconds, summed over its functions):",
-        table(["module", "functions", "compilations", "exclusive CPU s"],
-              [[k, *v] for k, v in sorted(modules.items(), key=lambda kv: -kv[1][2])],
-              {"exclusive CPU s": ".2f"}),
-        f"The {top} most expensive compilations (exclusive: without the callees compiled "
-        "inside; inclusive: with them):",
-        table(["function", "compilations", "exclusive CPU s", "inclusive CPU s"],
-              [[f"`{n}`", c, e, i] for n, c, e, i in funcs[:top]],
-              {"exclusive CPU s": ".2f", "inclusive CPU s": ".2f"}),
-        ("Functions of this package compiled more than once: "
-         + (", ".join(f"`{f[0]}` ({f[1]}x)" for f in twice) if twice else "none") + "."),
-    ])
-    return md, {"cold_first_step_cpu_s": total[0], "cold_first_step_wall_s": total[1],
-                "warm_first_step_wall_s": total[3], "compiled_functions": len(funcs)}
+    md = "\n\n".join(
+        [
+            table(
+                ["phase", "cold CPU s", "cold wall s", "warm CPU s", "warm wall s"],
+                phases,
+                {c: ".2f" for c in ("cold CPU s", "cold wall s", "warm CPU s", "warm wall s")},
+            ),
+            "Compile time per module (cold; exclusive CPU seconds, summed over its functions):",
+            table(
+                ["module", "functions", "compilations", "exclusive CPU s"],
+                [[k, *v] for k, v in sorted(modules.items(), key=lambda kv: -kv[1][2])],
+                {"exclusive CPU s": ".2f"},
+            ),
+            f"The {top} most expensive compilations (exclusive: without the callees compiled "
+            "inside; inclusive: with them):",
+            table(
+                ["function", "compilations", "exclusive CPU s", "inclusive CPU s"],
+                [[f"`{n}`", c, e, i] for n, c, e, i in funcs[:top]],
+                {"exclusive CPU s": ".2f", "inclusive CPU s": ".2f"},
+            ),
+            (
+                "Functions of this package compiled more than once: "
+                + (", ".join(f"`{f[0]}` ({f[1]}x)" for f in twice) if twice else "none")
+                + "."
+            ),
+        ]
+    )
+    return md, {
+        "cold_first_step_cpu_s": total[0],
+        "cold_first_step_wall_s": total[1],
+        "warm_first_step_wall_s": total[3],
+        "compiled_functions": len(funcs),
+    }
 
 
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
@@ -151,49 +175,80 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     cold_md, cold_head = cold_markdown(cs, 8 if quick else 15)
     cold = cold_walls(0 if quick else 3)
     ev = walls["event"]
-    md = "\n\n".join([
-        f"`simulate()` with a torque schedule runs the whole episode in one kernel call "
-        f"(`hoprover_env/sim/rollout.py`). Schedules: {len(scheds)} closed-loop HopSequence "
-        f"runs recorded and replayed, {t_end:g} s episodes at control_dt 0.1 s, best of "
-        f"{repeat}, mean over the schedules:",
-        table(["integrator", "ms per episode", "x event"],
-              [[k, v * 1e3, v / ev] for k, v in walls.items()],
-              {"ms per episode": ".3f", "x event": ".1f"}),
-        "A numba-compiled contest controller runs inside the same compiled loop "
-        "(hoprover_env/agents/compiled.py, a hop plan: launch window, PD attitude hold in "
-        "flight); the "
-        "same plan as a Python controller runs simulate's Python loop (identical "
-        "trajectories, checked):",
-        table(["controller", "ms per episode", "x compiled"],
-              [[k, v * 1e3, v / ctrl["numba-compiled, in kernel"]] for k, v in ctrl.items()],
-              {"ms per episode": ".3f", "x compiled": ".1f"}),
-        f"`simulate_batch`: {n_batch} episodes ({t_end:g} s, control_dt 0.1 s, event, "
-        f"summaries only) against a Python loop over `simulate` (numba threads available: "
-        f"{numba.config.NUMBA_NUM_THREADS}):",
-        table(["", "episodes / s", "x loop"],
-              [[k, v, v / batch["Python loop over simulate"]] for k, v in batch.items()],
-              {"episodes / s": ",.0f", "x loop": ".2f"}),
-        "Cold start: a fresh interpreter with an empty numba cache (NUMBA_CACHE_DIR set to "
-        "an empty directory), " + ("`import hoprover_env` only (quick mode)"
-                                   if quick else "`import hoprover_env`, `gym.make` + "
-                                   "`reset`, the first `env.step`") +
-        ", compiling in this one process (HOPROVER_PARALLEL_COMPILE=0); then the same with "
-        "the cache it wrote:", cold_md] + ([
-        "Cold wall time to the first `env.step` (import, `gym.make` + `reset`, `step`), by "
-        "default (on two or more cores a helper process compiles the contact phases into "
-        "the cache meanwhile, hoprover_env/_parallel_compile.py) and in one process, "
-        f"{len(cold['one process'])} alternating runs each:",
-        table(["compiled by", "runs (s)", "median s", "x one process"],
-              [[k, " / ".join(f"{w:.2f}" for w in v), float(np.median(v)),
-                float(np.median(v) / np.median(cold["one process"]))]
-               for k, v in cold.items()],
-              {"median s": ".2f", "x one process": ".2f"})] if cold["one process"] else []))
+    md = "\n\n".join(
+        [
+            f"`simulate()` with a torque schedule runs the whole episode in one kernel call "
+            f"(`hoprover_env/sim/rollout.py`). Schedules: {len(scheds)} closed-loop HopSequence "
+            f"runs recorded and replayed, {t_end:g} s episodes at control_dt 0.1 s, best of "
+            f"{repeat}, mean over the schedules:",
+            table(
+                ["integrator", "ms per episode", "x event"],
+                [[k, v * 1e3, v / ev] for k, v in walls.items()],
+                {"ms per episode": ".3f", "x event": ".1f"},
+            ),
+            "A numba-compiled contest controller runs inside the same compiled loop "
+            "(hoprover_env/agents/compiled.py, a hop plan: launch window, PD attitude hold in "
+            "flight); the "
+            "same plan as a Python controller runs simulate's Python loop (identical "
+            "trajectories, checked):",
+            table(
+                ["controller", "ms per episode", "x compiled"],
+                [[k, v * 1e3, v / ctrl["numba-compiled, in kernel"]] for k, v in ctrl.items()],
+                {"ms per episode": ".3f", "x compiled": ".1f"},
+            ),
+            f"`simulate_batch`: {n_batch} episodes ({t_end:g} s, control_dt 0.1 s, event, "
+            f"summaries only) against a Python loop over `simulate` (numba threads available: "
+            f"{numba.config.NUMBA_NUM_THREADS}):",
+            table(
+                ["", "episodes / s", "x loop"],
+                [[k, v, v / batch["Python loop over simulate"]] for k, v in batch.items()],
+                {"episodes / s": ",.0f", "x loop": ".2f"},
+            ),
+            "Cold start: a fresh interpreter with an empty numba cache (NUMBA_CACHE_DIR set to "
+            "an empty directory), "
+            + (
+                "`import hoprover_env` only (quick mode)"
+                if quick
+                else "`import hoprover_env`, `gym.make` + `reset`, the first `env.step`"
+            )
+            + ", compiling in this one process (HOPROVER_PARALLEL_COMPILE=0); then the same with "
+            "the cache it wrote:",
+            cold_md,
+        ]
+        + (
+            [
+                "Cold wall time to the first `env.step` (import, `gym.make` + `reset`, `step`), by "
+                "default (on two or more cores a helper process compiles the contact phases into "
+                "the cache meanwhile, hoprover_env/_parallel_compile.py) and in one process, "
+                f"{len(cold['one process'])} alternating runs each:",
+                table(
+                    ["compiled by", "runs (s)", "median s", "x one process"],
+                    [
+                        [
+                            k,
+                            " / ".join(f"{w:.2f}" for w in v),
+                            float(np.median(v)),
+                            float(np.median(v) / np.median(cold["one process"])),
+                        ]
+                        for k, v in cold.items()
+                    ],
+                    {"median s": ".2f", "x one process": ".2f"},
+                ),
+            ]
+            if cold["one process"]
+            else []
+        )
+    )
     if cold["one process"]:
         cold_head["cold_first_step_parallel_wall_s"] = float(
-            np.median(cold["two processes (default)"]))
-    headline = {"simulate_event_ms": ev * 1e3,
-                "euler1e-4_over_event": walls["euler dt=1e-4"] / ev, **cold_head,
-                **{f"batch_eps_{k}": v for k, v in batch.items()}}
+            np.median(cold["two processes (default)"])
+        )
+    headline = {
+        "simulate_event_ms": ev * 1e3,
+        "euler1e-4_over_event": walls["euler dt=1e-4"] / ev,
+        **cold_head,
+        **{f"batch_eps_{k}": v for k, v in batch.items()},
+    }
     return Section("Whole runs in the kernel: simulate, batches, cold start", md, [], headline)
 
 

@@ -22,6 +22,7 @@ on one core (the scripted hopper and the bundled scratch policy), and Ray's over
 task (a no-op task's round trip, tasks in flight together) and per Tune trial (a trial
 that reports once and returns). Needs the [ray] extra for the last two.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,15 +34,16 @@ import time
 import numpy as np
 
 # ---- threads: fixed work at 1, 2, 4, ... threads -------------------------------------------
-BATCH_CONTROL_DT = 0.5          # s
-BATCH_KICK_RATE = 0.02          # share of control periods with a torque kick
-BATCH_KICK_NM = 5e-5            # kicks uniform in +-this [N m]: hops and slides, no breaks
-ENV_ACTION = 0.05               # vector env: actions uniform in +-this (of full scale)
+BATCH_CONTROL_DT = 0.5  # s
+BATCH_KICK_RATE = 0.02  # share of control periods with a torque kick
+BATCH_KICK_NM = 5e-5  # kicks uniform in +-this [N m]: hops and slides, no breaks
+ENV_ACTION = 0.05  # vector env: actions uniform in +-this (of full scale)
 
 
 def thread_counts() -> list[int]:
     """1, 2, 4, ... up to numba's thread count (all the cores), which ends the list."""
     import numba
+
     top = numba.config.NUMBA_NUM_THREADS
     out = [1]
     while out[-1] * 2 < top:
@@ -64,7 +66,7 @@ def grouped_workload(n: int, t_end: float, seed: int = 0):
     costly runs sit together, as the hops of a planner's population or the rovers in
     flight of a vector env do."""
     sched, targets = batch_workload(n, t_end, seed)
-    sched[n // 2:] = 0.0
+    sched[n // 2 :] = 0.0
     return sched, targets
 
 
@@ -103,6 +105,7 @@ class Clock:
             finally:
                 self.kernel_wall += time.perf_counter() - t0
                 self.kernel_cpu += time.thread_time() - c0
+
         return timed
 
     def __enter__(self):
@@ -116,10 +119,14 @@ class Clock:
         after, me = thread_cpu(), threading.get_native_id()
         others = [after[t] - self.threads0.get(t, 0.0) for t in after if t != me]
         serial_cpu = mine - self.kernel_cpu
-        self.result = {"wall": wall, "cpu": cpu, "kernel": self.kernel_wall,
-                       "serial": wall - self.kernel_wall, "serial_cpu": serial_cpu,
-                       "critical": serial_cpu + max([self.kernel_cpu] + others)
-                       if after else float("nan")}
+        self.result = {
+            "wall": wall,
+            "cpu": cpu,
+            "kernel": self.kernel_wall,
+            "serial": wall - self.kernel_wall,
+            "serial_cpu": serial_cpu,
+            "critical": serial_cpu + max([self.kernel_cpu] + others) if after else float("nan"),
+        }
 
 
 def time_batch(sched, targets, t_end: float, **kw) -> dict:
@@ -127,13 +134,15 @@ def time_batch(sched, targets, t_end: float, **kw) -> dict:
     batch._run_threaded (the threaded kernel)."""
     from hoprover_env import simulate_batch
     from hoprover_env.sim import batch
+
     real = batch._run_threaded
     clock = Clock()
     batch._run_threaded = clock.kernel(real)
     try:
         with clock:
-            simulate_batch(sched, targets, t_end=t_end, control_dt=BATCH_CONTROL_DT,
-                           record=False, **kw)
+            simulate_batch(
+                sched, targets, t_end=t_end, control_dt=BATCH_CONTROL_DT, record=False, **kw
+            )
     finally:
         batch._run_threaded = real
     return clock.result
@@ -145,17 +154,18 @@ class VectorEnvWork:
 
     def __init__(self, n: int, steps: int):
         from hoprover_env import HopRoverVectorEnv
+
         self.n, self.steps = n, steps
         self.env = HopRoverVectorEnv(n, threads=True)
         rng = np.random.default_rng(0)
         self.actions = rng.uniform(-ENV_ACTION, ENV_ACTION, (steps, n, 1))
         self.env.reset(seed=0)
-        self.env.step(self.actions[0])            # compiled and warm
+        self.env.step(self.actions[0])  # compiled and warm
 
     def __call__(self) -> dict:
         env = self.env
         env.reset(seed=0)
-        real = env._kernel               # the threaded step, chosen at reset
+        real = env._kernel  # the threaded step, chosen at reset
         clock = Clock()
         env._kernel = clock.kernel(real)
         try:
@@ -172,6 +182,7 @@ def over_threads(work, threads: list[int], repeat: int) -> dict:
     time; its `critical` the least of all), the thread counts timed in turn within each
     round; numba's thread count restored after."""
     import numba
+
     before = numba.get_num_threads()
     best: dict = {}
     try:
@@ -211,14 +222,29 @@ def scaling_rows(best: dict, units: float) -> tuple[list, dict]:
     rows = []
     for t, r in sorted(best.items()):
         s = one["wall"] / r["wall"]
-        rows.append([t, units / r["wall"], s, s / t, one["kernel"] / r["kernel"],
-                     one["critical"] / r["critical"], r["cpu"] / r["wall"]])
+        rows.append(
+            [
+                t,
+                units / r["wall"],
+                s,
+                s / t,
+                one["kernel"] / r["kernel"],
+                one["critical"] / r["critical"],
+                r["cpu"] / r["wall"],
+            ]
+        )
     f = one["serial"] / one["wall"]
     top = max(best)
     s_top = one["wall"] / best[top]["wall"]
-    return rows, {"serial_fraction": f, "serial_s": one["serial"], "top": top,
-                  "speedup_top": s_top, "karp_flatt_top": karp_flatt(s_top, top),
-                  "amdahl_16": amdahl(f, 16), "amdahl_64": amdahl(f, 64)}
+    return rows, {
+        "serial_fraction": f,
+        "serial_s": one["serial"],
+        "top": top,
+        "speedup_top": s_top,
+        "karp_flatt_top": karp_flatt(s_top, top),
+        "amdahl_16": amdahl(f, 16),
+        "amdahl_64": amdahl(f, 64),
+    }
 
 
 def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
@@ -226,6 +252,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     import numba
 
     from benchmarks.report import Section, table
+
     threads = thread_counts()
     repeat = 2 if quick else 3
     n_runs, t_end = (256, 60.0) if quick else (4096, 300.0)
@@ -233,79 +260,127 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
     sched, targets = batch_workload(n_runs, t_end)
-    time_batch(sched[:8], targets[:8], t_end)                      # compiled and warm
+    time_batch(sched[:8], targets[:8], t_end)  # compiled and warm
     batch_best = over_threads(lambda: time_batch(sched, targets, t_end), threads, repeat)
     b_rows, b_sum = scaling_rows(batch_best, n_runs)
     g_sched, g_targets = grouped_workload(n_runs, t_end)
-    grouped_best = over_threads(lambda: time_batch(g_sched, g_targets, t_end), threads,
-                                repeat)
+    grouped_best = over_threads(lambda: time_batch(g_sched, g_targets, t_end), threads, repeat)
     g_rows, g_sum = scaling_rows(grouped_best, n_runs)
     env_best = over_threads(VectorEnvWork(n_envs, steps), threads, repeat)
     e_rows, e_sum = scaling_rows(env_best, n_envs * steps)
 
-    fmt = {"speed-up": ".2f", "efficiency": ".0%", "kernel speed-up": ".2f",
-           "speed-up by CPU time": ".2f", "CPU s / wall s": ".2f"}
-    head = ["threads", "runs / s", "speed-up", "efficiency", "kernel speed-up",
-            "speed-up by CPU time", "CPU s / wall s"]
+    fmt = {
+        "speed-up": ".2f",
+        "efficiency": ".0%",
+        "kernel speed-up": ".2f",
+        "speed-up by CPU time": ".2f",
+        "CPU s / wall s": ".2f",
+    }
+    head = [
+        "threads",
+        "runs / s",
+        "speed-up",
+        "efficiency",
+        "kernel speed-up",
+        "speed-up by CPU time",
+        "CPU s / wall s",
+    ]
     b_md = table(head, b_rows, {"runs / s": ",.0f", **fmt})
     g_md = table(head, g_rows, {"runs / s": ",.0f", **fmt})
     e_md = table(["threads", "steps / s"] + head[2:], e_rows, {"steps / s": ",.0f", **fmt})
     summary = table(
-        ["", "serial (outside the kernel), 1 thread", "serial fraction f",
-         f"speed-up at {b_sum['top']} threads (measured)", "Karp-Flatt serial fraction",
-         "Amdahl, 16 threads", "Amdahl, 64 threads"],
-        [["simulate_batch, per run", f"{b_sum['serial_s'] / n_runs * 1e6:.2f} us",
-          b_sum["serial_fraction"], b_sum["speedup_top"], b_sum["karp_flatt_top"],
-          b_sum["amdahl_16"], b_sum["amdahl_64"]],
-         [f"vector env, per step of {n_envs}", f"{e_sum['serial_s'] / steps * 1e6:.0f} us",
-          e_sum["serial_fraction"], e_sum["speedup_top"], e_sum["karp_flatt_top"],
-          e_sum["amdahl_16"], e_sum["amdahl_64"]]],
-        {"serial fraction f": ".4f", f"speed-up at {b_sum['top']} threads (measured)": ".2f",
-         "Karp-Flatt serial fraction": ".3f", "Amdahl, 16 threads": ".1f",
-         "Amdahl, 64 threads": ".1f"})
-    md = "\n\n".join([
-        f"Fixed work at 1, 2, 4, ... numba threads up to this machine's "
-        f"{numba.config.NUMBA_NUM_THREADS} (`numba.set_num_threads`), each timed {repeat} "
-        f"times in turn with the others, best kept; load average {load:.1f} when it "
-        "started (on a machine shared with other work the speed-ups are lower bounds). "
-        "Speed-up and efficiency are of the whole call against one thread; kernel "
-        "speed-up is of the threaded kernel alone; speed-up by CPU time is what the "
-        "threads' own CPU time implies on idle cores (the calling thread's time outside "
-        "the kernel plus the busiest thread's time in it: waiting for a core shared with "
-        "other work does not count, spinning at the end of the kernel does); CPU s / "
-        "wall s counts every thread.",
-        f"`simulate_batch`: {n_runs} runs of {t_end:g} s (control period "
-        f"{BATCH_CONTROL_DT:g} s, zero torque but for kicks of up to "
-        f"{BATCH_KICK_NM:g} N m in {BATCH_KICK_RATE:.0%} of the periods; summaries only):",
-        b_md,
-        f"The same {n_runs} runs with the second half at rest (zero torque): the costly "
-        "runs grouped together, which a thread per contiguous block of runs would "
-        "split unevenly:", g_md,
-        f"HopRover-v0 vector env (`HopRoverVectorEnv({n_envs}, threads=True)`): {steps} "
-        f"steps from one reset, random actions in +-{ENV_ACTION:g}:", e_md,
-        "Serial time (Python outside the threaded kernel, at one thread) and what it "
-        "allows: Amdahl's law with that serial fraction f predicts 1 / (f + (1 - f) / p) "
-        "on p threads; the Karp-Flatt fraction is the serial fraction the measured "
-        "speed-up implies (imbalance between threads and contention count in it):",
-        summary])
-    headline = {"batch_runs_per_s_1": b_rows[0][1], "batch_runs_per_s_top": b_rows[-1][1],
-                "batch_speedup_top": b_sum["speedup_top"],
-                "batch_serial_us_per_run": b_sum["serial_s"] / n_runs * 1e6,
-                "batch_amdahl_16": b_sum["amdahl_16"], "batch_amdahl_64": b_sum["amdahl_64"],
-                "grouped_runs_per_s_1": g_rows[0][1],
-                "grouped_speedup_top": g_sum["speedup_top"],
-                "env_steps_per_s_1": e_rows[0][1], "env_steps_per_s_top": e_rows[-1][1],
-                "env_speedup_top": e_sum["speedup_top"],
-                "env_serial_us_per_step": e_sum["serial_s"] / steps * 1e6,
-                "env_amdahl_16": e_sum["amdahl_16"], "env_amdahl_64": e_sum["amdahl_64"],
-                "threads": threads, "load_average": load}
-    return Section("Threads: simulate_batch and the vector env on 1 to all cores", md, [],
-                   headline)
+        [
+            "",
+            "serial (outside the kernel), 1 thread",
+            "serial fraction f",
+            f"speed-up at {b_sum['top']} threads (measured)",
+            "Karp-Flatt serial fraction",
+            "Amdahl, 16 threads",
+            "Amdahl, 64 threads",
+        ],
+        [
+            [
+                "simulate_batch, per run",
+                f"{b_sum['serial_s'] / n_runs * 1e6:.2f} us",
+                b_sum["serial_fraction"],
+                b_sum["speedup_top"],
+                b_sum["karp_flatt_top"],
+                b_sum["amdahl_16"],
+                b_sum["amdahl_64"],
+            ],
+            [
+                f"vector env, per step of {n_envs}",
+                f"{e_sum['serial_s'] / steps * 1e6:.0f} us",
+                e_sum["serial_fraction"],
+                e_sum["speedup_top"],
+                e_sum["karp_flatt_top"],
+                e_sum["amdahl_16"],
+                e_sum["amdahl_64"],
+            ],
+        ],
+        {
+            "serial fraction f": ".4f",
+            f"speed-up at {b_sum['top']} threads (measured)": ".2f",
+            "Karp-Flatt serial fraction": ".3f",
+            "Amdahl, 16 threads": ".1f",
+            "Amdahl, 64 threads": ".1f",
+        },
+    )
+    md = "\n\n".join(
+        [
+            f"Fixed work at 1, 2, 4, ... numba threads up to this machine's "
+            f"{numba.config.NUMBA_NUM_THREADS} (`numba.set_num_threads`), each timed {repeat} "
+            f"times in turn with the others, best kept; load average {load:.1f} when it "
+            "started (on a machine shared with other work the speed-ups are lower bounds). "
+            "Speed-up and efficiency are of the whole call against one thread; kernel "
+            "speed-up is of the threaded kernel alone; speed-up by CPU time is what the "
+            "threads' own CPU time implies on idle cores (the calling thread's time outside "
+            "the kernel plus the busiest thread's time in it: waiting for a core shared with "
+            "other work does not count, spinning at the end of the kernel does); CPU s / "
+            "wall s counts every thread.",
+            f"`simulate_batch`: {n_runs} runs of {t_end:g} s (control period "
+            f"{BATCH_CONTROL_DT:g} s, zero torque but for kicks of up to "
+            f"{BATCH_KICK_NM:g} N m in {BATCH_KICK_RATE:.0%} of the periods; summaries only):",
+            b_md,
+            f"The same {n_runs} runs with the second half at rest (zero torque): the costly "
+            "runs grouped together, which a thread per contiguous block of runs would "
+            "split unevenly:",
+            g_md,
+            f"HopRover-v0 vector env (`HopRoverVectorEnv({n_envs}, threads=True)`): {steps} "
+            f"steps from one reset, random actions in +-{ENV_ACTION:g}:",
+            e_md,
+            "Serial time (Python outside the threaded kernel, at one thread) and what it "
+            "allows: Amdahl's law with that serial fraction f predicts 1 / (f + (1 - f) / p) "
+            "on p threads; the Karp-Flatt fraction is the serial fraction the measured "
+            "speed-up implies (imbalance between threads and contention count in it):",
+            summary,
+        ]
+    )
+    headline = {
+        "batch_runs_per_s_1": b_rows[0][1],
+        "batch_runs_per_s_top": b_rows[-1][1],
+        "batch_speedup_top": b_sum["speedup_top"],
+        "batch_serial_us_per_run": b_sum["serial_s"] / n_runs * 1e6,
+        "batch_amdahl_16": b_sum["amdahl_16"],
+        "batch_amdahl_64": b_sum["amdahl_64"],
+        "grouped_runs_per_s_1": g_rows[0][1],
+        "grouped_speedup_top": g_sum["speedup_top"],
+        "env_steps_per_s_1": e_rows[0][1],
+        "env_steps_per_s_top": e_rows[-1][1],
+        "env_speedup_top": e_sum["speedup_top"],
+        "env_serial_us_per_step": e_sum["serial_s"] / steps * 1e6,
+        "env_amdahl_16": e_sum["amdahl_16"],
+        "env_amdahl_64": e_sum["amdahl_64"],
+        "threads": threads,
+        "load_average": load,
+    }
+    return Section("Threads: simulate_batch and the vector env on 1 to all cores", md, [], headline)
 
 
 # ---- one core, PPO, evaluation, Ray ----------------------------------------------------------
 def env_steps_per_s(n: int = 256, steps: int = 400) -> float:
     from hoprover_env import HopRoverVectorEnv
+
     venv = HopRoverVectorEnv(n, threads=False, control_dt=2.0)
     venv.reset(seed=0)
     rng = np.random.default_rng(0)
@@ -320,6 +395,7 @@ def env_steps_per_s(n: int = 256, steps: int = 400) -> float:
 
 def ppo_steps_per_s(quick: bool) -> float:
     from benchmarks.bench_training import ppo_speed
+
     rollouts = 1 if quick else 4
     sps, _ = ppo_speed(1, 1, 128, 32 if quick else 256, 4096, 5, [128, 128], rollouts)
     return sps
@@ -328,9 +404,10 @@ def ppo_steps_per_s(quick: bool) -> float:
 def eval_episodes_per_s(policy: str, n: int) -> float:
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.episodes import run_episodes, seeded_targets
+
     pol = load_policy(policy, control_dt=0.5)
     targets = seeded_targets(n, 11)
-    run_episodes(pol, targets[:4])                    # warm-up (compiles, loads)
+    run_episodes(pol, targets[:4])  # warm-up (compiles, loads)
     t0 = time.perf_counter()
     run_episodes(pol, targets)
     return n / (time.perf_counter() - t0)
@@ -338,12 +415,14 @@ def eval_episodes_per_s(policy: str, n: int) -> float:
 
 def ray_task_overhead(n: int) -> dict:
     from hoprover_env.training.ray_utils import init_ray
+
     ray = init_ray(num_cpus=2)
 
     @ray.remote(num_cpus=1)
     def noop(x):
         return x
-    ray.get([noop.remote(i) for i in range(20)])      # workers started
+
+    ray.get([noop.remote(i) for i in range(20)])  # workers started
     t0 = time.perf_counter()
     for i in range(n):
         ray.get(noop.remote(i))
@@ -360,34 +439,46 @@ def tune_trial_overhead(n: int, tmp: str) -> float:
 
     def trivial(config):
         tune.report({"score": config["x"]})
+
     t0 = time.perf_counter()
-    tune.Tuner(tune.with_resources(trivial, {"cpu": 1}),
-               param_space={"x": tune.uniform(0, 1)},
-               tune_config=tune.TuneConfig(num_samples=n),
-               run_config=RunConfig(storage_path=tmp, name="overhead", verbose=0)).fit()
+    tune.Tuner(
+        tune.with_resources(trivial, {"cpu": 1}),
+        param_space={"x": tune.uniform(0, 1)},
+        tune_config=tune.TuneConfig(num_samples=n),
+        run_config=RunConfig(storage_path=tmp, name="overhead", verbose=0),
+    ).fit()
     return (time.perf_counter() - t0) / n
 
 
 def main(argv=None) -> int:
     import tempfile
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--threads", action="store_true", help="print the report's section "
-                    "(simulate_batch and the vector env at 1..all threads) and stop")
+    ap.add_argument(
+        "--threads",
+        action="store_true",
+        help="print the report's section "
+        "(simulate_batch and the vector env at 1..all threads) and stop",
+    )
     args = ap.parse_args(argv)
     if args.threads:
         sec = run(quick=args.quick)
         print(f"## {sec.title}\n\n{sec.markdown}")
         print(json.dumps(sec.headline))
         return 0
-    out = {"vector_env_steps_per_s_1core": env_steps_per_s(64 if args.quick else 256,
-                                                           60 if args.quick else 400)}
+    out = {
+        "vector_env_steps_per_s_1core": env_steps_per_s(
+            64 if args.quick else 256, 60 if args.quick else 400
+        )
+    }
     print(json.dumps(out), flush=True)
     out["ppo_steps_per_s_1trial"] = ppo_steps_per_s(args.quick)
     print(json.dumps(out), flush=True)
     for pol in ("scripted", "scratch"):
-        out[f"eval_episodes_per_s_1core_{pol}"] = eval_episodes_per_s(pol, 16 if args.quick
-                                                                      else 256)
+        out[f"eval_episodes_per_s_1core_{pol}"] = eval_episodes_per_s(
+            pol, 16 if args.quick else 256
+        )
     print(json.dumps(out), flush=True)
     try:
         import ray  # noqa: F401
@@ -395,8 +486,7 @@ def main(argv=None) -> int:
         print("Ray not installed: no overhead numbers")
         return 0
     out.update(ray_task_overhead(50 if args.quick else 500))
-    out["tune_trial_overhead_s"] = tune_trial_overhead(4 if args.quick else 16,
-                                                       tempfile.mkdtemp())
+    out["tune_trial_overhead_s"] = tune_trial_overhead(4 if args.quick else 16, tempfile.mkdtemp())
     print(json.dumps(out, indent=1))
     return 0
 

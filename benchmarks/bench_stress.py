@@ -46,6 +46,7 @@ restarts are counted.
 The section also measures how much kinetic energy the `contest` impact law adds in
 random hopping (MODEL.md section 6 reports about one impact in six gaining up to ~20 %).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -123,10 +124,15 @@ def checker_self_test():
     Returns (good states passed, good total, bad states flagged, bad total)."""
     p = DEFAULT
     pa = p.as_array()
-    good = [upright(p), (0.0, p.half_height, 0.0, 1e-3, 0.0, 0.0),
-            (0.0, 0.2, 0.7, 1e-3, -1e-3, 0.1), _contact_state(p, 0, 0.3, 0.02, 0.0),
-            _contact_state(p, 0, 0.3, 0.02, 1e-3), _contact_state(p, 1, -0.3, -0.02, 0.0),
-            _contact_state(p, 1, -0.3, 0.01, -1e-3)]
+    good = [
+        upright(p),
+        (0.0, p.half_height, 0.0, 1e-3, 0.0, 0.0),
+        (0.0, 0.2, 0.7, 1e-3, -1e-3, 0.1),
+        _contact_state(p, 0, 0.3, 0.02, 0.0),
+        _contact_state(p, 0, 0.3, 0.02, 1e-3),
+        _contact_state(p, 1, -0.3, -0.02, 0.0),
+        _contact_state(p, 1, -0.3, 0.01, -1e-3),
+    ]
     good_states = [make_state(p, TARGET_X, g) for g in good]
     passed = sum(check_state(g, pa, KINEMATIC_TOL, new_drift()) == 0 for g in good_states)
 
@@ -137,17 +143,20 @@ def checker_self_test():
         return s
 
     f, g_slide, flight, pivot_a, slide_a, pivot_b = good_states[:6]
-    bad = [(spoil(f, S_TH=1e-15), V_KINEMATICS),                      # F tilted
-           (spoil(g_slide, S_VX=0.0), V_KINEMATICS),                  # G not sliding
-           (spoil(g_slide, S_W=1e-14), V_KINEMATICS),                 # G turning
-           (spoil(pivot_a, S_Y=pivot_a[core.S_Y] + 1e-8), V_KINEMATICS),   # B off ground
-           (spoil(slide_a, S_VY=slide_a[core.S_VY] - 1e-8), V_KINEMATICS),  # C sinking
-           (spoil(pivot_a, S_VX=pivot_a[core.S_VX] + 1e-8), V_KINEMATICS),  # pivot slips
-           (spoil(pivot_b, S_TH=1e-8, S_Y=-offset(p, 1, 1e-8)[1]), V_KINEMATICS),  # D tilted
-           (spoil(flight, S_Y=-offset(p, 0, 0.7)[1] - 2e-9), V_PEN_SAMPLE),  # under ground
-           (spoil(flight, S_VX=np.nan), V_NAN)]
-    flagged = sum(bool(check_state(s, pa, KINEMATIC_TOL, new_drift()) & (1 << kind))
-                  for s, kind in bad)
+    bad = [
+        (spoil(f, S_TH=1e-15), V_KINEMATICS),  # F tilted
+        (spoil(g_slide, S_VX=0.0), V_KINEMATICS),  # G not sliding
+        (spoil(g_slide, S_W=1e-14), V_KINEMATICS),  # G turning
+        (spoil(pivot_a, S_Y=pivot_a[core.S_Y] + 1e-8), V_KINEMATICS),  # B off ground
+        (spoil(slide_a, S_VY=slide_a[core.S_VY] - 1e-8), V_KINEMATICS),  # C sinking
+        (spoil(pivot_a, S_VX=pivot_a[core.S_VX] + 1e-8), V_KINEMATICS),  # pivot slips
+        (spoil(pivot_b, S_TH=1e-8, S_Y=-offset(p, 1, 1e-8)[1]), V_KINEMATICS),  # D tilted
+        (spoil(flight, S_Y=-offset(p, 0, 0.7)[1] - 2e-9), V_PEN_SAMPLE),  # under ground
+        (spoil(flight, S_VX=np.nan), V_NAN),
+    ]
+    flagged = sum(
+        bool(check_state(s, pa, KINEMATIC_TOL, new_drift()) & (1 << kind)) for s, kind in bad
+    )
     return passed, len(good_states), flagged, len(bad)
 
 
@@ -162,19 +171,35 @@ def cross_check(spec: RunSpec, max_steps: int):
     stopped = execute(spec, restart_on_break=False, sample_impacts=True)
     problems = []
     try:
-        roll = simulate(contest_controller(spec), t_end=spec.t_end,
-                        control_dt=spec.control_dt, target_x=TARGET_X,
-                        integrator=spec.integrator, impact_law=spec.law,
-                        params=spec.params, initial_state=spec.initial,
-                        euler_dt=spec.euler_dt, seed=spec.seed())
+        roll = simulate(
+            contest_controller(spec),
+            t_end=spec.t_end,
+            control_dt=spec.control_dt,
+            target_x=TARGET_X,
+            integrator=spec.integrator,
+            impact_law=spec.law,
+            params=spec.params,
+            initial_state=spec.initial,
+            euler_dt=spec.euler_dt,
+            seed=spec.seed(),
+        )
     except RuntimeError:
         if not plain.r[R_VIOLATIONS + V_BUDGET]:
             problems.append("simulate ran out of events, the driver did not")
         return problems
-    last = np.array([roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1],
-                     roll.omega[-1], roll.t[-1]])
+    last = np.array(
+        [
+            roll.x[-1],
+            roll.y[-1],
+            roll.theta[-1],
+            roll.vx[-1],
+            roll.vy[-1],
+            roll.omega[-1],
+            roll.t[-1],
+        ]
+    )
     for name, res in (("driver", plain), ("driver stopping at impacts", stopped)):
-        if not np.array_equal(res.final[:core.S_T + 1], last):
+        if not np.array_equal(res.final[: core.S_T + 1], last):
             problems.append(f"{name}: final state differs from simulate")
         if res.r[R_EVENTS] != roll.n_events:
             problems.append(f"{name}: {res.r[R_EVENTS]:.0f} events, simulate {roll.n_events}")
@@ -183,8 +208,10 @@ def cross_check(spec: RunSpec, max_steps: int):
             problems.append(f"{name}: energy gains differ from simulate")
     kin = len(kinematic_violations(roll, tol=KINEMATIC_TOL))
     if kin != plain.r[R_VIOLATIONS + V_KINEMATICS]:
-        problems.append(f"kinematic verdicts differ: Rollout {kin}, driver "
-                        f"{plain.r[R_VIOLATIONS + V_KINEMATICS]:.0f}")
+        problems.append(
+            f"kinematic verdicts differ: Rollout {kin}, driver "
+            f"{plain.r[R_VIOLATIONS + V_KINEMATICS]:.0f}"
+        )
     if (roll.min_corner_height < -PENETRATION_TOL) != bool(plain.r[R_VIOLATIONS + V_PEN_EVENT]):
         problems.append("penetration verdicts differ")
     return problems
@@ -193,16 +220,37 @@ def cross_check(spec: RunSpec, max_steps: int):
 # ----------------------------------------------------------------------------------
 # Summaries
 # ----------------------------------------------------------------------------------
-SUMMED = (R_STEPS, R_SIM_SECONDS, R_EVENTS, R_IMPACTS, R_GAINS, R_KERNEL_GAINS, R_BREAKS,
-          R_SAMPLES_SINGLE, R_SAMPLES_DOUBLE, R_IMPACT_SAMPLES, R_WRONG_TILT,
-          R_KINEMATICS_OTHER, R_PEN_AT_BREAK)
-MAXED = (R_DRIFT_CORNER_Y, R_DRIFT_CORNER_VY, R_DRIFT_PIVOT_VX, R_DRIFT_FG_Y,
-         R_DRIFT_FG_TH, R_DRIFT_FG_VY, R_DRIFT_FG_W, R_MAX_EVENTS_PER_STEP)
+SUMMED = (
+    R_STEPS,
+    R_SIM_SECONDS,
+    R_EVENTS,
+    R_IMPACTS,
+    R_GAINS,
+    R_KERNEL_GAINS,
+    R_BREAKS,
+    R_SAMPLES_SINGLE,
+    R_SAMPLES_DOUBLE,
+    R_IMPACT_SAMPLES,
+    R_WRONG_TILT,
+    R_KINEMATICS_OTHER,
+    R_PEN_AT_BREAK,
+)
+MAXED = (
+    R_DRIFT_CORNER_Y,
+    R_DRIFT_CORNER_VY,
+    R_DRIFT_PIVOT_VX,
+    R_DRIFT_FG_Y,
+    R_DRIFT_FG_TH,
+    R_DRIFT_FG_VY,
+    R_DRIFT_FG_W,
+    R_MAX_EVENTS_PER_STEP,
+)
 
 
 @dataclasses.dataclass
 class Group:
     """Sums, maxima and minima over the runs of one (family, integrator) group."""
+
     runs: int = 0
     runs_with_violations: int = 0
     wall: float = 0.0
@@ -225,6 +273,7 @@ def energy_by(results) -> tuple[dict, dict]:
     gains, accumulated [impacts, gaining, kernel gaining, [gain arrays]]: of random
     hopping (family 1) by (hopper, integrator, law), and of every family by (family,
     integrator, law) plus ("**all**", integrator, law)."""
+
     def accumulate(store, key, res):
         acc = store.setdefault(key, [0.0, 0.0, 0.0, []])
         acc[0] += res.r[R_IMPACTS]
@@ -236,7 +285,7 @@ def energy_by(results) -> tuple[dict, dict]:
     for res in results:
         sp = res.spec
         if sp.family.startswith("1 "):
-            hopper = sp.label.rsplit(", seed", 1)[0]      # HOPPER_HOLD or HOPPER_FREE
+            hopper = sp.label.rsplit(", seed", 1)[0]  # HOPPER_HOLD or HOPPER_FREE
             accumulate(hopping, (hopper, sp.integrator, sp.law), res)
         accumulate(by_family, (sp.family, sp.integrator, sp.law), res)
         accumulate(by_family, ("**all**", sp.integrator, sp.law), res)
@@ -250,7 +299,7 @@ def violation_records(results, per_kind: int = 2) -> list:
     out = []
     for k in range(N_RECORDS):
         if k == V_KINEMATICS:
-            continue                     # shown through its two details
+            continue  # shown through its two details
         hit = [res for res in results if res.bad[k, B_FOUND]]
         if not hit:
             continue
@@ -259,8 +308,7 @@ def violation_records(results, per_kind: int = 2) -> list:
             if res.spec.family not in families:
                 examples.append(res)
                 families.add(res.spec.family)
-        out.append((k, hit, [(res, replay(res.spec, res.bad[k]))
-                             for res in examples[:per_kind]]))
+        out.append((k, hit, [(res, replay(res.spec, res.bad[k])) for res in examples[:per_kind]]))
     return out
 
 
@@ -271,15 +319,19 @@ def measure(quick: bool) -> dict:
 
     # every family, in order, each with its own random stream (changing one family
     # leaves the runs of the others as they were)
-    specs_by_family = [(fam, fam(np.random.default_rng([2015, i]), quick))
-                       for i, fam in enumerate(FAMILIES)]
+    specs_by_family = [
+        (fam, fam(np.random.default_rng([2015, i]), quick)) for i, fam in enumerate(FAMILIES)
+    ]
     results = []
     for fam, specs in specs_by_family:
         t0 = time.perf_counter()
         for spec in specs:
             results.append(execute(spec))
-        print(f"[stress] {fam.__name__}: {len(specs)} runs in "
-              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+        print(
+            f"[stress] {fam.__name__}: {len(specs)} runs in {time.perf_counter() - t0:.1f} s",
+            file=sys.stderr,
+            flush=True,
+        )
 
     # cross-check: the first run of each (integrator, law) of every family that
     # simulate can start (make_state refuses the hand-built grazing states)
@@ -293,10 +345,16 @@ def measure(quick: bool) -> dict:
                 picks.setdefault((spec.integrator, spec.law), spec)
         for spec in picks.values():
             checked += 1
-            disagreements += [f"{spec.family} {spec.integrator} {spec.law}: {p}"
-                              for p in cross_check(spec, max_steps)]
-    m.update(checked=checked, disagreements=disagreements, max_steps=max_steps,
-             cross_wall=time.perf_counter() - t0)
+            disagreements += [
+                f"{spec.family} {spec.integrator} {spec.law}: {p}"
+                for p in cross_check(spec, max_steps)
+            ]
+    m.update(
+        checked=checked,
+        disagreements=disagreements,
+        max_steps=max_steps,
+        cross_wall=time.perf_counter() - t0,
+    )
 
     groups: dict = {}
     total = Group()
@@ -307,7 +365,7 @@ def measure(quick: bool) -> dict:
     m["groups"] = list(groups.items()) + [(("**all**", ""), total)]
     m["hopping"], m["by_family"] = energy_by(results)
     m["violations"] = violation_records(results)
-    m["skipped"] = getattr(family_random_params, "skipped", 0)     # Painleve sets
+    m["skipped"] = getattr(family_random_params, "skipped", 0)  # Painleve sets
     m["wall"] = time.perf_counter() - t_start
     return m
 

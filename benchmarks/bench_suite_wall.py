@@ -11,6 +11,7 @@ episode's outcome (episode, success, TTRTP, broken, steps, final x): the same di
 means the same results. `--workers` is passed only when given, so the script also runs
 on a checkout whose `suites.run` has no such argument.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -22,14 +23,18 @@ import time
 def digest(rows) -> str:
     h = hashlib.sha256()
     for r in rows:
-        h.update(repr((r["episode"], r["success"], r["ttrtp"], r["broken"], r["steps"],
-                       r["final_x"])).encode())
+        h.update(
+            repr(
+                (r["episode"], r["success"], r["ttrtp"], r["broken"], r["steps"], r["final_x"])
+            ).encode()
+        )
     return h.hexdigest()
 
 
 def main(argv=None) -> int:
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation import suites
+
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--policy", default="mpc")
     ap.add_argument("--first", type=int, default=0, help="first episode of the slice")
@@ -38,12 +43,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     suite = suites.load("HopRover-v0")
     end = len(suite) if args.count is None else args.first + args.count
-    part = suites.Suite(suite.name, suite.version, suite.checksum,
-                        suite.episodes[args.first:end], suite.meta)
+    part = suites.Suite(
+        suite.name, suite.version, suite.checksum, suite.episodes[args.first : end], suite.meta
+    )
     kw = {} if args.workers is None else {"workers": args.workers}
-    warm = suites.Suite(suite.name, suite.version, suite.checksum, suite.episodes[:1],
-                        suite.meta)
-    suites.run(load_policy(args.policy), warm, **kw)         # compiled, loaded, warm
+    warm = suites.Suite(suite.name, suite.version, suite.checksum, suite.episodes[:1], suite.meta)
+    suites.run(load_policy(args.policy), warm, **kw)  # compiled, loaded, warm
     policy = load_policy(args.policy)
     t0 = time.perf_counter()
     rows = suites.run(policy, part, **kw)
@@ -51,11 +56,19 @@ def main(argv=None) -> int:
     # a slice is run as episodes 0.. of its own: number them as in the whole suite
     for r in rows:
         r["episode"] += args.first
-    print(json.dumps({"policy": args.policy, "episodes": [args.first, end],
-                      "workers": args.workers, "wall_s": round(wall, 2),
-                      "decisions": getattr(policy, "decisions", None),
-                      "success": sum(bool(r["success"]) for r in rows),
-                      "digest": digest(rows)}))
+    print(
+        json.dumps(
+            {
+                "policy": args.policy,
+                "episodes": [args.first, end],
+                "workers": args.workers,
+                "wall_s": round(wall, 2),
+                "decisions": getattr(policy, "decisions", None),
+                "success": sum(bool(r["success"]) for r in rows),
+                "digest": digest(rows),
+            }
+        )
+    )
     return 0
 
 

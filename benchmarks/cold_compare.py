@@ -23,6 +23,7 @@ by run (the order flips every round), because a VM's speed drifts by tens of per
 between minutes; the ratios of each round's pair are what to compare. --one-process
 turns the parallel-compile helper off (HOPROVER_PARALLEL_COMPILE=0).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,9 +39,11 @@ from benchmarks.bench_env import SINGLE_FIRST_STEP
 
 SCRIPTS = {
     "step": SINGLE_FIRST_STEP + "import time as _t; print(_t.time())\n",
-    "simulate": ("import time, hoprover_env\n"
-                 "roll = hoprover_env.simulate([3e-4, 0.0, 0.0], t_end=30.0, control_dt=0.5)\n"
-                 "print(time.time())\n"),
+    "simulate": (
+        "import time, hoprover_env\n"
+        "roll = hoprover_env.simulate([3e-4, 0.0, 0.0], t_end=30.0, control_dt=0.5)\n"
+        "print(time.time())\n"
+    ),
 }
 SCRIPT = SCRIPTS["step"]
 
@@ -52,7 +55,7 @@ def parse(spec: str) -> tuple[str, dict]:
     return tree, env
 
 
-CPU = {}        # run -> CPU s of the interpreter and its helper (information only)
+CPU = {}  # run -> CPU s of the interpreter and its helper (information only)
 
 
 def run_once(tree: str, settings: dict, what: str, cache: str) -> float:
@@ -61,16 +64,23 @@ def run_once(tree: str, settings: dict, what: str, cache: str) -> float:
     env.update(settings, NUMBA_CACHE_DIR=cache, PYTHONPATH=os.path.abspath(tree))
     used = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.time()
-    out = subprocess.run([sys.executable, "-c", SCRIPTS[what]], env=env, cwd=tree,
-                         check=True, capture_output=True, text=True)
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPTS[what]],
+        env=env,
+        cwd=tree,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     wall = float(out.stdout.split()[-1]) - start
     now = resource.getrusage(resource.RUSAGE_CHILDREN)
     CPU[wall] = now.ru_utime + now.ru_stime - used.ru_utime - used.ru_stime
     return wall
 
 
-def first_step(tree: str, parallel: bool, what: str = "step",
-               settings: dict | None = None) -> tuple[float, float]:
+def first_step(
+    tree: str, parallel: bool, what: str = "step", settings: dict | None = None
+) -> tuple[float, float]:
     """(cold s, cached s) of one fresh interpreter each, for the checkout at `tree`."""
     settings = dict(settings or {})
     if not parallel:
@@ -81,8 +91,11 @@ def first_step(tree: str, parallel: bool, what: str = "step",
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("trees", nargs="+", help="checkouts to compare (the first is the base), "
-                    "each optionally PATH:VAR=VALUE,...")
+    ap.add_argument(
+        "trees",
+        nargs="+",
+        help="checkouts to compare (the first is the base), each optionally PATH:VAR=VALUE,...",
+    )
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--one-process", action="store_true")
     ap.add_argument("--what", nargs="+", choices=sorted(SCRIPTS), default=["step"])
@@ -94,18 +107,24 @@ def main(argv=None) -> None:
                 tree, settings = parse(spec)
                 runs[spec].append(first_step(tree, not args.one_process, what, settings))
                 cold, cached = runs[spec][-1]
-                print(f"{what} round {r}: {spec}: cold {cold:.2f} s, cached {cached:.2f} s "
-                      f"(CPU {CPU[cold]:.1f} s, {CPU[cached]:.1f} s)", flush=True)
+                print(
+                    f"{what} round {r}: {spec}: cold {cold:.2f} s, cached {cached:.2f} s "
+                    f"(CPU {CPU[cold]:.1f} s, {CPU[cached]:.1f} s)",
+                    flush=True,
+                )
         base = [c for c, _ in runs[args.trees[0]]]
         for spec, rs in runs.items():
             cold = [c for c, _ in rs]
             ratios = [c / b for c, b in zip(cold, base)]
             cached = statistics.median(w for _, w in rs)
-            print(f"{what}: {spec}: cold {min(cold):.2f}-{max(cold):.2f} s (median "
-                  f"{statistics.median(cold):.2f}), cached {cached:.2f} s, x base per round "
-                  f"{min(ratios):.3f}-{max(ratios):.3f} (median "
-                  f"{statistics.median(ratios):.3f}); runs "
-                  f"{', '.join(f'{c:.2f}' for c in cold)} s", flush=True)
+            print(
+                f"{what}: {spec}: cold {min(cold):.2f}-{max(cold):.2f} s (median "
+                f"{statistics.median(cold):.2f}), cached {cached:.2f} s, x base per round "
+                f"{min(ratios):.3f}-{max(ratios):.3f} (median "
+                f"{statistics.median(ratios):.3f}); runs "
+                f"{', '.join(f'{c:.2f}' for c in cold)} s",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Shared pieces of the benchmark suite: a Section of the report, tables, machine info,
 and the markers that delimit each generated section of BENCHMARKS.md."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -14,6 +15,7 @@ import time
 class Section:
     """One part of BENCHMARKS.md: markdown text (tables, notes), figure files written
     under the figure directory, and headline numbers (for whoever quotes the section)."""
+
     title: str
     markdown: str
     figures: list = dataclasses.field(default_factory=list)
@@ -24,11 +26,13 @@ def table(header: list[str], rows: list[list], fmt: dict | None = None) -> str:
     """A markdown table; `fmt` maps a column name to a format spec."""
     fmt = fmt or {}
 
-    def cell(text) -> str:          # a '|' inside a cell (|d x|) would split it
+    def cell(text) -> str:  # a '|' inside a cell (|d x|) would split it
         return str(text).replace("|", "\\|")
 
-    out = ["| " + " | ".join(cell(h) for h in header) + " |",
-           "|" + "|".join("---" for _ in header) + "|"]
+    out = [
+        "| " + " | ".join(cell(h) for h in header) + " |",
+        "|" + "|".join("---" for _ in header) + "|",
+    ]
     for row in rows:
         cells = []
         for h, v in zip(header, row):
@@ -45,6 +49,7 @@ def table(header: list[str], rows: list[list], fmt: dict | None = None) -> str:
 def machine() -> str:
     import numba
     import numpy
+
     cpu = platform.processor() or "?"
     try:
         for line in open("/proc/cpuinfo"):
@@ -53,16 +58,21 @@ def machine() -> str:
                 break
     except OSError:
         pass
-    try:      # "-dirty": the run had uncommitted changes in the working tree
-        rev = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=7"],
-                             capture_output=True, text=True,
-                             cwd=os.path.dirname(__file__)).stdout.strip()
+    try:  # "-dirty": the run had uncommitted changes in the working tree
+        rev = subprocess.run(
+            ["git", "describe", "--always", "--dirty", "--abbrev=7"],
+            capture_output=True,
+            text=True,
+            cwd=os.path.dirname(__file__),
+        ).stdout.strip()
     except OSError:
         rev = "?"
-    return (f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, git {rev or '?'}, "
-            f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
-            f"numpy {numpy.__version__}, numba {numba.__version__}, numba threads "
-            f"{numba.config.NUMBA_NUM_THREADS}")
+    return (
+        f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, git {rev or '?'}, "
+        f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"numpy {numpy.__version__}, numba {numba.__version__}, numba threads "
+        f"{numba.config.NUMBA_NUM_THREADS}"
+    )
 
 
 def best_of(fn, repeat: int = 3):
@@ -80,8 +90,9 @@ def best_of(fn, repeat: int = 3):
 # sections (`python -m benchmarks --only env`) rewrites those and keeps the others.
 SECTION_START = "<!-- section: {name} -->"
 SECTION_END = "<!-- end of section: {name} -->"
-_SECTION = re.compile(r"^<!-- section: ([A-Za-z0-9_-]+) -->\n(.*?)^<!-- end of section: \1 -->$",
-                      re.S | re.M)
+_SECTION = re.compile(
+    r"^<!-- section: ([A-Za-z0-9_-]+) -->\n(.*?)^<!-- end of section: \1 -->$", re.S | re.M
+)
 
 
 def read_sections(text: str) -> dict[str, str]:

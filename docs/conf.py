@@ -8,6 +8,7 @@ docs/*.md stay Markdown (MyST). The environment pages are written from the env m
 docstrings at read time (docs/_ext/envpages.py); their animations and the tutorials
 (examples/tutorials, sphinx-gallery) are produced by running the code during the build.
 """
+
 from __future__ import annotations
 
 import os
@@ -42,9 +43,17 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "_generated/*.md",
-                    "tutorials/*.md5", "tutorials/*.ipynb", "tutorials/*.zip",
-                    "tutorials/*.py", "tutorials/*.json"]
+exclude_patterns = [
+    "_build",
+    "Thumbs.db",
+    ".DS_Store",
+    "_generated/*.md",
+    "tutorials/*.md5",
+    "tutorials/*.ipynb",
+    "tutorials/*.zip",
+    "tutorials/*.py",
+    "tutorials/*.json",
+]
 
 myst_enable_extensions = ["colon_fence", "deflist", "attrs_inline", "attrs_block"]
 myst_heading_anchors = 3
@@ -53,7 +62,7 @@ myst_heading_anchors = 3
 default_role = "py:obj"
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"
-autodoc_inherit_docstrings = False       # gymnasium's / SB3's docstrings are not ours
+autodoc_inherit_docstrings = False  # gymnasium's / SB3's docstrings are not ours
 autodoc_default_options = {"show-inheritance": True}
 autosummary_generate = False
 # hoprover_env.envs.rllib needs Ray, an optional extra ([ray]): document it without importing Ray

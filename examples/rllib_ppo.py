@@ -34,6 +34,7 @@ The settings follow configs/ppo_scratch.yaml (control period 2 s, landing shapin
 bounded attitude potential, gamma 0.995, small initial exploration noise); this is a
 plumbing example, and RLlib's PPO has not been tuned to the SB3 results in README.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,35 +43,59 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))           # research/ of this checkout, run from anywhere
+sys.path.insert(0, str(ROOT))  # research/ of this checkout, run from anywhere
 from hoprover_env.training.ray_utils import SHIP_CODE_HELP, ClusterCodeError, init_ray  # noqa: E402
 
 ENV_NAME = "hoprover"
 ENV_CONFIG = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0, "gamma": 0.995}
 
 
-def build_config(env_runners: int = 2, envs_per_runner: int = 32, env_config: dict | None = None,
-                 train_batch: int | None = None, minibatch: int = 512, epochs: int = 5,
-                 lr: float = 3e-4):
+def build_config(
+    env_runners: int = 2,
+    envs_per_runner: int = 32,
+    env_config: dict | None = None,
+    train_batch: int | None = None,
+    minibatch: int = 512,
+    epochs: int = 5,
+    lr: float = 3e-4,
+):
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.tune.registry import register_env
 
     from hoprover_env.envs.rllib import HopRoverMetrics, make_env
+
     register_env(ENV_NAME, make_env)
-    rollout = 64                                    # steps per sub-env per iteration
+    rollout = 64  # steps per sub-env per iteration
     batch = train_batch or max(env_runners, 1) * envs_per_runner * rollout
     return (
         PPOConfig()
         .environment(ENV_NAME, env_config={**ENV_CONFIG, **(env_config or {})})
-        .env_runners(num_env_runners=env_runners, num_envs_per_env_runner=envs_per_runner,
-                     gym_env_vectorize_mode="vector_entry_point",
-                     rollout_fragment_length="auto", num_cpus_per_env_runner=1)
+        .env_runners(
+            num_env_runners=env_runners,
+            num_envs_per_env_runner=envs_per_runner,
+            gym_env_vectorize_mode="vector_entry_point",
+            rollout_fragment_length="auto",
+            num_cpus_per_env_runner=1,
+        )
         .learners(num_learners=0)
-        .training(gamma=0.995, lambda_=0.95, lr=lr, train_batch_size_per_learner=batch,
-                  minibatch_size=min(minibatch, batch), num_epochs=epochs, clip_param=0.2,
-                  entropy_coeff=0.0, grad_clip=0.5)
-        .rl_module(model_config={"fcnet_hiddens": [128, 128], "fcnet_activation": "tanh",
-                                 "vf_share_layers": False})
+        .training(
+            gamma=0.995,
+            lambda_=0.95,
+            lr=lr,
+            train_batch_size_per_learner=batch,
+            minibatch_size=min(minibatch, batch),
+            num_epochs=epochs,
+            clip_param=0.2,
+            entropy_coeff=0.0,
+            grad_clip=0.5,
+        )
+        .rl_module(
+            model_config={
+                "fcnet_hiddens": [128, 128],
+                "fcnet_activation": "tanh",
+                "vf_share_layers": False,
+            }
+        )
         .callbacks(HopRoverMetrics)
     )
 
@@ -82,11 +107,16 @@ def summary(result: dict) -> dict:
     def get(key):
         v = runners.get(key)
         return math.nan if v is None else float(v)
-    return {"iteration": result.get("training_iteration"),
-            "env_steps": runners.get("num_env_steps_sampled_lifetime"),
-            "episodes": runners.get("num_episodes_lifetime"),
-            "return_mean": get("episode_return_mean"), "success": get("hoprover_success"),
-            "ttrtp": get("hoprover_ttrtp"), "broken": get("hoprover_broken")}
+
+    return {
+        "iteration": result.get("training_iteration"),
+        "env_steps": runners.get("num_env_steps_sampled_lifetime"),
+        "episodes": runners.get("num_episodes_lifetime"),
+        "return_mean": get("episode_return_mean"),
+        "success": get("hoprover_success"),
+        "ttrtp": get("hoprover_ttrtp"),
+        "broken": get("hoprover_broken"),
+    }
 
 
 def main(argv=None) -> int:
@@ -107,10 +137,12 @@ def main(argv=None) -> int:
     try:
         for _ in range(args.iterations):
             s = summary(algo.train())
-            print(f"iter {s['iteration']:>3}  env steps {s['env_steps']}  episodes "
-                  f"{s['episodes']}  return {s['return_mean']:.3f}  success "
-                  f"{s['success']:.2f}  TTRTP {s['ttrtp']:.1f} s  broken {s['broken']:.2f}",
-                  flush=True)
+            print(
+                f"iter {s['iteration']:>3}  env steps {s['env_steps']}  episodes "
+                f"{s['episodes']}  return {s['return_mean']:.3f}  success "
+                f"{s['success']:.2f}  TTRTP {s['ttrtp']:.1f} s  broken {s['broken']:.2f}",
+                flush=True,
+            )
     finally:
         algo.stop()
     return 0

@@ -22,6 +22,7 @@ The mean's output layer starts as SB3's does (orthogonal, gain 0.01, zero bias),
 that the first policy hops both ways; examples/torchrl_ppo.py says why this matters
 (with PyTorch's default init this example gave 52.0 % at seed 2).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -40,27 +41,33 @@ from skrl.utils import set_seed
 from torch import nn
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))           # research/ (the project's evaluation code)
+sys.path.insert(0, str(ROOT))  # research/ (the project's evaluation code)
 
 import hoprover_env  # noqa: E402,F401  (registers the envs)
 
 ENV_ID = "HopRoverHop-v0"
-ENV_KWARGS = {"control_dt": 0.5, "gamma": 0.98, "time_cost": 0.01}   # configs/ppo_hop.yaml
+ENV_KWARGS = {"control_dt": 0.5, "gamma": 0.98, "time_cost": 0.01}  # configs/ppo_hop.yaml
 
 
 def mlp(n_in: int, n_out: int) -> nn.Sequential:
-    return nn.Sequential(nn.Linear(n_in, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(),
-                         nn.Linear(64, n_out))
+    return nn.Sequential(
+        nn.Linear(n_in, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(), nn.Linear(64, n_out)
+    )
 
 
 class Policy(GaussianMixin, Model):
     def __init__(self, observation_space, state_space, action_space, device):
-        Model.__init__(self, observation_space=observation_space, state_space=state_space,
-                       action_space=action_space, device=device)
+        Model.__init__(
+            self,
+            observation_space=observation_space,
+            state_space=state_space,
+            action_space=action_space,
+            device=device,
+        )
         GaussianMixin.__init__(self, clip_actions=True)
         self.net = mlp(self.num_observations, self.num_actions)
-        nn.init.orthogonal_(self.net[-1].weight, gain=0.01)   # mean ~0 everywhere at the
-        nn.init.zeros_(self.net[-1].bias)                     # start, as SB3's
+        nn.init.orthogonal_(self.net[-1].weight, gain=0.01)  # mean ~0 everywhere at the
+        nn.init.zeros_(self.net[-1].bias)  # start, as SB3's
         self.log_std = nn.Parameter(torch.full((self.num_actions,), -2.0))
 
     def compute(self, inputs, role):
@@ -69,8 +76,13 @@ class Policy(GaussianMixin, Model):
 
 class Value(DeterministicMixin, Model):
     def __init__(self, observation_space, state_space, action_space, device):
-        Model.__init__(self, observation_space=observation_space, state_space=state_space,
-                       action_space=action_space, device=device)
+        Model.__init__(
+            self,
+            observation_space=observation_space,
+            state_space=state_space,
+            action_space=action_space,
+            device=device,
+        )
         DeterministicMixin.__init__(self)
         self.net = mlp(self.num_observations, 1)
 
@@ -83,29 +95,58 @@ def build(env) -> dict:
     return {"policy": Policy(*spaces), "value": Value(*spaces)}
 
 
-def train(steps: int, num_envs: int = 64, rollout: int = 32, minibatch: int = 512,
-          seed: int = 0, progress: bool = True) -> Policy:
+def train(
+    steps: int,
+    num_envs: int = 64,
+    rollout: int = 32,
+    minibatch: int = 512,
+    seed: int = 0,
+    progress: bool = True,
+) -> Policy:
     set_seed(seed)
-    env = wrap_env(gym.make_vec(ENV_ID, num_envs=num_envs, autoreset_mode="SameStep",
-                                threads=False, **ENV_KWARGS))
+    env = wrap_env(
+        gym.make_vec(
+            ENV_ID, num_envs=num_envs, autoreset_mode="SameStep", threads=False, **ENV_KWARGS
+        )
+    )
     models = build(env)
-    cfg = PPO_CFG(rollouts=rollout, learning_epochs=10,
-                  mini_batches=max(1, num_envs * rollout // minibatch),
-                  discount_factor=0.98, gae_lambda=0.95, learning_rate=3e-4,
-                  grad_norm_clip=0.5, ratio_clip=0.2, value_clip=0.0, entropy_loss_scale=0.0,
-                  value_loss_scale=0.5)
-    cfg.experiment.write_interval = 0              # no TensorBoard files, no checkpoints
+    cfg = PPO_CFG(
+        rollouts=rollout,
+        learning_epochs=10,
+        mini_batches=max(1, num_envs * rollout // minibatch),
+        discount_factor=0.98,
+        gae_lambda=0.95,
+        learning_rate=3e-4,
+        grad_norm_clip=0.5,
+        ratio_clip=0.2,
+        value_clip=0.0,
+        entropy_loss_scale=0.0,
+        value_loss_scale=0.5,
+    )
+    cfg.experiment.write_interval = 0  # no TensorBoard files, no checkpoints
     cfg.experiment.checkpoint_interval = 0
-    agent = PPO(models=models, memory=RandomMemory(memory_size=rollout, num_envs=num_envs),
-                cfg=cfg, observation_space=env.observation_space, state_space=env.state_space,
-                action_space=env.action_space, device=env.device)
+    agent = PPO(
+        models=models,
+        memory=RandomMemory(memory_size=rollout, num_envs=num_envs),
+        cfg=cfg,
+        observation_space=env.observation_space,
+        state_space=env.state_space,
+        action_space=env.action_space,
+        device=env.device,
+    )
     # close_environment_at_exit: skrl otherwise closes the env again in an atexit hook and
     # logs "Environment closed" to a stream that may be gone by then (pytest's capture:
     # two "--- Logging error ---" tracebacks at exit); this function closes it itself
-    SequentialTrainer(cfg={"timesteps": steps // num_envs, "headless": True,
-                           "disable_progressbar": not progress,
-                           "close_environment_at_exit": False},
-                      env=env, agents=agent).train()
+    SequentialTrainer(
+        cfg={
+            "timesteps": steps // num_envs,
+            "headless": True,
+            "disable_progressbar": not progress,
+            "close_environment_at_exit": False,
+        },
+        env=env,
+        agents=agent,
+    ).train()
     env.close()
     return models["policy"]
 
@@ -119,8 +160,12 @@ def judge(policy: Policy, episodes: int, seed: int = 2015) -> dict:
     def act(obs):
         with torch.no_grad():
             return policy.net(torch.as_tensor(obs))
-    return summarize(run_episodes(ArrayPolicy(act, "skrl_ppo", ENV_ID, ENV_KWARGS),
-                                  seeded_targets(episodes, seed)))
+
+    return summarize(
+        run_episodes(
+            ArrayPolicy(act, "skrl_ppo", ENV_ID, ENV_KWARGS), seeded_targets(episodes, seed)
+        )
+    )
 
 
 def main(argv=None) -> int:
@@ -134,9 +179,11 @@ def main(argv=None) -> int:
     policy = train(args.steps, seed=args.seed)
     wall = time.perf_counter() - t0
     res = judge(policy, args.eval_episodes)
-    print(f"skrl PPO, {args.steps} steps in {wall:.0f} s: success {res['success_rate']:.1%}, "
-          f"median TTRTP {res['median_ttrtp']:.1f} s, p90 {res['p90_ttrtp']:.1f} s, "
-          f"broken {res['broken']} ({args.eval_episodes} targets, seed 2015)")
+    print(
+        f"skrl PPO, {args.steps} steps in {wall:.0f} s: success {res['success_rate']:.1%}, "
+        f"median TTRTP {res['median_ttrtp']:.1f} s, p90 {res['p90_ttrtp']:.1f} s, "
+        f"broken {res['broken']} ({args.eval_episodes} targets, seed 2015)"
+    )
     return 0
 
 

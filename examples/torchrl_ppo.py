@@ -26,6 +26,7 @@ states, so only 14 % of the first hops towards a target at -x went that way (97 
 +x), and with no entropy bonus PPO learned the +x side alone (judged: 100 % of the
 targets at +x, 11 % of those at -x, 59.5 % in all).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -46,54 +47,75 @@ from torchrl.objectives import ClipPPOLoss
 from torchrl.objectives.value import GAE
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))           # research/ (the project's evaluation code)
+sys.path.insert(0, str(ROOT))  # research/ (the project's evaluation code)
 
 import hoprover_env  # noqa: E402,F401  (registers the envs)
 
 ENV_ID = "HopRoverHop-v0"
-ENV_KWARGS = {"control_dt": 0.5, "gamma": 0.98, "time_cost": 0.01}   # configs/ppo_hop.yaml
+ENV_KWARGS = {"control_dt": 0.5, "gamma": 0.98, "time_cost": 0.01}  # configs/ppo_hop.yaml
 
 
 def make_env(num_envs: int, seed: int):
-    venv = gym.make_vec(ENV_ID, num_envs=num_envs, autoreset_mode="SameStep",
-                        threads=False, **ENV_KWARGS)
-    env = GymWrapper(venv)          # reads every info key; at an episode's end, its last
+    venv = gym.make_vec(
+        ENV_ID, num_envs=num_envs, autoreset_mode="SameStep", threads=False, **ENV_KWARGS
+    )
+    env = GymWrapper(venv)  # reads every info key; at an episode's end, its last
     env.set_seed(seed)
     return env
 
 
 def mlp(n_in: int, n_out: int) -> nn.Sequential:
-    return nn.Sequential(nn.Linear(n_in, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(),
-                         nn.Linear(64, n_out))
+    return nn.Sequential(
+        nn.Linear(n_in, 64), nn.Tanh(), nn.Linear(64, 64), nn.Tanh(), nn.Linear(64, n_out)
+    )
 
 
 def build(env):
     n_obs = env.observation_spec["observation"].shape[-1]
     n_act = env.action_spec.shape[-1]
     loc_net = mlp(n_obs, n_act)
-    nn.init.orthogonal_(loc_net[-1].weight, gain=0.01)     # mean ~0 everywhere at the start
+    nn.init.orthogonal_(loc_net[-1].weight, gain=0.01)  # mean ~0 everywhere at the start
     nn.init.zeros_(loc_net[-1].bias)
     actor_net = nn.Sequential(loc_net, AddStateIndependentNormalScale(n_act, init_value=-2.0))
     actor = ProbabilisticActor(
         TensorDictModule(actor_net, in_keys=["observation"], out_keys=["loc", "scale"]),
-        in_keys=["loc", "scale"], spec=env.action_spec, distribution_class=IndependentNormal,
-        return_log_prob=True)     # the env clips actions to [-1, 1] itself
+        in_keys=["loc", "scale"],
+        spec=env.action_spec,
+        distribution_class=IndependentNormal,
+        return_log_prob=True,
+    )  # the env clips actions to [-1, 1] itself
     critic = ValueOperator(mlp(n_obs, 1), in_keys=["observation"])
     return actor, critic
 
 
-def train(steps: int, num_envs: int = 64, rollout: int = 32, epochs: int = 10,
-          minibatch: int = 512, lr: float = 3e-4, seed: int = 0, log=print):
+def train(
+    steps: int,
+    num_envs: int = 64,
+    rollout: int = 32,
+    epochs: int = 10,
+    minibatch: int = 512,
+    lr: float = 3e-4,
+    seed: int = 0,
+    log=print,
+):
     torch.manual_seed(seed)
     env = make_env(num_envs, seed)
     actor, critic = build(env)
     batch = num_envs * rollout
     collector = Collector(env, actor, frames_per_batch=batch, total_frames=steps)
-    buffer = ReplayBuffer(storage=LazyTensorStorage(batch), sampler=SamplerWithoutReplacement(),
-                          batch_size=minibatch)
+    buffer = ReplayBuffer(
+        storage=LazyTensorStorage(batch), sampler=SamplerWithoutReplacement(), batch_size=minibatch
+    )
     gae = GAE(gamma=0.98, lmbda=0.95, value_network=critic)
-    loss_fn = ClipPPOLoss(actor, critic, clip_epsilon=0.2, entropy_bonus=False,
-                          critic_coeff=0.5, loss_critic_type="l2", normalize_advantage=True)
+    loss_fn = ClipPPOLoss(
+        actor,
+        critic,
+        clip_epsilon=0.2,
+        entropy_bonus=False,
+        critic_coeff=0.5,
+        loss_critic_type="l2",
+        normalize_advantage=True,
+    )
     optim = torch.optim.Adam(loss_fn.parameters(), lr=lr)
     done_steps = 0
     for data in collector:
@@ -112,8 +134,7 @@ def train(steps: int, num_envs: int = 64, rollout: int = 32, epochs: int = 10,
         ended = data["next", "done"].squeeze(-1)
         if ended.any():
             success = data["next", "is_success"][ended].float().mean().item()
-            log(f"{done_steps:>8d} steps  episodes {int(ended.sum()):>4d}  success "
-                f"{success:.2f}")
+            log(f"{done_steps:>8d} steps  episodes {int(ended.sum()):>4d}  success {success:.2f}")
     collector.shutdown()
     return actor
 
@@ -123,11 +144,13 @@ def judge(actor, episodes: int, seed: int = 2015) -> dict:
     targets, acting with the mean action."""
     from hoprover_env.agents.policies import ArrayPolicy
     from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
-    loc_net = actor.module[0].module[0]           # the MLP giving the mean
+
+    loc_net = actor.module[0].module[0]  # the MLP giving the mean
 
     def act(obs):
         with torch.no_grad():
             return loc_net(torch.as_tensor(obs))
+
     policy = ArrayPolicy(act, "torchrl_ppo", ENV_ID, ENV_KWARGS)
     return summarize(run_episodes(policy, seeded_targets(episodes, seed)))
 
@@ -143,9 +166,11 @@ def main(argv=None) -> int:
     actor = train(args.steps, seed=args.seed)
     wall = time.perf_counter() - t0
     res = judge(actor, args.eval_episodes)
-    print(f"TorchRL PPO, {args.steps} steps in {wall:.0f} s: success {res['success_rate']:.1%}, "
-          f"median TTRTP {res['median_ttrtp']:.1f} s, p90 {res['p90_ttrtp']:.1f} s, "
-          f"broken {res['broken']} ({args.eval_episodes} targets, seed 2015)")
+    print(
+        f"TorchRL PPO, {args.steps} steps in {wall:.0f} s: success {res['success_rate']:.1%}, "
+        f"median TTRTP {res['median_ttrtp']:.1f} s, p90 {res['p90_ttrtp']:.1f} s, "
+        f"broken {res['broken']} ({args.eval_episodes} targets, seed 2015)"
+    )
     return 0
 
 

@@ -10,6 +10,7 @@ The package has one subpackage per layer, each importing only from those below i
 (docs/ARCHITECTURE.md): `jit`, `util`, `core` (the physics kernel), `sim` (simulate,
 batches), `tasks`, `envs`, `agents`, `evaluation`, `training`.
 """
+
 # first: the kernel sources the compiler's cache fingerprint covers, before any kernel
 from hoprover_env import _kernel_sources  # noqa: F401
 from hoprover_env.core.params import RoverParams
@@ -44,12 +45,31 @@ from hoprover_env.util.buildinfo import VERSION as __version__  # noqa: F401 (th
 for _id in ENVS:
     gym_register(_id)
 
-__all__ = ["RoverParams", "Rollout", "RoverSim", "simulate", "simulate_batch",
-           "BatchRollout", "ENVS", "Task", "task", "env_class", "vector_env_class",
-           "config_class", "register_task", "HopRoverEnv", "HopRoverVectorEnv",
-           "HopRoverHopEnv", "HopRoverHopVectorEnv", "HopRoverTerrainEnv",
-           "HopRoverTerrainVectorEnv", "HopRoverMissionEnv", "HopRoverMissionVectorEnv",
-           "HopRoverRLEnv", "HopRoverRLVectorEnv"]
+__all__ = [
+    "RoverParams",
+    "Rollout",
+    "RoverSim",
+    "simulate",
+    "simulate_batch",
+    "BatchRollout",
+    "ENVS",
+    "Task",
+    "task",
+    "env_class",
+    "vector_env_class",
+    "config_class",
+    "register_task",
+    "HopRoverEnv",
+    "HopRoverVectorEnv",
+    "HopRoverHopEnv",
+    "HopRoverHopVectorEnv",
+    "HopRoverTerrainEnv",
+    "HopRoverTerrainVectorEnv",
+    "HopRoverMissionEnv",
+    "HopRoverMissionVectorEnv",
+    "HopRoverRLEnv",
+    "HopRoverRLVectorEnv",
+]
 
 # last, so that an installed task module may import any name of the package: the task
 # modules installed packages name in the entry-point group "hoprover.tasks"

@@ -1,6 +1,7 @@
 """`python -m hoprover_env.compile`: warm numba's on-disk cache, at the path it has
 always had. The module is `hoprover_env.training.warm_cache`; importing this one gives
 that module itself."""
+
 import sys
 
 from hoprover_env.training import warm_cache as _warm_cache

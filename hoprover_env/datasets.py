@@ -1,6 +1,7 @@
 """`python -m hoprover_env.datasets`: the dataset builder's command line, at the path it
 has always had. The module is `hoprover_env.evaluation.datasets`; importing this one
 gives that module itself."""
+
 import sys
 
 from hoprover_env.evaluation import datasets as _datasets

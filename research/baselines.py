@@ -21,6 +21,7 @@ success. Written atomically into OUT: `summary.json`, `summary.md` (the tables) 
 mean over seeds with its 95 % bootstrap band, and each seed); with --record also into
 benchmarks/results/baselines/, where the leaderboard page reads them.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,8 +54,13 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-def train(config: str, seeds: list[int], out: Path, timesteps: int | None,
-          torch_threads: int | None = None) -> None:
+def train(
+    config: str,
+    seeds: list[int],
+    out: Path,
+    timesteps: int | None,
+    torch_threads: int | None = None,
+) -> None:
     """Train (or resume) each seed's run, one after the other, each alone on the machine
     (`torch_threads`: passed on to train.py, e.g. 1 when two drivers share the cores)."""
     for seed in seeds:
@@ -64,14 +70,25 @@ def train(config: str, seeds: list[int], out: Path, timesteps: int | None,
             continue
         # a config may name its own trainer module (configs/ppo_mission_hop.yaml)
         trainer = (yaml.safe_load(Path(config).read_text()) or {}).get("trainer")
-        cmd = [sys.executable, *(["-m", trainer] if trainer else [str(ROOT / "train.py")]),
-               "--config", config, "--seed", str(seed), "--out", str(run), "--no-progress"]
+        cmd = [
+            sys.executable,
+            *(["-m", trainer] if trainer else [str(ROOT / "train.py")]),
+            "--config",
+            config,
+            "--seed",
+            str(seed),
+            "--out",
+            str(run),
+            "--no-progress",
+        ]
         if timesteps is not None:
             cmd += ["--timesteps", str(timesteps)]
         if torch_threads is not None:
             if trainer:
-                raise SystemExit(f"--torch-threads is train.py's flag; this config's trainer "
-                                 f"({trainer}) does not take it")
+                raise SystemExit(
+                    f"--torch-threads is train.py's flag; this config's trainer "
+                    f"({trainer}) does not take it"
+                )
             cmd += ["--torch-threads", str(torch_threads)]
         if (run / "checkpoints").exists():
             cmd.append("--resume")
@@ -92,10 +109,13 @@ def curve(run: Path) -> dict:
     wall = np.array([float(r["wall_s"]) for r in rows])
     success = np.array([float(r["success_rate"]) for r in rows])
     hit = np.flatnonzero(success >= SUCCESS_GOAL)
-    return {"timesteps": steps.tolist(), "wall_s": wall.tolist(),
-            "val_success": success.tolist(),
-            "steps_to_goal": int(steps[hit[0]]) if hit.size else None,
-            "wall_s_to_goal": float(wall[hit[0]]) if hit.size else None}
+    return {
+        "timesteps": steps.tolist(),
+        "wall_s": wall.tolist(),
+        "val_success": success.tolist(),
+        "steps_to_goal": int(steps[hit[0]]) if hit.size else None,
+        "wall_s_to_goal": float(wall[hit[0]]) if hit.size else None,
+    }
 
 
 def score(out: Path, seeds: list[int], name: str) -> dict:
@@ -103,6 +123,7 @@ def score(out: Path, seeds: list[int], name: str) -> dict:
     from hoprover_env.agents.policies import load_sb3
     from hoprover_env.evaluation import suites
     from hoprover_env.evaluation.scores import episode_regrets, summarize
+
     runs, matrix = [], []
     suite = None
     for seed in seeds:
@@ -115,45 +136,70 @@ def score(out: Path, seeds: list[int], name: str) -> dict:
         suite = suite or suites.load(env_id)
         rows = suites.run(policy, suite)
         s = np.array([r["score"] for r in rows])
-        reg = episode_regrets([r["ttrtp"] if r["success"] else None for r in rows],
-                              suite.reference_ttrtp)
+        reg = episode_regrets(
+            [r["ttrtp"] if r["success"] else None for r in rows], suite.reference_ttrtp
+        )
         matrix.append(s)
-        runs.append({"seed": seed, "success": float(np.mean(s > 0)),
-                     "median_regret": float(np.median(reg)), "worst_regret": float(np.max(reg)),
-                     **curve(run)})
-        print(f"seed {seed}: success {runs[-1]['success']:.1%}, median regret "
-              f"{runs[-1]['median_regret']:.3f}", flush=True)
+        runs.append(
+            {
+                "seed": seed,
+                "success": float(np.mean(s > 0)),
+                "median_regret": float(np.median(reg)),
+                "worst_regret": float(np.max(reg)),
+                **curve(run),
+            }
+        )
+        print(
+            f"seed {seed}: success {runs[-1]['success']:.1%}, median regret "
+            f"{runs[-1]['median_regret']:.3f}",
+            flush=True,
+        )
     if not runs:
         raise SystemExit(f"no finished run in {out}")
     summary = summarize(name, np.array(matrix))
-    return {"name": name, "suite": f"{suite.name}-v{suite.version}", "env_id": env_id,
-            "summary": summary.row(), "runs": runs, "_summary": summary}
+    return {
+        "name": name,
+        "suite": f"{suite.name}-v{suite.version}",
+        "env_id": env_id,
+        "summary": summary.row(),
+        "runs": runs,
+        "_summary": summary,
+    }
 
 
 def seed_table(runs: list[dict]) -> str:
     """The per-seed table of a result's `runs` (as summary.json records them)."""
-    lines = ["| seed | success | median regret | worst regret | steps to 95 % | "
-             "wall time to 95 % |", "|---|---|---|---|---|---|"]
+    lines = [
+        "| seed | success | median regret | worst regret | steps to 95 % | wall time to 95 % |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in runs:
         steps = "never" if r["steps_to_goal"] is None else f"{r['steps_to_goal']:,}"
         wall = "never" if r["wall_s_to_goal"] is None else f"{r['wall_s_to_goal']:.0f} s"
-        lines.append(f"| {r['seed']} | {100 * r['success']:.1f} % | {r['median_regret']:.3f}"
-                     f" | {r['worst_regret']:.3f} | {steps} | {wall} |")
+        lines.append(
+            f"| {r['seed']} | {100 * r['success']:.1f} % | {r['median_regret']:.3f}"
+            f" | {r['worst_regret']:.3f} | {steps} | {wall} |"
+        )
     return "\n".join(lines)
 
 
 def markdown(result: dict) -> str:
     from hoprover_env.evaluation.scores import format_table
-    return (f"### {result['name']} on the {result['suite']} suite ({result['env_id']})\n\n"
-            f"{format_table([result['_summary']])}\n\n{seed_table(result['runs'])}\n")
+
+    return (
+        f"### {result['name']} on the {result['suite']} suite ({result['env_id']})\n\n"
+        f"{format_table([result['_summary']])}\n\n{seed_table(result['runs'])}\n"
+    )
 
 
 def plot(result: dict, path: Path) -> None:
     """Validation success against steps (mean over seeds, 95 % bootstrap band) and
     against wall time (each seed: the runs' clocks differ)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     runs = result["runs"]
     n = min(len(r["timesteps"]) for r in runs)
     steps = np.array(runs[0]["timesteps"][:n])
@@ -186,18 +232,29 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--config", required=True, help="YAML config (configs/*.yaml)")
     ap.add_argument("--seeds", default="0-4", help="e.g. 0-4 or 0,2,5 (default 0-4)")
-    ap.add_argument("--timesteps", type=int, default=None,
-                    help="environment steps per run (default: the config's)")
+    ap.add_argument(
+        "--timesteps",
+        type=int,
+        default=None,
+        help="environment steps per run (default: the config's)",
+    )
     ap.add_argument("--out", required=True, help="directory of the runs (OUT/s<seed>)")
     ap.add_argument("--name", default=None, help="the baseline's name (default: OUT's name)")
-    ap.add_argument("--torch-threads", type=int, default=None,
-                    help="torch's CPU threads per run (train.py's flag; give 1 when several "
-                         "drivers share the cores: off-policy updates oversubscribed by two "
-                         "runs of two threads each ran several times slower)")
+    ap.add_argument(
+        "--torch-threads",
+        type=int,
+        default=None,
+        help="torch's CPU threads per run (train.py's flag; give 1 when several "
+        "drivers share the cores: off-policy updates oversubscribed by two "
+        "runs of two threads each ran several times slower)",
+    )
     ap.add_argument("--score-only", action="store_true", help="no training: score the runs")
-    ap.add_argument("--record", action="store_true",
-                    help="also write the summary and curves into benchmarks/results/"
-                         "baselines/ (OUT's name), where the leaderboard reads them")
+    ap.add_argument(
+        "--record",
+        action="store_true",
+        help="also write the summary and curves into benchmarks/results/"
+        "baselines/ (OUT's name), where the leaderboard reads them",
+    )
     args = ap.parse_args(argv)
     try:
         seeds = parse_seeds(args.seeds)
@@ -212,13 +269,17 @@ def main(argv=None) -> int:
         train(args.config, seeds, out, args.timesteps, args.torch_threads)
     result = score(out, seeds, args.name or out.resolve().name)
     budget = f" --timesteps {args.timesteps}" if args.timesteps else ""
-    result["command"] = (f"python -m research.baselines --config {args.config} --seeds "
-                         f"{args.seeds}{budget} --out runs/baselines/{out.resolve().name}")
+    result["command"] = (
+        f"python -m research.baselines --config {args.config} --seeds "
+        f"{args.seeds}{budget} --out runs/baselines/{out.resolve().name}"
+    )
     md = markdown(result)
     print("\n" + md)
     atomic_write(out / "summary.md", md)
-    atomic_write(out / "summary.json", json.dumps(
-        {k: v for k, v in result.items() if not k.startswith("_")}, indent=1))
+    atomic_write(
+        out / "summary.json",
+        json.dumps({k: v for k, v in result.items() if not k.startswith("_")}, indent=1),
+    )
     plot(result, out / "curves.png")
     if args.record:
         rec = ROOT / "benchmarks" / "results" / "baselines"

@@ -10,6 +10,7 @@ whole flight step); benchmarks/bench_accuracy.py times it and checks it bit for 
 against `simulate` with `contest_controller` (the same controller in Python) and
 against a loop over `RoverSim`.
 """
+
 from __future__ import annotations
 
 import math
@@ -22,20 +23,20 @@ from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
 
 # Slots of the result vector the driver fills (NaN until the thing happens).
-R_LIFTOFF_T = 0     # first lift-off
-R_LAND_T = 1        # first touchdown after it
-R_LAND_X = 2        # c.m. x at that touchdown (an impact changes velocities, not x;
-                    # the attitude hold lands the body flat, so the contact points
-                    # are x -+ r there)
-R_REST_T = 3        # when it came to rest (state F) after landing
-R_REST_X = 4        # c.m. x at rest
-R_TTRTP = 5         # the judge's time to reach the target point
-R_END_T = 6         # simulated time when the driver stopped
+R_LIFTOFF_T = 0  # first lift-off
+R_LAND_T = 1  # first touchdown after it
+R_LAND_X = 2  # c.m. x at that touchdown (an impact changes velocities, not x;
+# the attitude hold lands the body flat, so the contact points
+# are x -+ r there)
+R_REST_T = 3  # when it came to rest (state F) after landing
+R_REST_X = 4  # c.m. x at rest
+R_TTRTP = 5  # the judge's time to reach the target point
+R_END_T = 6  # simulated time when the driver stopped
 R_N_IMPACTS = 7
-R_N_SEQ = 8         # mode-sequence codes written into `seq` (may exceed its length)
-R_FLAG = 9          # 0 fine, 1 broken, 2 kernel error, 3 hit T_END before resting
+R_N_SEQ = 8  # mode-sequence codes written into `seq` (may exceed its length)
+R_FLAG = 9  # 0 fine, 1 broken, 2 kernel error, 3 hit T_END before resting
 N_RESULT = 10
-SEQ_LEN = 256       # codes kept: kind * 8 + mode after, for every non-judge event
+SEQ_LEN = 256  # codes kept: kind * 8 + mode after, for every non-judge event
 
 PHASE_LAUNCH, PHASE_FLIGHT, PHASE_LANDED = 0, 1, 2
 
@@ -50,7 +51,7 @@ PHASE_LAUNCH, PHASE_FLIGHT, PHASE_LANDED = 0, 1, 2
 #   tolerance shows; and every switch is a smooth function of the state, so the errors
 #   converge cleanly.
 TIMING_GRID, TIMING_EVENTS = 0, 1
-IDLE_CHUNK = 1.0            # s: after landing, how often the driver checks for rest
+IDLE_CHUNK = 1.0  # s: after landing, how often the driver checks for rest
 
 
 @kernel
@@ -62,7 +63,7 @@ def _advance_and_record(S, P, O, torque, t_stop, ev, W, res, seq, n_seq):
     if S[core.S_STOPPED] != 0.0:
         if S[core.S_STOP_ON] == core.EV_LIFTOFF:
             res[R_LIFTOFF_T] = S[core.S_T]
-            S[core.S_STOP_ON] = core.EV_IMPACT     # next: the first touchdown
+            S[core.S_STOP_ON] = core.EV_IMPACT  # next: the first touchdown
         elif S[core.S_STOP_ON] == core.EV_IMPACT:
             res[R_LAND_T] = S[core.S_T]
             res[R_LAND_X] = S[core.S_X]
@@ -70,7 +71,7 @@ def _advance_and_record(S, P, O, torque, t_stop, ev, W, res, seq, n_seq):
     for i in range(min(n, ev.shape[0])):
         kind = int(ev[i, 1])
         if kind == core.EV_BAND_IN or kind == core.EV_BAND_OUT or kind == core.EV_TTRTP:
-            continue                   # judge bookkeeping, not a change of mode
+            continue  # judge bookkeeping, not a change of mode
         after = int(ev[i, 3])
         if n_seq < seq.shape[0]:
             seq[n_seq] = kind * 8 + after
@@ -89,13 +90,15 @@ def _healthy(S):
 def _at_rest_and_judged(S, res):
     """Landed, at rest on both corners (nothing moves again under zero torque), and
     the judge has either given its TTRTP or can never give one (out of the band)."""
-    return (not math.isnan(res[R_LAND_T]) and int(S[core.S_MODE]) == core.MODE_F and
-            (S[core.S_INBAND] == 0.0 or not math.isnan(S[core.S_TTRTP])))
+    return (
+        not math.isnan(res[R_LAND_T])
+        and int(S[core.S_MODE]) == core.MODE_F
+        and (S[core.S_INBAND] == 0.0 or not math.isnan(S[core.S_TTRTP]))
+    )
 
 
 @kernel
-def run_scenario(S, P, O, timing, launch_torque, kp, kd, control_dt, t_end, ev, W, res,
-                 seq):
+def run_scenario(S, P, O, timing, launch_torque, kp, kd, control_dt, t_end, ev, W, res, seq):
     """One launch-and-land run, entirely in compiled code (see TIMING_* for the two
     ways the controller switches). Fills `res` (R_* slots, NaN when a thing did not
     happen) and `seq` (mode-sequence codes). `ev` is the event log, `W` the kernel's
@@ -125,8 +128,11 @@ def run_scenario(S, P, O, timing, launch_torque, kp, kd, control_dt, t_end, ev, 
             if int(S[core.S_MODE]) == core.MODE_A:
                 if phase == PHASE_LAUNCH:
                     phase = PHASE_FLIGHT
-                torque = 0.0 if phase == PHASE_LANDED else \
-                    attitude_hold(S[core.S_TH], S[core.S_W], inertia, kp, kd)
+                torque = (
+                    0.0
+                    if phase == PHASE_LANDED
+                    else attitude_hold(S[core.S_TH], S[core.S_W], inertia, kp, kd)
+                )
             elif phase == PHASE_LAUNCH:
                 torque = launch_torque
             else:
@@ -144,12 +150,14 @@ def run_scenario(S, P, O, timing, launch_torque, kp, kd, control_dt, t_end, ev, 
         while _healthy(S) and math.isnan(res[R_LAND_T]) and S[core.S_T] < t_end:
             k += 1
             torque = attitude_hold(S[core.S_TH], S[core.S_W], inertia, kp, kd)
-            n_seq = _advance_and_record(S, P, O, torque, min(t_liftoff + k * control_dt,
-                                                                t_end), ev, W, res, seq, n_seq)
+            n_seq = _advance_and_record(
+                S, P, O, torque, min(t_liftoff + k * control_dt, t_end), ev, W, res, seq, n_seq
+            )
         # idle from the touchdown on, in chunks only to notice the rest
         while _healthy(S) and not _at_rest_and_judged(S, res) and S[core.S_T] < t_end:
-            n_seq = _advance_and_record(S, P, O, 0.0, min(S[core.S_T] + IDLE_CHUNK, t_end),
-                                        ev, W, res, seq, n_seq)
+            n_seq = _advance_and_record(
+                S, P, O, 0.0, min(S[core.S_T] + IDLE_CHUNK, t_end), ev, W, res, seq, n_seq
+            )
     if S[core.S_BROKEN] != 0.0:
         flag = 1.0
     elif S[core.S_ERROR] != 0.0:

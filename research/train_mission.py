@@ -13,6 +13,7 @@ episodes the suite never uses), best_model.zip with its .json (what
 final_model.zip, and checkpoints/last.zip with progress.json, all written atomically.
 --resume continues from the last checkpoint to the requested total.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,10 +33,19 @@ from hoprover_env.util.buildinfo import git_commit
 from hoprover_env.util.files import atomic_write, write_json
 
 ENV_ID = "HopRoverMission-v0"
-KEYS = {"trainer", "env_id", "env", "n_envs", "timesteps", "policy", "hyperparams",
-        "evaluation", "seed"}
-VALIDATION_SEED = 1_000_000        # validation episode k is seeded with this + k
-TRAIN_SEED = 10_000_000            # sub-env i of seed s starts from this + 1000 s + i
+KEYS = {
+    "trainer",
+    "env_id",
+    "env",
+    "n_envs",
+    "timesteps",
+    "policy",
+    "hyperparams",
+    "evaluation",
+    "seed",
+}
+VALIDATION_SEED = 1_000_000  # validation episode k is seeded with this + k
+TRAIN_SEED = 10_000_000  # sub-env i of seed s starts from this + 1000 s + i
 
 
 def load_config(path: str) -> dict:
@@ -43,8 +53,9 @@ def load_config(path: str) -> dict:
     cfg = yaml.safe_load(Path(path).read_text()) or {}
     unknown = set(cfg) - KEYS
     if unknown:
-        raise ValueError(f"unknown config key(s) {sorted(unknown)} in {path}; "
-                         f"valid: {sorted(KEYS)}")
+        raise ValueError(
+            f"unknown config key(s) {sorted(unknown)} in {path}; valid: {sorted(KEYS)}"
+        )
     if cfg.get("env_id", ENV_ID) != ENV_ID:
         raise ValueError(f"{path}: this trainer trains on {ENV_ID}, not {cfg['env_id']!r}")
     return cfg
@@ -94,49 +105,77 @@ def main(argv=None) -> int:
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
+
     torch.set_num_threads(1)
     out = Path(args.out)
     (out / "checkpoints").mkdir(parents=True, exist_ok=True)
     total = args.timesteps or int(cfg["timesteps"])
     env_kwargs = dict(cfg.get("env") or {})
     ev = cfg.get("evaluation", {})
-    cfg = {**cfg, "seed": args.seed, "timesteps": total}       # as resolved for this run
+    cfg = {**cfg, "seed": args.seed, "timesteps": total}  # as resolved for this run
     atomic_write(out / "config.yaml", yaml.safe_dump(cfg))
-    venv = make_vec_env(MissionHopEnv, n_envs=int(cfg.get("n_envs", 8)),
-                        seed=TRAIN_SEED + 1000 * args.seed, env_kwargs=env_kwargs,
-                        monitor_kwargs={"info_keywords": ("is_success",)})
+    venv = make_vec_env(
+        MissionHopEnv,
+        n_envs=int(cfg.get("n_envs", 8)),
+        seed=TRAIN_SEED + 1000 * args.seed,
+        env_kwargs=env_kwargs,
+        monitor_kwargs={"info_keywords": ("is_success",)},
+    )
     last = out / "checkpoints" / "last.zip"
     progress_path = out / "checkpoints" / "progress.json"
     if args.resume and last.exists():
         model = PPO.load(str(last), env=venv, device="cpu")
         progress = json.loads(progress_path.read_text())
-        for row in progress["evals"]:        # strict JSON wrote NaN as null
+        for row in progress["evals"]:  # strict JSON wrote NaN as null
             row.update({k: math.nan for k, v in row.items() if v is None})
         print(f"resuming at {model.num_timesteps} hops", file=sys.stderr)
     else:
         pol = dict(cfg.get("policy") or {})
-        pol["activation_fn"] = getattr(torch.nn, {"tanh": "Tanh", "relu": "ReLU"}[
-            pol.get("activation_fn", "tanh")])
-        model = PPO("MlpPolicy", venv, seed=args.seed, device="cpu", policy_kwargs=pol,
-                    verbose=0, **(cfg.get("hyperparams") or {}))
+        pol["activation_fn"] = getattr(
+            torch.nn, {"tanh": "Tanh", "relu": "ReLU"}[pol.get("activation_fn", "tanh")]
+        )
+        model = PPO(
+            "MlpPolicy",
+            venv,
+            seed=args.seed,
+            device="cpu",
+            policy_kwargs=pol,
+            verbose=0,
+            **(cfg.get("hyperparams") or {}),
+        )
         progress = {"evals": [], "best": -1.0, "wall_s": 0.0}
-    meta = {"algo": "ppo", "policy": "mission_hop", "env_id": ENV_ID, "env_kwargs": env_kwargs,
-            "seed": args.seed, "config": cfg, "git_commit": git_commit(),
-            "command": "python -m research.train_mission " + " ".join(sys.argv[1:] if argv is None
-                                                                  else argv)}
+    meta = {
+        "algo": "ppo",
+        "policy": "mission_hop",
+        "env_id": ENV_ID,
+        "env_kwargs": env_kwargs,
+        "seed": args.seed,
+        "config": cfg,
+        "git_commit": git_commit(),
+        "command": "python -m research.train_mission "
+        + " ".join(sys.argv[1:] if argv is None else argv),
+    }
     t0 = time.perf_counter()
     wall0 = progress["wall_s"]
 
     def evaluate():
         wall = wall0 + time.perf_counter() - t0
         rate, median, p90 = validate(model, env_kwargs, int(ev.get("episodes", 100)))
-        row = {"timesteps": int(model.num_timesteps), "wall_s": round(wall, 1),
-               "success_rate": rate, "median_ttrtp": median, "p90_ttrtp": p90}
+        row = {
+            "timesteps": int(model.num_timesteps),
+            "wall_s": round(wall, 1),
+            "success_rate": rate,
+            "median_ttrtp": median,
+            "p90_ttrtp": p90,
+        }
         progress["evals"].append(row)
         if rate > progress["best"]:
             progress["best"] = rate
-            save(model, out / "best_model", {**meta, "timesteps": row["timesteps"],
-                                              "wall_s": row["wall_s"], "evaluation": row})
+            save(
+                model,
+                out / "best_model",
+                {**meta, "timesteps": row["timesteps"], "wall_s": row["wall_s"], "evaluation": row},
+            )
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=list(row))
         w.writeheader()
@@ -145,8 +184,11 @@ def main(argv=None) -> int:
         progress["wall_s"] = wall
         save(model, last.with_suffix(""), meta)
         write_json(progress_path, progress)
-        print(f"  eval @ {row['timesteps']:>8d} hops, {wall:6.0f} s: success {rate:.1%}",
-              file=sys.stderr, flush=True)
+        print(
+            f"  eval @ {row['timesteps']:>8d} hops, {wall:6.0f} s: success {rate:.1%}",
+            file=sys.stderr,
+            flush=True,
+        )
 
     class Every(BaseCallback):
         def _on_step(self):
@@ -156,12 +198,18 @@ def main(argv=None) -> int:
             return True
 
     if model.num_timesteps < total:
-        model.learn(total - model.num_timesteps, callback=Every(),
-                    reset_num_timesteps=not (args.resume and last.exists()))
+        model.learn(
+            total - model.num_timesteps,
+            callback=Every(),
+            reset_num_timesteps=not (args.resume and last.exists()),
+        )
         if progress["evals"][-1]["timesteps"] != model.num_timesteps:
             evaluate()
-    save(model, out / "final_model", {**meta, "timesteps": int(model.num_timesteps),
-                                       "wall_s": progress["wall_s"]})
+    save(
+        model,
+        out / "final_model",
+        {**meta, "timesteps": int(model.num_timesteps), "wall_s": progress["wall_s"]},
+    )
     return 0
 
 

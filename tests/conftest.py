@@ -6,10 +6,16 @@ import time
 from hypothesis import HealthCheck, settings
 
 # CI draws the same examples every run (a fixed budget, no flakes); "thorough" explores
-settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True,
-                          suppress_health_check=[HealthCheck.too_slow])
-settings.register_profile("thorough", max_examples=300, deadline=None,
-                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile(
+    "ci",
+    max_examples=25,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile(
+    "thorough", max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 # HOPROVER_TEST_WARMUP=0 skips the warm-up below (a cache known to be warm)
@@ -23,22 +29,30 @@ def pytest_configure(config):
     that the workers load them instead of each compiling the same kernels at once. A run
     without -n compiles what it uses on first use, as before. On a warm cache this only
     loads (seconds); if it fails, the tests run anyway and show the failure themselves."""
-    if hasattr(config, "workerinput") or not config.getoption("numprocesses", None) \
-            or config.getoption("collectonly") \
-            or os.environ.get(WARMUP_SWITCH, "1").strip() == "0":
+    if (
+        hasattr(config, "workerinput")
+        or not config.getoption("numprocesses", None)
+        or config.getoption("collectonly")
+        or os.environ.get(WARMUP_SWITCH, "1").strip() == "0"
+    ):
         return
     start = time.monotonic()
-    out = subprocess.run([sys.executable, "-m", "hoprover_env.compile"], capture_output=True,
-                         text=True)
-    if out.returncode == 0:         # its last line: what it compiled and loaded
+    out = subprocess.run(
+        [sys.executable, "-m", "hoprover_env.compile"], capture_output=True, text=True
+    )
+    if out.returncode == 0:  # its last line: what it compiled and loaded
         summary = (out.stdout.strip().splitlines() or [""])[-1]
-        print(f"numba cache warmed for the workers in {time.monotonic() - start:.0f} s: "
-              f"{summary}", file=sys.stderr)
+        print(
+            f"numba cache warmed for the workers in {time.monotonic() - start:.0f} s: {summary}",
+            file=sys.stderr,
+        )
     else:
         lines = (out.stdout + out.stderr).strip().splitlines()
-        print(f"warning: `python -m hoprover_env.compile` failed (exit {out.returncode}); "
-              "the workers compile on first use:\n" + "\n".join(lines[-15:]),
-              file=sys.stderr)
+        print(
+            f"warning: `python -m hoprover_env.compile` failed (exit {out.returncode}); "
+            "the workers compile on first use:\n" + "\n".join(lines[-15:]),
+            file=sys.stderr,
+        )
 
 
 def pytest_collection_modifyitems(config, items):

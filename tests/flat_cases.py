@@ -3,14 +3,24 @@
 terrain existed are stored in tests/data/flat_baseline.npz, made by
 tests/data/make_flat_baseline.py from commit 6fc532c; tests/sim/test_terrain_flat.py replays
 them. Only the public API of that commit is used here."""
+
 import math
 
 import numpy as np
 
 from hoprover_env import RoverParams
 
-OTHER = dict(mass=1.7, inertia=0.004, half_width=0.07, half_height=0.04, gravity=2e-4,
-             mu_static=0.4, mu_dynamic=0.3, restitution_x=0.6, restitution_y=0.4)
+OTHER = dict(
+    mass=1.7,
+    inertia=0.004,
+    half_width=0.07,
+    half_height=0.04,
+    gravity=2e-4,
+    mu_static=0.4,
+    mu_dynamic=0.3,
+    restitution_x=0.6,
+    restitution_y=0.4,
+)
 
 
 class RandomHopper:
@@ -80,35 +90,60 @@ def cases():
     other = RoverParams(**OTHER)
     c = {
         "hop_event_contest": (HopSequence(), dict(t_end=200.0, control_dt=0.2, target_x=0.4)),
-        "hop_event_dissipative": (HopSequence((2e-4, 5e-4)),
-                                  dict(t_end=200.0, control_dt=0.2, impact_law="dissipative")),
-        "hop_event_sampled": (HopSequence((1e-4, 3.5e-4)),
-                              dict(t_end=80.0, sample_dt=0.05, target_x=-0.3)),
-        "slide_g_band": (np.zeros(300), dict(t_end=30.0, target_x=0.12, initial_state=(
-            0.0, p.half_height, 0.0, 3e-3, 0.0, 0.0))),
-        "other_params_euler": (RandomHopper(8), dict(
-            t_end=100.0, params=other, integrator="euler", impact_law="dissipative")),
-        "other_params_euler_contest": (HopSequence(inertia=other.inertia), dict(
-            t_end=100.0, params=other, integrator="euler", euler_dt=5e-4)),
+        "hop_event_dissipative": (
+            HopSequence((2e-4, 5e-4)),
+            dict(t_end=200.0, control_dt=0.2, impact_law="dissipative"),
+        ),
+        "hop_event_sampled": (
+            HopSequence((1e-4, 3.5e-4)),
+            dict(t_end=80.0, sample_dt=0.05, target_x=-0.3),
+        ),
+        "slide_g_band": (
+            np.zeros(300),
+            dict(
+                t_end=30.0, target_x=0.12, initial_state=(0.0, p.half_height, 0.0, 3e-3, 0.0, 0.0)
+            ),
+        ),
+        "other_params_euler": (
+            RandomHopper(8),
+            dict(t_end=100.0, params=other, integrator="euler", impact_law="dissipative"),
+        ),
+        "other_params_euler_contest": (
+            HopSequence(inertia=other.inertia),
+            dict(t_end=100.0, params=other, integrator="euler", euler_dt=5e-4),
+        ),
     }
     for seed in range(6):
         law = "contest" if seed % 2 == 0 else "dissipative"
-        c[f"random{seed}_event_{law}"] = (RandomHopper(seed), dict(
-            t_end=200.0, control_dt=0.25, impact_law=law, target_x=0.1 * seed - 0.2,
-            params=other if seed >= 4 else p))
+        c[f"random{seed}_event_{law}"] = (
+            RandomHopper(seed),
+            dict(
+                t_end=200.0,
+                control_dt=0.25,
+                impact_law=law,
+                target_x=0.1 * seed - 0.2,
+                params=other if seed >= 4 else p,
+            ),
+        )
     c["random9_euler"] = (RandomHopper(9), dict(t_end=150.0, integrator="euler"))
     th = 0.3
-    dx, dy = p.half_width * math.cos(th) - p.half_height * math.sin(th), \
-        -p.half_width * math.sin(th) - p.half_height * math.cos(th)
+    dx, dy = (
+        p.half_width * math.cos(th) - p.half_height * math.sin(th),
+        -p.half_width * math.sin(th) - p.half_height * math.cos(th),
+    )
     w = -0.01
-    c["slide_c_start"] = (RandomHopper(10), dict(t_end=60.0, initial_state=(
-        0.0, -dy, th, 2e-3 - w * dy, w * dx, w)))
+    c["slide_c_start"] = (
+        RandomHopper(10),
+        dict(t_end=60.0, initial_state=(0.0, -dy, th, 2e-3 - w * dy, w * dx, w)),
+    )
     pivot = np.r_[np.full(30, 1.5e-5), np.zeros(170)]
     c["pivot_b"] = (pivot, dict(t_end=20.0, target_x=0.05))
     c["pivot_d_dissipative"] = (-pivot, dict(t_end=20.0, impact_law="dissipative"))
     c["pivot_d_euler"] = (-pivot, dict(t_end=20.0, integrator="euler"))
-    c["spin_flight"] = (np.full(200, 2e-5), dict(t_end=20.0, initial_state=(
-        0.0, 0.2, 0.1, -2e-3, 1e-3, 0.05)))
+    c["spin_flight"] = (
+        np.full(200, 2e-5),
+        dict(t_end=20.0, initial_state=(0.0, 0.2, 0.1, -2e-3, 1e-3, 0.05)),
+    )
     return c
 
 
@@ -116,12 +151,27 @@ def record(roll) -> dict:
     """The arrays of a Rollout, as they are compared bit for bit."""
     ev = roll.events
     return dict(
-        t=roll.t, x=roll.x, y=roll.y, theta=roll.theta, vx=roll.vx, vy=roll.vy,
-        omega=roll.omega, sigma=roll.sigma, torque=roll.torque, torque_cmd=roll.torque_cmd,
+        t=roll.t,
+        x=roll.x,
+        y=roll.y,
+        theta=roll.theta,
+        vx=roll.vx,
+        vy=roll.vy,
+        omega=roll.omega,
+        sigma=roll.sigma,
+        torque=roll.torque,
+        torque_cmd=roll.torque_cmd,
         state=np.array(["ABCDEFG".index(s) for s in roll.state]),
         ev_t=np.array([e[0] for e in ev], dtype=float),
         ev_kind=np.array([e[1] for e in ev], dtype="U8"),
         ev_modes=np.array([e[2] + e[3] for e in ev], dtype="U2"),
         ratios=roll.impact_energy_ratios,
-        summary=np.array([np.nan if roll.ttrtp is None else roll.ttrtp, float(roll.broken),
-                          float(roll.n_events), roll.min_corner_height]))
+        summary=np.array(
+            [
+                np.nan if roll.ttrtp is None else roll.ttrtp,
+                float(roll.broken),
+                float(roll.n_events),
+                roll.min_corner_height,
+            ]
+        ),
+    )

@@ -1,5 +1,6 @@
 """Small shared pieces of the tests (contest-signature controllers). The state checks
 live in hoprover_env.sim.invariants, shared with the benchmarks."""
+
 import dataclasses
 import math
 
@@ -54,6 +55,7 @@ def batch_on_one_and_all_threads(*args, **kw):
     import numba
 
     from hoprover_env import simulate_batch
+
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
@@ -79,7 +81,7 @@ def replay(schedule):
 
 def assert_identical(a, b):
     for f in dataclasses.fields(a):
-        if not f.compare:               # replay_args: how to run it again, not the run
+        if not f.compare:  # replay_args: how to run it again, not the run
             continue
         x, y = getattr(a, f.name), getattr(b, f.name)
         if isinstance(x, np.ndarray):

@@ -43,6 +43,7 @@ Those of HopRover-v0 except `action_map` and `action_scale` (refused), and:
 `step` calls `torque.action_to_torque`, `ADVANCE` (bound by `common.build` to the
 integrator) and nothing else; its observe is `observe` below.
 """
+
 import dataclasses
 import math
 from typing import ClassVar
@@ -63,11 +64,13 @@ from hoprover_env.tasks.observation import clip
 class TipEnvConfig(EnvConfig):
     """HopRover-v0's arguments plus `tip_angle`."""
 
-    unused: ClassVar[dict] = {"action_map": "the toy task keeps the linear map",
-                              "action_scale": "the toy task keeps the full range"}
-    kernel_fields: ClassVar[tuple[str, ...]] = ("tip_angle",)     # its own slot of E
-    reward_options: ClassVar[tuple[str, ...]] = ()     # its step pays its own reward
-    tip_angle: float = 0.2      # the attitude to hold [rad]
+    unused: ClassVar[dict] = {
+        "action_map": "the toy task keeps the linear map",
+        "action_scale": "the toy task keeps the full range",
+    }
+    kernel_fields: ClassVar[tuple[str, ...]] = ("tip_angle",)  # its own slot of E
+    reward_options: ClassVar[tuple[str, ...]] = ()  # its step pays its own reward
+    tip_angle: float = 0.2  # the attitude to hold [rad]
 
     def __post_init__(self):
         super().__post_init__()
@@ -75,7 +78,7 @@ class TipEnvConfig(EnvConfig):
             raise ValueError(f"tip_angle must lie in (0, 1) rad, got {self.tip_angle!r}")
 
 
-E_TIP = task_slots(TipEnvConfig).tip_angle      # its slot of E, for the kernel
+E_TIP = task_slots(TipEnvConfig).tip_angle  # its slot of E, for the kernel
 
 
 def step(S, P, O, E, RW, RM, M, action, ev, W):
@@ -100,8 +103,14 @@ def observe(S, P, E, M, obs):
 
 OBS_LOW = np.full(4, -1.0, dtype=np.float32)
 OBS_HIGH = np.full(4, 1.0, dtype=np.float32)
-TASK = TaskSpec(name="toy_tip", config=TipEnvConfig, step=step, observe=observe,
-                obs_low=OBS_LOW, obs_high=OBS_HIGH)
-REGISTER = (Registration("HopRoverTip-v0", {"episode_time": 120.0}),)     # no suite
+TASK = TaskSpec(
+    name="toy_tip",
+    config=TipEnvConfig,
+    step=step,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+)
+REGISTER = (Registration("HopRoverTip-v0", {"episode_time": 120.0}),)  # no suite
 
 register_task(__name__)

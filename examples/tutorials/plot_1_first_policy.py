@@ -38,8 +38,13 @@ print("env:", cfg["env"])
 print("PPO:", cfg["hyperparams"])
 
 venv = HopRoverSB3VecEnv(cfg["n_envs"], seed=0, env_id="HopRoverHop-v0", **cfg["env"])
-venv = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True,
-                    clip_obs=cfg["normalize"]["clip_obs"], gamma=cfg["hyperparams"]["gamma"])
+venv = VecNormalize(
+    VecMonitor(venv),
+    norm_obs=True,
+    norm_reward=True,
+    clip_obs=cfg["normalize"]["clip_obs"],
+    gamma=cfg["hyperparams"]["gamma"],
+)
 
 # %%
 # Train for a short budget
@@ -47,10 +52,17 @@ venv = VecNormalize(VecMonitor(venv), norm_obs=True, norm_reward=True,
 # 24 576 hops (12 PPO updates of 64 envs x 32 hops). A callback records the mean episode
 # return and the success rate of the episodes that ended during each rollout.
 pol = cfg["policy"]
-model = PPO("MlpPolicy", venv, seed=0, device="cpu", verbose=0,
-            policy_kwargs=dict(net_arch=pol["net_arch"], activation_fn=torch.nn.Tanh,
-                               log_std_init=pol["log_std_init"]),
-            **cfg["hyperparams"])
+model = PPO(
+    "MlpPolicy",
+    venv,
+    seed=0,
+    device="cpu",
+    verbose=0,
+    policy_kwargs=dict(
+        net_arch=pol["net_arch"], activation_fn=torch.nn.Tanh, log_std_init=pol["log_std_init"]
+    ),
+    **cfg["hyperparams"],
+)
 
 curve = []
 
@@ -89,8 +101,14 @@ fig.tight_layout()
 # observation statistics become an :class:`hoprover_env.agents.policies.SB3Policy`; the bundled
 # ``hop`` policy (200 k hops of the same config) is the reference.
 venv.training = False
-mine = SB3Policy(model, venv.obs_rms, cfg["normalize"]["clip_obs"], name="this run",
-                 env_kwargs=cfg["env"], env_id="HopRoverHop-v0")
+mine = SB3Policy(
+    model,
+    venv.obs_rms,
+    cfg["normalize"]["clip_obs"],
+    name="this run",
+    env_kwargs=cfg["env"],
+    env_id="HopRoverHop-v0",
+)
 bundled = load_policy("hop")
 targets = seeded_targets(100, seed=7)
 rows = {}
@@ -98,8 +116,10 @@ for policy in (mine, bundled):
     results = run_episodes(policy, targets)
     rows[policy.name] = (results, summarize(results))
     s = rows[policy.name][1]
-    print(f"{policy.name:>9}: success {s['success_rate']:.0%}, median TTRTP "
-          f"{s['median_ttrtp']:.1f} s, p90 {s['p90_ttrtp']:.1f} s, broken {s['broken']}")
+    print(
+        f"{policy.name:>9}: success {s['success_rate']:.0%}, median TTRTP "
+        f"{s['median_ttrtp']:.1f} s, p90 {s['p90_ttrtp']:.1f} s, broken {s['broken']}"
+    )
 
 # %%
 # TTRTP per target: short hops are cheap, long ones cost a flight of minutes.

@@ -50,8 +50,9 @@ fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
 for spec in ("scratch", "bundled"):
     tt = np.array([r.ttrtp for r in by_name[spec] if r.success])
     ax[0].hist(tt, bins=np.arange(0, 601, 25), alpha=0.6, label=spec)
-    ax[1].plot([abs(r.target_x) for r in by_name[spec] if r.success], tt, "o", ms=4,
-               alpha=0.7, label=spec)
+    ax[1].plot(
+        [abs(r.target_x) for r in by_name[spec] if r.success], tt, "o", ms=4, alpha=0.7, label=spec
+    )
 ax[0].set(xlabel="TTRTP [s]", ylabel="episodes")
 ax[1].set(xlabel="|target x| [m]", ylabel="TTRTP [s]")
 for a in ax:

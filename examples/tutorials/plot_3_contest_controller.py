@@ -35,17 +35,17 @@ from hoprover_env.agents.policies import ControllerPolicy
 from hoprover_env.evaluation.episodes import run_episodes, seeded_targets, summarize
 from hoprover_env.sim.controllers import attitude_hold
 
-P = RoverParams()                      # the contest's rover
-KP, KD = 0.15, 0.9                     # attitude-hold gains [1/s^2, 1/s]
-INERTIA = P.inertia                    # [kg m^2]; numba freezes globals when it compiles
-FLIGHT = 0                             # state code of A
+P = RoverParams()  # the contest's rover
+KP, KD = 0.15, 0.9  # attitude-hold gains [1/s^2, 1/s]
+INERTIA = P.inertia  # [kg m^2]; numba freezes globals when it compiles
+FLIGHT = 0  # state code of A
 
 
 @numba.njit
 def one_hop(pos, vel, the, omg, posT, t, smt, state_code):
     if state_code == FLIGHT:
         return attitude_hold(the, omg, INERTIA, KP, KD)
-    if t < posT[3]:                    # launch window (posT[2] = torque, posT[3] = end)
+    if t < posT[3]:  # launch window (posT[2] = torque, posT[3] = end)
         return posT[2]
     return 0.0
 
@@ -58,13 +58,21 @@ def one_hop(pos, vel, the, omg, posT, t, smt, state_code):
 torques = np.geomspace(1.1 * P.tipping_torque, P.torque_max, 96)
 args = np.column_stack([torques, np.full_like(torques, 20.0)])
 t0 = time.perf_counter()
-batch = simulate_batch(one_hop, targets=np.full(len(torques), 1e3), t_end=600.0,
-                       control_dt=0.5, controller_args=args, record=False)
-print(f"{len(torques)} hops in {time.perf_counter() - t0:.2f} s (compiling the loop with "
-      f"this controller included); broken: {batch.broken.sum()}, launch torques "
-      f"{np.round(torques[batch.broken], 7)} N m")
+batch = simulate_batch(
+    one_hop,
+    targets=np.full(len(torques), 1e3),
+    t_end=600.0,
+    control_dt=0.5,
+    controller_args=args,
+    record=False,
+)
+print(
+    f"{len(torques)} hops in {time.perf_counter() - t0:.2f} s (compiling the loop with "
+    f"this controller included); broken: {batch.broken.sum()}, launch torques "
+    f"{np.round(torques[batch.broken], 7)} N m"
+)
 ok = ~batch.broken
-torques, rest_x = torques[ok], batch.final[ok, 0]   # c.m. x where each hop came to rest [m]
+torques, rest_x = torques[ok], batch.final[ok, 0]  # c.m. x where each hop came to rest [m]
 n_impacts = batch.n_impacts[ok]
 
 fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
@@ -102,16 +110,16 @@ class Entry:
         self.hops = 0
 
     def __call__(self, pos, vel, the, omg, posT, t, smt, state):
-        if state == "A":                          # in flight
+        if state == "A":  # in flight
             self.launching = False
             return attitude_hold(the, omg, P.inertia, KP, KD)
-        if self.launching:                        # tipping or sliding towards lift-off
+        if self.launching:  # tipping or sliding towards lift-off
             return self.torque
-        if state != "F":                          # landed: bouncing or sliding
+        if state != "F":  # landed: bouncing or sliding
             return 0.0
         d = posT[0] - pos[0]
         if abs(d) <= P.half_width + P.band_half_width - 0.01:
-            return 0.0                            # a corner is in the band: wait 5 s
+            return 0.0  # a corner is in the band: wait 5 s
         self.torque = np.sign(d) * launch_torque(abs(d))
         self.launching, self.hops = True, self.hops + 1
         return self.torque
@@ -120,8 +128,10 @@ class Entry:
 entry = Entry()
 t0 = time.perf_counter()
 run = simulate(entry, t_end=600.0, control_dt=0.5, target_x=0.5)
-print(f"target 0.5 m (the contest's): TTRTP {run.ttrtp:.2f} s in {entry.hops} hop(s), "
-      f"{len(run.events)} events, {time.perf_counter() - t0:.2f} s of wall time")
+print(
+    f"target 0.5 m (the contest's): TTRTP {run.ttrtp:.2f} s in {entry.hops} hop(s), "
+    f"{len(run.events)} events, {time.perf_counter() - t0:.2f} s of wall time"
+)
 
 # %%
 # The run is a :class:`~hoprover_env.Rollout`: sampled arrays and the event log.
@@ -143,11 +153,14 @@ fig.tight_layout()
 # ``ControllerPolicy`` makes one entry per episode and feeds it the simulator state, so
 # ``run_episodes`` scores it on the evaluation targets with the judge (the same as
 # ``python evaluate.py --controller my_entry.py:Entry``):
-results = run_episodes(ControllerPolicy(Entry, name="calibrated entry"),
-                       seeded_targets(40, seed=2015))
+results = run_episodes(
+    ControllerPolicy(Entry, name="calibrated entry"), seeded_targets(40, seed=2015)
+)
 s = summarize(results)
-print(f"success {s['success_rate']:.0%}, median TTRTP {s['median_ttrtp']:.1f} s, "
-      f"p90 {s['p90_ttrtp']:.1f} s, broken {s['broken']}")
+print(
+    f"success {s['success_rate']:.0%}, median TTRTP {s['median_ttrtp']:.1f} s, "
+    f"p90 {s['p90_ttrtp']:.1f} s, broken {s['broken']}"
+)
 
 # %%
 # Python against compiled: the same hop
@@ -159,19 +172,28 @@ posT_args = np.array([2e-4, 20.0])
 
 
 def python_one_hop(pos, vel, the, omg, posT, t, smt, state):
-    return one_hop_py(pos, vel, the, omg, np.r_[posT[:2], posT_args], t, smt,
-                      "ABCDEFG".index(state))
+    return one_hop_py(
+        pos, vel, the, omg, np.r_[posT[:2], posT_args], t, smt, "ABCDEFG".index(state)
+    )
 
 
-compiled = simulate_batch(one_hop, targets=[0.6], control_dt=0.5,
-                          controller_args=posT_args[None]).rollout(0)
+compiled = simulate_batch(
+    one_hop, targets=[0.6], control_dt=0.5, controller_args=posT_args[None]
+).rollout(0)
 t0 = time.perf_counter()
 slow = simulate(python_one_hop, t_end=600.0, control_dt=0.5, target_x=0.6)
 t_py = time.perf_counter() - t0
 t0 = time.perf_counter()
-simulate_batch(one_hop, targets=np.full(100, 0.6), control_dt=0.5,
-               controller_args=np.tile(posT_args, (100, 1)), record=False)
+simulate_batch(
+    one_hop,
+    targets=np.full(100, 0.6),
+    control_dt=0.5,
+    controller_args=np.tile(posT_args, (100, 1)),
+    record=False,
+)
 t_nb = (time.perf_counter() - t0) / 100
 print(f"rest x: compiled {compiled.x[-1]:.12f} m, Python {slow.x[-1]:.12f} m")
-print(f"wall time per run: Python controller {t_py * 1e3:.1f} ms, compiled "
-      f"{t_nb * 1e3:.2f} ms (100 runs in one simulate_batch call)")
+print(
+    f"wall time per run: Python controller {t_py * 1e3:.1f} ms, compiled "
+    f"{t_nb * 1e3:.2f} ms (100 runs in one simulate_batch call)"
+)

@@ -29,22 +29,37 @@ from hoprover_env.agents.compiled import hop_plan, planned_hops
 N = 2000
 base = RoverParams()
 plan = np.array([base.inertia, 0.15, 0.9, 0.0, 20.0, 2.3e-4])
-spread = {"mu_static": 0.2, "mu_dynamic": 0.2, "restitution_x": 0.1, "restitution_y": 0.3,
-          "gravity": 0.1}
-first = simulate_batch(planned_hops, targets=[0.6], control_dt=0.5,
-                       controller_args=plan[None], t_end=600.0)      # compiles the loop
+spread = {
+    "mu_static": 0.2,
+    "mu_dynamic": 0.2,
+    "restitution_x": 0.1,
+    "restitution_y": 0.3,
+    "gravity": 0.1,
+}
+first = simulate_batch(
+    planned_hops, targets=[0.6], control_dt=0.5, controller_args=plan[None], t_end=600.0
+)  # compiles the loop
 t0 = time.perf_counter()
-batch = simulate_batch(planned_hops, targets=np.full(N, 0.6), t_end=600.0, control_dt=0.5,
-                       controller_args=np.tile(plan, (N, 1)), randomize=spread, seed=1,
-                       record=False)
+batch = simulate_batch(
+    planned_hops,
+    targets=np.full(N, 0.6),
+    t_end=600.0,
+    control_dt=0.5,
+    controller_args=np.tile(plan, (N, 1)),
+    randomize=spread,
+    seed=1,
+    record=False,
+)
 wall = time.perf_counter() - t0
-print(f"{N} runs of up to 600 s in {wall:.2f} s ({wall / N * 1e3:.2f} ms per run, "
-      f"{batch.n_events.sum()} events, {batch.n_impacts.sum()} impacts)")
+print(
+    f"{N} runs of up to 600 s in {wall:.2f} s ({wall / N * 1e3:.2f} ms per run, "
+    f"{batch.n_events.sum()} events, {batch.n_impacts.sum()} impacts)"
+)
 print(f"broken: {batch.broken.mean():.1%}, target 0.6 m reached: {batch.success.mean():.1%}")
 
 # %%
 # The nominal rover for comparison, and the run-i-equals-simulate check:
-fixed = hop_plan(plan)                 # the same plan, compiled into a controller
+fixed = hop_plan(plan)  # the same plan, compiled into a controller
 nominal = simulate(fixed, t_end=600.0, control_dt=0.5, target_x=0.6)
 again = simulate(fixed, t_end=600.0, control_dt=0.5, target_x=0.6, params=batch.params[7])
 print(f"nominal rest x {nominal.x[-1]:.4f} m, TTRTP {nominal.ttrtp}")
@@ -89,5 +104,7 @@ fig.tight_layout()
 # (the default) keeps every sample and event, and ``rollout(i)`` gives run i as a
 # :class:`~hoprover_env.Rollout`:
 r = first.rollout(0)
-print(f"{len(r.events)} events, states in order of first visit: "
-      f"{''.join(dict.fromkeys(r.state))}, TTRTP {r.ttrtp:.2f} s")
+print(
+    f"{len(r.events)} events, states in order of first visit: "
+    f"{''.join(dict.fromkeys(r.state))}, TTRTP {r.ttrtp:.2f} s"
+)

@@ -25,8 +25,10 @@ env = gym.make("HopRover-v0", randomize={"gravity": 0.3, "mu_static": 0.2})
 for seed in range(3):
     env.reset(seed=seed)
     p = env.unwrapped.params
-    print(f"seed {seed}: gravity {p.gravity:.3e} m/s^2, mu_static {p.mu_static:.3f}, "
-          f"target {env.unwrapped.target_x:+.3f} m")
+    print(
+        f"seed {seed}: gravity {p.gravity:.3e} m/s^2, mu_static {p.mu_static:.3f}, "
+        f"target {env.unwrapped.target_x:+.3f} m"
+    )
 
 # %%
 # Robustness against the spread
@@ -44,8 +46,10 @@ for spec in ("scratch", "hop", "scripted"):
         randomize = {n: r for n in names} if r else None
         s = summarize(run_episodes(policy, targets, env_kwargs={"randomize": randomize}))
         table[spec, r] = s
-        print(f"{spec:>8} r = {r:.1f}: success {s['success_rate']:6.1%}, median TTRTP "
-              f"{s['median_ttrtp']:6.1f} s, broken {s['broken']}")
+        print(
+            f"{spec:>8} r = {r:.1f}: success {s['success_rate']:6.1%}, median TTRTP "
+            f"{s['median_ttrtp']:6.1f} s, broken {s['broken']}"
+        )
 
 # %%
 # The scripted hopper plans its hops with the *nominal* rover (it does not know the

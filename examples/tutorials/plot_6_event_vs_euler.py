@@ -33,8 +33,10 @@ ref0 = simulate(control, t_end=T_END, control_dt=0.5, rtol=1e-14)
 target = float(ref0.x[-1]) + 0.02
 ref = simulate(control, t_end=T_END, control_dt=0.5, rtol=1e-14, target_x=target)
 landing_ref = next(e[0] for e in ref.events if e[1] == "impact")
-print(f"reference: first landing at {landing_ref:.9f} s, rest x {ref.x[-1]:.9f} m, "
-      f"TTRTP {ref.ttrtp:.9f} s, {len(ref.events)} events")
+print(
+    f"reference: first landing at {landing_ref:.9f} s, rest x {ref.x[-1]:.9f} m, "
+    f"TTRTP {ref.ttrtp:.9f} s, {len(ref.events)} events"
+)
 
 
 def measure(**options):
@@ -46,8 +48,12 @@ def measure(**options):
         best = min(best, time.perf_counter() - t0)
     landing = next((e[0] for e in run.events if e[1] == "impact"), np.nan)
     ttrtp = np.nan if run.ttrtp is None else run.ttrtp
-    return {"wall": best, "landing": abs(landing - landing_ref),
-            "x": abs(run.x[-1] - ref.x[-1]), "ttrtp": abs(ttrtp - ref.ttrtp)}
+    return {
+        "wall": best,
+        "landing": abs(landing - landing_ref),
+        "x": abs(run.x[-1] - ref.x[-1]),
+        "ttrtp": abs(ttrtp - ref.ttrtp),
+    }
 
 
 simulate(control, t_end=T_END, control_dt=0.5, integrator="euler", euler_dt=1e-2)  # compile
@@ -60,8 +66,10 @@ for dt in (1e-2, 3e-3, 1e-3, 3e-4, 1e-4):
 print(f"{'integrator':<22}{'wall':>10}{'|d landing t|':>15}{'|d rest x|':>12}{'|d TTRTP|':>12}")
 for kind, label in (("event", "rtol"), ("euler", "dt")):
     for setting, m in rows[kind]:
-        print(f"{kind + ' ' + label + f' {setting:.0e}':<22}{m['wall'] * 1e3:>8.2f} ms"
-              f"{m['landing']:>15.2e}{m['x']:>12.2e}{m['ttrtp']:>12.2e}")
+        print(
+            f"{kind + ' ' + label + f' {setting:.0e}':<22}{m['wall'] * 1e3:>8.2f} ms"
+            f"{m['landing']:>15.2e}{m['x']:>12.2e}{m['ttrtp']:>12.2e}"
+        )
 
 # %%
 # Work against precision
@@ -69,8 +77,9 @@ for kind, label in (("event", "rtol"), ("euler", "dt")):
 # Each point is one setting; lower and further left is better. An error of exactly 0
 # (the same number as the reference) is drawn at 1e-16.
 fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharex=True)
-for ax, key, label in zip(axes, ("landing", "x", "ttrtp"),
-                          ("first landing time [s]", "rest position [m]", "TTRTP [s]")):
+for ax, key, label in zip(
+    axes, ("landing", "x", "ttrtp"), ("first landing time [s]", "rest position [m]", "TTRTP [s]")
+):
     for kind, style in (("event", "o-"), ("euler", "s--")):
         wall = [m["wall"] for _, m in rows[kind]]
         err = [max(m[key], 1e-16) for _, m in rows[kind]]

@@ -25,13 +25,15 @@ import os
 import tempfile
 import time
 
-try:                          # the offline and scores extras
+try:  # the offline and scores extras
     import h5py  # noqa: F401  (Minari's dataset files)
     import minari
     import rliable  # noqa: F401  (the score intervals)
 except ImportError as err:
-    raise SystemExit(f"This tutorial needs the offline and scores extras ({err.name} is "
-                     "missing): pip install 'hoprover[offline,scores]'") from err
+    raise SystemExit(
+        f"This tutorial needs the offline and scores extras ({err.name} is "
+        "missing): pip install 'hoprover[offline,scores]'"
+    ) from err
 import matplotlib.pyplot as plt
 import numpy as np
 import torch
@@ -59,8 +61,10 @@ meta = ds.storage.metadata
 print("ref_min_score", meta["ref_min_score"], "ref_max_score", meta["ref_max_score"])
 print("made by:", meta["algorithm_name"])
 returns = [e.rewards.sum() for e in ds.iterate_episodes()]
-print("normalised score of the dataset's episodes:",
-      minari.get_normalized_score(ds, np.array(returns)).mean().round(3))
+print(
+    "normalised score of the dataset's episodes:",
+    minari.get_normalized_score(ds, np.array(returns)).mean().round(3),
+)
 env = ds.recover_environment()
 print("recovered:", env.spec.id, env.spec.kwargs)
 
@@ -88,15 +92,20 @@ act = np.concatenate([e.actions for e in ds.iterate_episodes()]).astype(np.float
 mean, std = obs.mean(0), obs.std(0) + 1e-6
 x, y = torch.from_numpy((obs - mean) / std), torch.from_numpy(act)
 torch.manual_seed(0)
-net = torch.nn.Sequential(torch.nn.Linear(x.shape[1], 128), torch.nn.Tanh(),
-                          torch.nn.Linear(128, 128), torch.nn.Tanh(),
-                          torch.nn.Linear(128, y.shape[1]), torch.nn.Tanh())
+net = torch.nn.Sequential(
+    torch.nn.Linear(x.shape[1], 128),
+    torch.nn.Tanh(),
+    torch.nn.Linear(128, 128),
+    torch.nn.Tanh(),
+    torch.nn.Linear(128, y.shape[1]),
+    torch.nn.Tanh(),
+)
 opt = torch.optim.Adam(net.parameters(), lr=1e-3)
 losses = []
 for _epoch in range(30):
     perm = torch.randperm(len(x))
     for i in range(0, len(x), 256):
-        idx = perm[i:i + 256]
+        idx = perm[i : i + 256]
         loss = torch.nn.functional.mse_loss(net(x[idx]), y[idx])
         opt.zero_grad()
         loss.backward()
@@ -130,8 +139,10 @@ for policy in (clone, load_policy("scratch")):
     rows = suites.run(policy, suite)
     summaries.append(summarize(policy.name, np.array([[r["score"] for r in rows]])))
     p = summaries[-1].point
-    print(f"{policy.name:>10}: success {p['success']:.1%}, median regret "
-          f"{p['median_regret']:.3f}, IQM score {p['iqm_score']:.3f}")
+    print(
+        f"{policy.name:>10}: success {p['success']:.1%}, median regret "
+        f"{p['median_regret']:.3f}, IQM score {p['iqm_score']:.3f}"
+    )
 
 # %%
 # The dataset was written to a temporary directory; a real one goes where

@@ -17,6 +17,7 @@ settings it acts in.
 * ``ArrayPolicy`` -- any function from an observation batch to an action batch.
 * ``RandomPolicy`` -- uniform random actions (a floor to compare against).
 """
+
 from __future__ import annotations
 
 import json
@@ -45,18 +46,25 @@ class SB3Policy:
     episode within the batch (a driver that refills finished slots calls it).
     """
 
-    def __init__(self, model, obs_rms=None, clip_obs: float = 10.0, epsilon: float = 1e-8,
-                 name: str = "sb3", env_kwargs: dict | None = None,
-                 env_id: str = "HopRover-v0"):
+    def __init__(
+        self,
+        model,
+        obs_rms=None,
+        clip_obs: float = 10.0,
+        epsilon: float = 1e-8,
+        name: str = "sb3",
+        env_kwargs: dict | None = None,
+        env_id: str = "HopRover-v0",
+    ):
         self.model, self.obs_rms = model, obs_rms
         self.clip_obs, self.epsilon = clip_obs, epsilon
         self.name = name
         self.env_kwargs = dict(env_kwargs or {})
-        self.env_id = env_id             # the task it acts in (HopRoverHop-v0: one hop a step)
+        self.env_id = env_id  # the task it acts in (HopRoverHop-v0: one hop a step)
         # sb3-contrib's recurrent policies carry the shape of their memory
         self.recurrent = hasattr(getattr(model, "policy", None), "lstm_hidden_state_shape")
-        self.state = None                # the LSTM's (hidden, cell) per sub-env
-        self.episode_start = None        # per sub-env: its memory starts over at this step
+        self.state = None  # the LSTM's (hidden, cell) per sub-env
+        self.episode_start = None  # per sub-env: its memory starts over at this step
 
     def reset(self, n: int) -> None:
         """Start `n` episodes (a recurrent model's memory starts empty in each; other
@@ -74,8 +82,11 @@ class SB3Policy:
         """`obs` (N, 19) as the model saw them in training: standardised and clipped."""
         if self.obs_rms is None:
             return obs
-        return np.clip((obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
-                       -self.clip_obs, self.clip_obs).astype(np.float32)
+        return np.clip(
+            (obs - self.obs_rms.mean) / np.sqrt(self.obs_rms.var + self.epsilon),
+            -self.clip_obs,
+            self.clip_obs,
+        ).astype(np.float32)
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Deterministic actions (N, 1) for the observations `obs` (N, 19)."""
@@ -83,10 +94,13 @@ class SB3Policy:
             action, _ = self.model.predict(self.normalize(obs), deterministic=True)
         else:
             if self.episode_start is None or len(self.episode_start) != len(obs):
-                self.reset(len(obs))     # acting without reset: a fresh batch
+                self.reset(len(obs))  # acting without reset: a fresh batch
             action, self.state = self.model.predict(
-                self.normalize(obs), state=self.state, episode_start=self.episode_start,
-                deterministic=True)
+                self.normalize(obs),
+                state=self.state,
+                episode_start=self.episode_start,
+                deterministic=True,
+            )
             self.episode_start = np.zeros(len(obs), dtype=bool)
         return np.asarray(action, dtype=np.float64).reshape(len(obs), 1)
 
@@ -101,8 +115,12 @@ class ControllerPolicy:
     ground the estimator knows of. `env_kwargs` set the env (e.g. control_dt [s]).
     """
 
-    def __init__(self, factory: Callable[[], Callable], name: str = "controller",
-                 env_kwargs: dict | None = None):
+    def __init__(
+        self,
+        factory: Callable[[], Callable],
+        name: str = "controller",
+        env_kwargs: dict | None = None,
+    ):
         self.factory = factory
         self.name = name
         self.env_kwargs = dict(env_kwargs or {})
@@ -112,6 +130,7 @@ class ControllerPolicy:
         """A fresh controller (and, on a task that hides its state, a fresh estimator)
         for each of `n` episodes."""
         from hoprover_env.agents.estimation import EstimatorBank
+
         self.controllers = [self.factory() for _ in range(n)]
         self.estimates = EstimatorBank()
         self.estimates.reset(n)
@@ -124,16 +143,29 @@ class ControllerPolicy:
         """Per sub-env, (controller inputs, the ground to plan on): from the exact
         state, or on a task that hides it (HopRoverMission-v0) from the estimate."""
         from hoprover_env.agents.estimation import hides_state
+
         if hides_state(venv):
-            return [(est.controller_inputs(float(venv.targets[i])), est.estimated_params())
-                    for i, est in enumerate(self.estimates.update(obs, venv))]
+            return [
+                (est.controller_inputs(float(venv.targets[i])), est.estimated_params())
+                for i, est in enumerate(self.estimates.update(obs, venv))
+            ]
         out = []
         for i in range(len(obs)):
             s = venv.S[i]
-            out.append(((s[0:2].copy(), s[3:5].copy(), float(s[core.S_TH]),
-                         float(s[core.S_W]), np.array([venv.targets[i], 0.0]),
-                         float(s[core.S_T]), core.MODE_LETTERS[int(s[core.S_MODE])]),
-                        venv.params[i]))
+            out.append(
+                (
+                    (
+                        s[0:2].copy(),
+                        s[3:5].copy(),
+                        float(s[core.S_TH]),
+                        float(s[core.S_W]),
+                        np.array([venv.targets[i], 0.0]),
+                        float(s[core.S_T]),
+                        core.MODE_LETTERS[int(s[core.S_MODE])],
+                    ),
+                    venv.params[i],
+                )
+            )
         return out
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
@@ -141,13 +173,16 @@ class ControllerPolicy:
         actions (N, 1). Raises ValueError if a controller returns a non-finite torque."""
         out = np.zeros((len(obs), 1))
         smt = venv.config.episode_time
-        invert = venv.task.torque_action        # the inverse of the task's action map
+        invert = venv.task.torque_action  # the inverse of the task's action map
         if invert is None:
-            raise ValueError(f"{self.name}: a contest controller commands torques, and "
-                             f"the actions of {type(venv).__name__} are not torques")
+            raise ValueError(
+                f"{self.name}: a contest controller commands torques, and "
+                f"the actions of {type(venv).__name__} are not torques"
+            )
         for i, (ctrl, ((pos, vel, the, omg, post, t, state), plan_params)) in enumerate(
-                zip(self.controllers, self._inputs(obs, venv))):
-            if hasattr(ctrl, "use_params"):      # a planner: the ground it knows of
+            zip(self.controllers, self._inputs(obs, venv))
+        ):
+            if hasattr(ctrl, "use_params"):  # a planner: the ground it knows of
                 ctrl.use_params(plan_params)
             torque = float(ctrl(pos, vel, the, omg, post, t, smt, state))
             if not math.isfinite(torque):
@@ -160,8 +195,13 @@ class ArrayPolicy:
     """`fn(obs) -> actions`, obs a float32 array (N, 19), actions anything of N values
     (numpy or torch): a policy trained by any library, judged like the others."""
 
-    def __init__(self, fn: Callable, name: str = "policy", env_id: str = "HopRover-v0",
-                 env_kwargs: dict | None = None):
+    def __init__(
+        self,
+        fn: Callable,
+        name: str = "policy",
+        env_id: str = "HopRover-v0",
+        env_kwargs: dict | None = None,
+    ):
         self.fn, self.name, self.env_id = fn, name, env_id
         self.env_kwargs = dict(env_kwargs or {})
 
@@ -220,18 +260,21 @@ class TorchPolicy:
         """The policy in a .pt2 file. FileNotFoundError if it is missing, ValueError if
         it is not an exported module with hoprover's metadata."""
         import torch
+
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"policy file not found: {path}")
         extra = {cls.META: ""}
         try:
             program = torch.export.load(str(path), extra_files=extra)
-        except Exception as exc:             # a corrupt or foreign file: say which
-            raise ValueError(f"{path} is not a module saved with torch.export "
-                             f"({type(exc).__name__}: {exc})") from None
+        except Exception as exc:  # a corrupt or foreign file: say which
+            raise ValueError(
+                f"{path} is not a module saved with torch.export ({type(exc).__name__}: {exc})"
+            ) from None
         if not extra[cls.META]:
-            raise ValueError(f"{path} carries no {cls.META}: save it with "
-                             "TorchPolicy.save (env_id, env_kwargs)")
+            raise ValueError(
+                f"{path} carries no {cls.META}: save it with TorchPolicy.save (env_id, env_kwargs)"
+            )
         return cls(program.module(), json.loads(extra[cls.META]), name or path.stem)
 
     @staticmethod
@@ -243,11 +286,13 @@ class TorchPolicy:
         import torch
 
         from hoprover_env.util.files import atomic_write
+
         for key in ("env_id", "env_kwargs"):
             if key not in meta:
                 raise ValueError(f"TorchPolicy.save: meta needs {key!r}")
-        program = torch.export.export(module, (example_obs,),
-                                      dynamic_shapes=({0: torch.export.Dim("batch")},))
+        program = torch.export.export(
+            module, (example_obs,), dynamic_shapes=({0: torch.export.Dim("batch")},)
+        )
         for node in program.graph.nodes:
             # the source lines that traced each node: paths of the machine it was made on
             node.meta.pop("stack_trace", None)
@@ -261,6 +306,7 @@ class TorchPolicy:
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
         """Deterministic actions for raw observations."""
         import torch
+
         with torch.no_grad():
             out = self.module(torch.as_tensor(np.asarray(obs), dtype=torch.float32))
         return out.numpy().astype(np.float64)

@@ -14,6 +14,7 @@ keeps no memory between calls, so these controllers decide from the state and th
 Plan layout (`controller_args` row): inertia, kp, kd, then per hop (start s, duration
 d, torque T): while not in flight and s <= t < s + d, the torque is T.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -24,9 +25,9 @@ from numba import njit
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
 
-FLIGHT = 0                   # state code of state A
-PLAN_HEAD = 3                # inertia, kp, kd
-PLAN_HOP = 3                 # start, duration, torque
+FLIGHT = 0  # state code of state A
+PLAN_HEAD = 3  # inertia, kp, kd
+PLAN_HOP = 3  # start, duration, torque
 
 
 @kernel
@@ -56,8 +57,10 @@ def hop_plan(args) -> Callable[..., float]:
     non-finite values."""
     plan = np.asarray(args, dtype=np.float64)
     if plan.ndim != 1 or (plan.size - PLAN_HEAD) % PLAN_HOP or not np.all(np.isfinite(plan)):
-        raise ValueError(f"a hop plan is (inertia, kp, kd) then (start, duration, torque) "
-                         f"per hop, all finite; got {args!r}")
+        raise ValueError(
+            f"a hop plan is (inertia, kp, kd) then (start, duration, torque) "
+            f"per hop, all finite; got {args!r}"
+        )
     frozen = tuple(float(v) for v in plan)
 
     # plain njit, not `kernel`: a closure over this plan's constants cannot be cached

@@ -28,6 +28,7 @@ contest controller's inputs (pos, vel, theta, omega, contact state), with covari
 estimate, smooth ground (the restitution and friction stay the nominal ones: the
 mission does not know them).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -40,7 +41,7 @@ from hoprover_env.agents.scripted import in_band
 from hoprover_env.core.params import RoverParams
 from hoprover_env.tasks import mission
 
-FLIGHT_MATCH = 0.6     # rate change / (T / I) above this reads as flight
+FLIGHT_MATCH = 0.6  # rate change / (T / I) above this reads as flight
 
 
 class MissionEstimator:
@@ -61,8 +62,8 @@ class MissionEstimator:
 
     def reset(self) -> None:
         """A new episode: the rover has rested, bias unknown within the attitude noise."""
-        self.x = np.zeros(2)                         # theta, bias
-        self.P = np.diag([self.sig_att ** 2, (3 * self.sig_att) ** 2])
+        self.x = np.zeros(2)  # theta, bias
+        self.P = np.diag([self.sig_att**2, (3 * self.sig_att) ** 2])
         self.t = None
         self.omega = 0.0
         self.torque = 0.0
@@ -81,8 +82,9 @@ class MissionEstimator:
         dt = 0.0 if self.t is None else max(t - self.t, 0.0)
         omega = r[mission.OBS_RATE] * 0.3
         # the torque commanded over the period that just ended (the reading's slot)
-        self.torque = r[mission.OBS_TORQUE] * max(abs(self.params.torque_min),
-                                                  abs(self.params.torque_max))
+        self.torque = r[mission.OBS_TORQUE] * max(
+            abs(self.params.torque_min), abs(self.params.torque_max)
+        )
         # predict: theta moves with the mean of the two rate readings (exact under a
         # constant angular acceleration: flight under a held torque), the bias walks.
         # A rate change the held torque does not explain (an impact, a pivot) happened
@@ -95,10 +97,10 @@ class MissionEstimator:
             self.P = self.P + np.diag([q_theta, self.q_bias * dt])
         # update with the attitude reading: z = theta + bias + v
         z = math.atan2(r[mission.OBS_SIN], r[mission.OBS_COS])
-        self._measure(np.array([1.0, 1.0]), z, self.sig_att ** 2)
+        self._measure(np.array([1.0, 1.0]), z, self.sig_att**2)
         self.fix_age = r[mission.OBS_FIX_AGE] * mission.FIX_AGE_SCALE
         at_rest = self.fix_age == 0.0
-        if at_rest:                                  # flat on the ground: theta = 0
+        if at_rest:  # flat on the ground: theta = 0
             self._measure(np.array([1.0, 0.0]), 0.0, (1e-3 * self.sig_att) ** 2)
             self.fix = r[mission.OBS_FIX] * 1.0 + target_x
         self.slope_sum += r[mission.OBS_SLOPE] * 0.5
@@ -120,14 +122,14 @@ class MissionEstimator:
             return "F"
         if dt <= 0.0:
             return self.state
-        expected = torque / self.params.inertia             # rad/s^2 in flight
+        expected = torque / self.params.inertia  # rad/s^2 in flight
         seen = (omega - self.omega) / dt
         noise = 3.0 * math.sqrt(2.0) * self.sig_rate / dt
         if abs(seen - expected) > max((1.0 - FLIGHT_MATCH) * abs(expected), noise):
-            return "B"          # a pivot, a slide or an impact: not free rotation
+            return "B"  # a pivot, a slide or an impact: not free rotation
         if abs(expected) > 2.0 * noise or abs(omega) > 5.0 * self.sig_rate:
-            return "A"          # it turns exactly as a free body would
-        return self.state       # nothing tells: still, untorqued
+            return "A"  # it turns exactly as a free body would
+        return self.state  # nothing tells: still, untorqued
 
     # ---- what a controller reads ------------------------------------------------------
     @property
@@ -144,22 +146,30 @@ class MissionEstimator:
 
     @property
     def slope_var(self) -> float:
-        return self.sig_incl ** 2 / max(self.slope_n, 1)
+        return self.sig_incl**2 / max(self.slope_n, 1)
 
     @property
     def position_var(self) -> float:
         """Variance of the position estimate [m^2]: the fix's when fresh, unbounded
         (inf) once the rover has moved since."""
-        return self.sig_fix ** 2 if self.fix_age == 0.0 else math.inf
+        return self.sig_fix**2 if self.fix_age == 0.0 else math.inf
 
     def estimated_params(self) -> RoverParams:
-        return dataclasses.replace(self.params, slope=float(np.clip(self.slope, -0.5, 0.5)),
-                                   roughness=0.0)
+        return dataclasses.replace(
+            self.params, slope=float(np.clip(self.slope, -0.5, 0.5)), roughness=0.0
+        )
 
     def controller_inputs(self, target_x: float) -> tuple:
         """(pos, vel, the, omg, posT, t, state) for a contest controller."""
-        return (np.array([self.fix, self.params.half_height]), np.zeros(2), self.theta,
-                self.omega, np.array([target_x, 0.0]), float(self.t or 0.0), self.state)
+        return (
+            np.array([self.fix, self.params.half_height]),
+            np.zeros(2),
+            self.theta,
+            self.omega,
+            np.array([target_x, 0.0]),
+            float(self.t or 0.0),
+            self.state,
+        )
 
 
 class EstimatorBank:
@@ -194,7 +204,7 @@ class EstimatorBank:
             s = rows[i]
             s[core.S_X], s[core.S_Y], s[core.S_TH] = est.fix, p.half_height, est.theta
             s[core.S_W] = est.omega
-            if est.state == "F":             # at rest it lies flat and still
+            if est.state == "F":  # at rest it lies flat and still
                 s[core.S_TH] = s[core.S_W] = 0.0
             s[core.S_T] = est.t or 0.0
             s[core.S_MODE] = core.MODE_LETTERS.index(est.state)

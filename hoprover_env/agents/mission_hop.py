@@ -22,6 +22,7 @@ hop, the mission env's reward summed over the hop): what `research/train_mission
 trains PPO on. `MissionHopPolicy` runs a trained network in HopRoverMission-v0 through
 `ControllerPolicy`, as `evaluate.py --env HopRoverMission-v0 --policy mission` does.
 """
+
 from __future__ import annotations
 
 import math
@@ -37,9 +38,9 @@ from hoprover_env.tasks.hop import HopEnvConfig, hop_torque
 # the decision's features (module docstring), each scaled to about [-1, 1]
 F_TO_GO, F_SLOPE, F_TIME, F_LAST_ACTION, F_LAST_MOVED, F_LAST_TO_GO, F_HOPS = range(7)
 N_FEATURES = 7
-DIST_SCALE = 1.0      # m
-SLOPE_SCALE = 0.2     # rad
-MAX_HOPS = 5.0        # the hop count's scale, not a limit
+DIST_SCALE = 1.0  # m
+SLOPE_SCALE = 0.2  # rad
+MAX_HOPS = 5.0  # the hop count's scale, not a limit
 
 
 class LearnedHopper(ScriptedHopper):
@@ -51,16 +52,19 @@ class LearnedHopper(ScriptedHopper):
         super().__init__(control_dt=control_dt, **kw)
         self.decide = decide
         self.episode_time = episode_time
-        self._hop_vector = HopEnvConfig().task_vector()     # the hop map's launch range
+        self._hop_vector = HopEnvConfig().task_vector()  # the hop map's launch range
 
     def reset(self):
         super().reset()
-        self.last = None             # the last hop: (fix at its launch, action, to go)
+        self.last = None  # the last hop: (fix at its launch, action, to go)
 
     def at_decision(self, pos, posT, state) -> bool:
         """Whether the next call plans a hop: at rest, outside the band, not launching."""
-        return (state == "F" and self.phase != "launch"
-                and not self.in_band(float(pos[0]), float(posT[0])))
+        return (
+            state == "F"
+            and self.phase != "launch"
+            and not self.in_band(float(pos[0]), float(posT[0]))
+        )
 
     def features(self, x0: float, xt: float, t0: float) -> np.ndarray:
         """The decision's inputs at rest at `x0` (the fix) [m] with target `xt` [m] at
@@ -102,14 +106,16 @@ class MissionHopEnv(gym.Env):
 
     def __init__(self, **kwargs):
         from hoprover_env.agents.base import torque_to_action
+
         self.env = HopRoverMissionEnv(**{"gamma": 1.0, **kwargs})
         self.config = self.env.config
         self._to_action = torque_to_action
         self.observation_space = gym.spaces.Box(-5.0, 5.0, (N_FEATURES,), np.float32)
         self.action_space = gym.spaces.Box(-1.0, 1.0, (1,), np.float32)
         self._pending = None
-        self.hopper = LearnedHopper(self._take, episode_time=self.config.episode_time,
-                                    control_dt=self.config.control_dt)
+        self.hopper = LearnedHopper(
+            self._take, episode_time=self.config.episode_time, control_dt=self.config.control_dt
+        )
         self.estimator = MissionEstimator(self.config)
 
     def _take(self, features):
@@ -132,8 +138,10 @@ class MissionHopEnv(gym.Env):
             if not (terminated or truncated):
                 return self._features(), info
             if options:
-                raise ValueError(f"the episode of reset options {options} needs no hop "
-                                 f"(it starts in the target's band): nothing to decide")
+                raise ValueError(
+                    f"the episode of reset options {options} needs no hop "
+                    f"(it starts in the target's band): nothing to decide"
+                )
 
     def _inputs(self):
         return self.estimator.controller_inputs(self.env.target_x)
@@ -148,7 +156,7 @@ class MissionHopEnv(gym.Env):
         total = 0.0
         while True:
             pos, vel, the, omg, post, t, state = inputs = self._inputs()
-            if state == "F":       # the hopper reads the ground only to decide
+            if state == "F":  # the hopper reads the ground only to decide
                 self.hopper.use_params(self.estimator.estimated_params())
             if self._pending is None and self.hopper.at_decision(pos, post, state):
                 return total, False, False, info
@@ -184,6 +192,7 @@ def load_mission_policy(path, name: str = "mission", control_dt: float | None = 
     from stable_baselines3 import PPO
 
     from hoprover_env.agents.base import ControllerPolicy
+
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"hop model not found: {path}")
@@ -196,7 +205,10 @@ def load_mission_policy(path, name: str = "mission", control_dt: float | None = 
     def decide(features):
         return float(model.predict(features, deterministic=True)[0][0])
 
-    policy = ControllerPolicy(lambda: LearnedHopper(decide, control_dt=control_dt), name=name,
-                              env_kwargs={"control_dt": control_dt})
-    policy.env_id = meta.get("env_id", "HopRoverMission-v0")     # the suite it is judged on
+    policy = ControllerPolicy(
+        lambda: LearnedHopper(decide, control_dt=control_dt),
+        name=name,
+        env_kwargs={"control_dt": control_dt},
+    )
+    policy.env_id = meta.get("env_id", "HopRoverMission-v0")  # the suite it is judged on
     return policy

@@ -18,6 +18,7 @@ after every landing, so a bump that throws a hop off is corrected by the next pl
     from hoprover_env.agents.mpc import MPCPolicy
     policy = MPCPolicy()                 # act(obs, venv) on a HopRoverVectorEnv
 """
+
 from __future__ import annotations
 
 import math
@@ -30,10 +31,10 @@ from hoprover_env.agents.base import torque_to_action
 from hoprover_env.agents.estimation import EstimatorBank, hides_state
 from hoprover_env.agents.planning import CONTROL_DT, Problem, plan_end, plan_torque, search
 
-DEFAULT_BUDGET = 3000        # candidates per decision on smooth ground (docs/studies/references.md)
+DEFAULT_BUDGET = 3000  # candidates per decision on smooth ground (docs/studies/references.md)
 DEFAULT_ROUGH_BUDGET = 1500  # on rough ground, each candidate flown over the samples
 DEFAULT_TERRAIN_SAMPLES = 4
-GROUND_WAIT = 10.0           # s on the ground without coming to rest before replanning
+GROUND_WAIT = 10.0  # s on the ground without coming to rest before replanning
 
 
 class MPCPolicy:
@@ -49,20 +50,27 @@ class MPCPolicy:
     `planning_seconds` (time spent searching, summed over the workers).
     """
 
-    def __init__(self, budget: int = DEFAULT_BUDGET, rough_budget: int = DEFAULT_ROUGH_BUDGET,
-                 terrain_samples: int = DEFAULT_TERRAIN_SAMPLES, seed: int = 0,
-                 name: str = "mpc", workers: int | None = None):
+    def __init__(
+        self,
+        budget: int = DEFAULT_BUDGET,
+        rough_budget: int = DEFAULT_ROUGH_BUDGET,
+        terrain_samples: int = DEFAULT_TERRAIN_SAMPLES,
+        seed: int = 0,
+        name: str = "mpc",
+        workers: int | None = None,
+    ):
         if not (isinstance(budget, int) and budget >= 100):
-            raise ValueError(f"budget must be an integer >= 100 (candidates per decision), "
-                             f"got {budget!r}")
+            raise ValueError(
+                f"budget must be an integer >= 100 (candidates per decision), got {budget!r}"
+            )
         if not (isinstance(rough_budget, int) and rough_budget >= 100):
             raise ValueError(f"rough_budget must be an integer >= 100, got {rough_budget!r}")
         if not (isinstance(terrain_samples, int) and terrain_samples >= 1):
-            raise ValueError(f"terrain_samples must be an integer >= 1, got "
-                             f"{terrain_samples!r}")
+            raise ValueError(f"terrain_samples must be an integer >= 1, got {terrain_samples!r}")
         if workers is not None and not (isinstance(workers, int) and workers >= 1):
-            raise ValueError(f"workers must be None (one per core) or an integer >= 1, "
-                             f"got {workers!r}")
+            raise ValueError(
+                f"workers must be None (one per core) or an integer >= 1, got {workers!r}"
+            )
         self.workers = workers
         self.budget, self.rough_budget = budget, rough_budget
         self.terrain_samples = terrain_samples
@@ -70,7 +78,7 @@ class MPCPolicy:
         self.name = name
         self.env_kwargs = {"control_dt": CONTROL_DT}
         self.plans: list = []
-        self.shadowing = False       # set by imitation.collect when a learner drives
+        self.shadowing = False  # set by imitation.collect when a learner drives
         self.estimates = EstimatorBank()
         self.decisions = 0
         self.planning_seconds = 0.0
@@ -123,8 +131,7 @@ class MPCPolicy:
             # flight it actually made (once per plan: not at every bounce)
             self.replanned_aloft[i] = True
             return True
-        if S[core.S_INBAND] != 0.0 or (self.plans[i] is not None
-                                        and t < plan_end(self.plans[i])):
+        if S[core.S_INBAND] != 0.0 or (self.plans[i] is not None and t < plan_end(self.plans[i])):
             return False
         return mode == core.MODE_F or t - self.grounded_since[i] >= GROUND_WAIT
 
@@ -143,9 +150,17 @@ class MPCPolicy:
         for i in range(n):
             s = S[i]
             plan = self.plans[i]
-            torque = 0.0 if plan is None else plan_torque(
-                plan, float(s[core.S_TH]), float(s[core.S_W]), float(s[core.S_T]),
-                int(s[core.S_MODE]))
+            torque = (
+                0.0
+                if plan is None
+                else plan_torque(
+                    plan,
+                    float(s[core.S_TH]),
+                    float(s[core.S_W]),
+                    float(s[core.S_T]),
+                    int(s[core.S_MODE]),
+                )
+            )
             out[i, 0] = torque_to_action(float(torque), params[i], venv.config)
         return out
 
@@ -177,16 +192,21 @@ class MPCPolicy:
         for i in todo:
             s = S[i]
             p = params[i]
-            rng = self.decision_rng(s[:core.S_T + 1], float(venv.targets[i]))
+            rng = self.decision_rng(s[: core.S_T + 1], float(venv.targets[i]))
             seeds = None
             if p.roughness > 0.0:
                 seeds = tuple(int(k) for k in rng.integers(0, 2**63, self.terrain_samples))
-            start = np.array(s[:core.S_T])
-            if hides_state(venv):     # from an estimate: plan as from rest at the fix
+            start = np.array(s[: core.S_T])
+            if hides_state(venv):  # from an estimate: plan as from rest at the fix
                 start[2:] = 0.0
-            prob = Problem(state=start, target=float(venv.targets[i]),
-                           params=p, t0=float(s[core.S_T]),
-                           t_total=float(venv.config.episode_time), seeds=seeds)
+            prob = Problem(
+                state=start,
+                target=float(venv.targets[i]),
+                params=p,
+                t0=float(s[core.S_T]),
+                t_total=float(venv.config.episode_time),
+                seeds=seeds,
+            )
             (rough if seeds else smooth).append((i, prob, int(rng.integers(1, 2**28))))
         for group, budget in ((smooth, self.budget), (rough, self.rough_budget)):
             if not group:

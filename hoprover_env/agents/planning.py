@@ -30,6 +30,7 @@ over the episode's own seed for a clairvoyant search (the suites' references).
 
 The result is a best-known plan within this family and budget, not an optimum.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -41,13 +42,13 @@ from hoprover_env.core.params import RoverParams
 from hoprover_env.jit.compiler import kernel
 from hoprover_env.sim.controllers import attitude_hold
 
-FLIGHT = 0                      # state code of state A
-HEAD = 5                        # t0, inertia, kp, kd, theta*
-WINDOW = 3                      # start, duration, torque
-N_WINDOWS = 3                   # launch + two corrections
+FLIGHT = 0  # state code of state A
+HEAD = 5  # t0, inertia, kp, kd, theta*
+WINDOW = 3  # start, duration, torque
+N_WINDOWS = 3  # launch + two corrections
 PLAN_SIZE = HEAD + WINDOW * N_WINDOWS
-MISS_COST_PER_M = 100.0         # s per metre of final miss, for plans that fail
-BROKEN_COST = 200.0             # s added for a rover that breaks
+MISS_COST_PER_M = 100.0  # s per metre of final miss, for plans that fail
+BROKEN_COST = 200.0  # s added for a rover that breaks
 
 
 @kernel
@@ -73,8 +74,11 @@ def plan_controller(pos, vel, the, omg, posT, t, smt, state_code):
 
 def plan_end(plan: np.ndarray) -> float:
     """The time [s] after which a plan commands nothing but the flight hold."""
-    ends = [plan[0] + plan[HEAD + WINDOW * w] + plan[HEAD + WINDOW * w + 1]
-            for w in range(N_WINDOWS) if plan[HEAD + WINDOW * w + 1] > 0.0]
+    ends = [
+        plan[0] + plan[HEAD + WINDOW * w] + plan[HEAD + WINDOW * w + 1]
+        for w in range(N_WINDOWS)
+        if plan[HEAD + WINDOW * w + 1] > 0.0
+    ]
     return max(ends, default=plan[0])
 
 
@@ -89,8 +93,9 @@ DIM = len(LOWER)
 DEFAULT_U = np.array([0.5, 0.3, 0.13, 0.27, 0.5, 0.3, 0.0, 0.5, 0.6, 0.0, 0.5])
 
 
-def plans_from_points(u: np.ndarray, direction: np.ndarray, t0: np.ndarray,
-                      params: RoverParams) -> np.ndarray:
+def plans_from_points(
+    u: np.ndarray, direction: np.ndarray, t0: np.ndarray, params: RoverParams
+) -> np.ndarray:
     """Plans (rows, PLAN_SIZE) from points u (rows, DIM) of [0, 1]^DIM: `direction`
     (+1 or -1 per row) is the launch's sign, `t0` each plan's start [s]."""
     v = LOWER + np.clip(u, 0.0, 1.0) * (UPPER - LOWER)
@@ -100,11 +105,10 @@ def plans_from_points(u: np.ndarray, direction: np.ndarray, t0: np.ndarray,
     plans[:, 0] = t0
     plans[:, 1] = params.inertia
     plans[:, 2:5] = v[:, 2:5]
-    plans[:, HEAD:HEAD + 3] = np.column_stack([np.zeros(n), v[:, 1],
-                                               direction * v[:, 0] * tmax])
+    plans[:, HEAD : HEAD + 3] = np.column_stack([np.zeros(n), v[:, 1], direction * v[:, 0] * tmax])
     for w in range(1, N_WINDOWS):
         b, c = HEAD + WINDOW * w, 5 + 3 * (w - 1)
-        plans[:, b:b + 3] = np.column_stack([v[:, c], v[:, c + 1], v[:, c + 2] * tmax])
+        plans[:, b : b + 3] = np.column_stack([v[:, c], v[:, c + 1], v[:, c + 2] * tmax])
     return plans
 
 
@@ -127,8 +131,9 @@ class Problem:
         return 1.0 if self.target >= self.state[0] else -1.0
 
 
-def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
-             horizon: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def evaluate(
+    problems: list[Problem], which: np.ndarray, u: np.ndarray, horizon: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Cost and TTRTP [s, absolute] of candidate points `u` (rows) for the problems
     `problems[which[j]]`, all in one `simulate_batch` call (each candidate flown once per
     terrain seed of its problem; its cost is the mean over them, its TTRTP the worst).
@@ -136,6 +141,7 @@ def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
     that does not reach the target within it costs the horizon plus a charge per metre
     of final miss (and for a break)."""
     from hoprover_env.sim.batch import simulate_batch
+
     which = np.asarray(which, dtype=np.int64)
     n_seeds = [len(p.seeds) if p.seeds else 1 for p in problems]
     reps = np.array([n_seeds[j] for j in which])
@@ -144,14 +150,14 @@ def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
     span = np.array([p.t_total - p.t0 for p in problems])
     cap = span if horizon is None else np.minimum(span, horizon)
     direction = np.array([problems[j].direction for j in prob])
-    plans = plans_from_points(u[rows], direction, np.zeros(len(rows)),
-                              problems[which[0]].params)
+    plans = plans_from_points(u[rows], direction, np.zeros(len(rows)), problems[which[0]].params)
     # the inertia column is per problem (parameters may differ between problems)
     plans[:, 1] = [problems[j].params.inertia for j in prob]
     seeds = None
     if any(p.seeds for p in problems):
-        seeds = np.concatenate([np.asarray(problems[j].seeds or (0,), dtype=np.uint64)
-                                for j in which])
+        seeds = np.concatenate(
+            [np.asarray(problems[j].seeds or (0,), dtype=np.uint64) for j in which]
+        )
     params = [problems[j].params for j in prob]
     targets = np.array([problems[j].target for j in prob])
     states = np.array([problems[j].state for j in prob])
@@ -161,17 +167,23 @@ def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
     # cost (its miss and break at the horizon) does not depend on what is searched beside it
     for t_end in np.unique(cap[prob]):
         at = np.flatnonzero(cap[prob] == t_end)
-        b = simulate_batch(plan_controller, targets[at], t_end=float(t_end),
-                           control_dt=CONTROL_DT, params=[params[k] for k in at],
-                           initial_states=states[at], controller_args=plans[at],
-                           seed=None if seeds is None else seeds[at], record=False)
+        b = simulate_batch(
+            plan_controller,
+            targets[at],
+            t_end=float(t_end),
+            control_dt=CONTROL_DT,
+            params=[params[k] for k in at],
+            initial_states=states[at],
+            controller_args=plans[at],
+            seed=None if seeds is None else seeds[at],
+            record=False,
+        )
         final_x[at], ttrtp_run[at] = b.final[:, 0], b.ttrtp
         success[at], broken[at] = b.success, b.broken
     half = np.array([p.half_width + p.band_half_width for p in params])
     miss = np.maximum(np.abs(final_x - targets) - half, 0.0)
     ok = success & (ttrtp_run <= cap[prob])
-    run_cost = np.where(ok, ttrtp_run, cap[prob] + MISS_COST_PER_M * miss
-                        + BROKEN_COST * broken)
+    run_cost = np.where(ok, ttrtp_run, cap[prob] + MISS_COST_PER_M * miss + BROKEN_COST * broken)
     run_ttrtp = np.where(ok, ttrtp_run, np.inf)
     cost = np.bincount(rows, weights=run_cost, minlength=len(which)) / reps
     worst = np.full(len(which), -np.inf)
@@ -181,7 +193,7 @@ def evaluate(problems: list[Problem], which: np.ndarray, u: np.ndarray,
     return cost, ttrtp
 
 
-CONTROL_DT = 0.5                 # the control period every plan is flown on [s]
+CONTROL_DT = 0.5  # the control period every plan is flown on [s]
 
 
 @dataclasses.dataclass
@@ -196,15 +208,16 @@ class SearchResult:
 
     def plan(self, i: int, problem: Problem) -> np.ndarray:
         """The plan vector of problem i, starting at the problem's own t0."""
-        p = plans_from_points(self.u[i][None], np.array([problem.direction]),
-                              np.array([problem.t0]), problem.params)[0]
+        p = plans_from_points(
+            self.u[i][None], np.array([problem.direction]), np.array([problem.t0]), problem.params
+        )[0]
         return p
 
 
 def launch_grid(n_torque: int, n_window: int) -> np.ndarray:
     """One-window launches: |torque| x window, the other coordinates at DEFAULT_U."""
     tq = np.linspace(0.0, 1.0, n_torque)
-    wd = np.linspace(0.0, 0.4, n_window)          # windows 0.5 .. 8.3 s
+    wd = np.linspace(0.0, 0.4, n_window)  # windows 0.5 .. 8.3 s
     grid = np.tile(DEFAULT_U, (n_torque * n_window, 1))
     grid[:, 0] = np.repeat(tq, n_window)
     grid[:, 1] = np.tile(wd, n_torque)
@@ -226,10 +239,17 @@ def normal_sampler(seed: int):
     return lambda *shape: rng.standard_normal(shape)
 
 
-def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
-           popsize: int = 16, sigma: float = 0.12, grid: tuple = (16, 4),
-           seed: int | list = 0, warm: np.ndarray | None = None,
-           horizon_slack: float = 1.25) -> SearchResult:
+def search(
+    problems: list[Problem],
+    budget: int = 4000,
+    starts: int = 2,
+    popsize: int = 16,
+    sigma: float = 0.12,
+    grid: tuple = (16, 4),
+    seed: int | list = 0,
+    warm: np.ndarray | None = None,
+    horizon_slack: float = 1.25,
+) -> SearchResult:
     """The best plan per problem within `budget` simulated candidates each (a candidate
     flown over k terrain seeds counts once): a launch grid, then `starts` CMA-ES runs
     per problem from its best grid points of distinct launch torques (or from the rows
@@ -239,6 +259,7 @@ def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
     `seed`: one integer for the whole search, or one per problem (then a problem's
     search does not depend on the others searched beside it)."""
     import cma
+
     n = len(problems)
     g = launch_grid(*grid)
     which = np.repeat(np.arange(n), len(g))
@@ -256,7 +277,7 @@ def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
         better = wc < best_c
         best_u[better], best_c[better], best_t[better] = warm[better], wc[better], wt[better]
     each = max((budget - len(g)) // max(starts, 1), popsize)
-    strategies = []                      # (problem, CMA-ES)
+    strategies = []  # (problem, CMA-ES)
     for i in range(n):
         order = np.argsort(cost[i], kind="stable")
         chosen, seen = [], set()
@@ -269,22 +290,33 @@ def search(problems: list[Problem], budget: int = 4000, starts: int = 2,
                 seen.add(g[k][0])
                 chosen.append(g[k])
         for r, x0 in enumerate(chosen):
-            es = cma.CMAEvolutionStrategy(list(x0), sigma, {
-                "bounds": [0.0, 1.0], "popsize": popsize, "seed": math.nan,
-                "randn": normal_sampler(cma_seed(seed, i, r)),
-                "maxfevals": each, "verbose": -9, "tolfun": 1e-4, "tolx": 1e-6})
+            es = cma.CMAEvolutionStrategy(
+                list(x0),
+                sigma,
+                {
+                    "bounds": [0.0, 1.0],
+                    "popsize": popsize,
+                    "seed": math.nan,
+                    "randn": normal_sampler(cma_seed(seed, i, r)),
+                    "maxfevals": each,
+                    "verbose": -9,
+                    "tolfun": 1e-4,
+                    "tolx": 1e-6,
+                },
+            )
             strategies.append((i, es))
     while strategies:
         asks = [np.array(es.ask()) for _, es in strategies]
         owners = np.concatenate([np.full(len(a), i) for (i, _), a in zip(strategies, asks)])
-        horizon = np.where(np.isfinite(best_t), (best_t - [p.t0 for p in problems])
-                           * horizon_slack + 20.0, np.inf)
+        horizon = np.where(
+            np.isfinite(best_t), (best_t - [p.t0 for p in problems]) * horizon_slack + 20.0, np.inf
+        )
         c, t = evaluate(problems, owners, np.concatenate(asks), horizon)
         at = 0
         alive = []
         for (i, es), a in zip(strategies, asks):
-            ci = c[at:at + len(a)]
-            ti = t[at:at + len(a)]
+            ci = c[at : at + len(a)]
+            ti = t[at : at + len(a)]
             at += len(a)
             evals[i] += len(a)
             k = int(np.argmin(ci))

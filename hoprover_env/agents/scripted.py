@@ -30,6 +30,7 @@ Because the look-ahead is the same deterministic simulator on the same control g
 the first hop usually lands where planned; corrections handle targets the one-torque
 family cannot reach precisely (bounce patterns make the resting point jump with T).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -50,9 +51,17 @@ class ScriptedHopper:
     steps; `integrator` and `impact_law` those of its look-ahead simulator.
     """
 
-    def __init__(self, params: RoverParams | None = None, control_dt: float = 0.5,
-                 kp: float = 0.15, kd: float = 0.9, grid: int = 16, refine: int = 12,
-                 integrator: str = "event", impact_law: str = "contest"):
+    def __init__(
+        self,
+        params: RoverParams | None = None,
+        control_dt: float = 0.5,
+        kp: float = 0.15,
+        kd: float = 0.9,
+        grid: int = 16,
+        refine: int = 12,
+        integrator: str = "event",
+        impact_law: str = "contest",
+    ):
         self.control_dt = control_dt
         self.kp, self.kd = kp, kd
         self.grid, self.refine = grid, refine
@@ -65,16 +74,21 @@ class ScriptedHopper:
         """Plan with these parameters from now on (the environments hand each episode's
         own, slope included). The look-ahead runs on the mean plane: rough-terrain bumps
         are not known in advance, so the plan is for smooth ground of the same slope."""
-        plan_params = params if params.roughness == 0.0 else \
-            dataclasses.replace(params, roughness=0.0)
+        plan_params = (
+            params if params.roughness == 0.0 else dataclasses.replace(params, roughness=0.0)
+        )
         if plan_params == self.params:
             return
         self.params = p = plan_params
         # the weakest launch that still leaves the ground in reasonable time (on a slope
         # the harder of the two tipping directions: m g (cos phi r + |sin phi| h)), and
         # the strongest
-        self.t_lo = p.mass * p.gravity * (math.cos(p.slope) * p.half_width
-                                          + abs(math.sin(p.slope)) * p.half_height) * 1.12
+        self.t_lo = (
+            p.mass
+            * p.gravity
+            * (math.cos(p.slope) * p.half_width + abs(math.sin(p.slope)) * p.half_height)
+            * 1.12
+        )
         self.t_hi = min(abs(p.torque_min), abs(p.torque_max))
 
     def reset(self):
@@ -98,11 +112,11 @@ class ScriptedHopper:
         if self.phase == "launch":
             return self.torque
         if state != "F":
-            return 0.0                     # landed: let it bounce, slide and stop
+            return 0.0  # landed: let it bounce, slide and stop
         x, xt = float(pos[0]), float(posT[0])
         if self.in_band(x, xt):
             self.phase = "rest"
-            return 0.0                     # the judge's clock is running
+            return 0.0  # the judge's clock is running
         remaining = smt - t
         plan = self.plan(x, xt, t, remaining)
         if plan is None:
@@ -124,8 +138,13 @@ class ScriptedHopper:
         at time t0 (a control instant), under this controller. Returns (x, t_rest,
         broken)."""
         p = self.params
-        sim = RoverSim(params=p, target_x=1e9, initial_state=(x0, p.half_height, 0, 0, 0, 0),
-                       integrator=self.integrator, impact_law=self.impact_law)
+        sim = RoverSim(
+            params=p,
+            target_x=1e9,
+            initial_state=(x0, p.half_height, 0, 0, 0, 0),
+            integrator=self.integrator,
+            impact_law=self.impact_law,
+        )
         dt = self.control_dt
         flown = False
         n = int(math.ceil(horizon / dt))
@@ -190,5 +209,7 @@ class ScriptedHopper:
 def in_band(x: float, target_x: float, p: RoverParams) -> bool:
     """Whether a bottom corner of a level rover (parameters `p`) with c.m. at `x` lies in
     the judge's band around the target [m]."""
-    return (abs(x + p.half_width - target_x) <= p.band_half_width
-            or abs(x - p.half_width - target_x) <= p.band_half_width)
+    return (
+        abs(x + p.half_width - target_x) <= p.band_half_width
+        or abs(x - p.half_width - target_x) <= p.band_half_width
+    )

@@ -102,7 +102,7 @@ def g_phase(S, P, t_stop):
     """
     sigma = S[S_SIGMA]
     a = P[P_MUD] * P[P_GC] + sigma * P[P_GS]
-    u = sigma * S[S_VX]                    # speed, > 0
+    u = sigma * S[S_VX]  # speed, > 0
     tau_end = t_stop - S[S_T]
     tau_stop = u / a if a > 0.0 else np.inf
     kind = PH_NONE
@@ -151,8 +151,9 @@ def _rhs(P, k, sliding, sigma, T, u, out):
 
 @kernel(inner=True)
 def _finite4(u):
-    return (math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2])
-            and math.isfinite(u[3]))
+    return (
+        math.isfinite(u[0]) and math.isfinite(u[1]) and math.isfinite(u[2]) and math.isfinite(u[3])
+    )
 
 
 @kernel(inner=True)
@@ -255,14 +256,15 @@ def _guard_rates(P, k, sliding, sigma, T, u, du, gr):
         gr[GUARD_FRICTION] = sigma * (du[3] + du[1] * dyk - w * w * dxk)
         gr[GUARD_BAND] = -sigma * (u[3] + w * dyk)
     else:
-        gr[GUARD_FRICTION] = ((b_tp - b_tm) / (2 * eps_t) * du[0]
-                              + (b_wp - b_wm) / (2 * eps_w) * du[1])
+        gr[GUARD_FRICTION] = (b_tp - b_tm) / (2 * eps_t) * du[0] + (b_wp - b_wm) / (2 * eps_w) * du[
+            1
+        ]
         gr[GUARD_BAND] = 0.0
     # the heights' rates: GUARD_TOUCH (the other bottom corner), GUARD_TOP_R (corner
     # 2), GUARD_TOP_L (corner 3) in turn
     for c in range(3):
         dxc, _ = corner_offset(P, (1 - k) if c == 0 else c + 1, th)
-        gr[GUARD_TOUCH + c] = w * (dxk - dxc)   # that corner's vertical speed (vy = w dx_k)
+        gr[GUARD_TOUCH + c] = w * (dxk - dxc)  # that corner's vertical speed (vy = w dx_k)
 
 
 @kernel(inner=True)
@@ -283,8 +285,12 @@ def _hermite_dip(g0, g1, d0, d1):
                 if 0.0 < r < 1.0:
                     t2 = r * r
                     t3 = t2 * r
-                    v = (g0 * (2 * t3 - 3 * t2 + 1) + d0 * (t3 - 2 * t2 + r)
-                         + g1 * (-2 * t3 + 3 * t2) + d1 * (t3 - t2))
+                    v = (
+                        g0 * (2 * t3 - 3 * t2 + 1)
+                        + d0 * (t3 - 2 * t2 + r)
+                        + g1 * (-2 * t3 + 3 * t2)
+                        + d1 * (t3 - t2)
+                    )
                     if v < best_v:
                         best_v = v
                         best_t = r
@@ -293,8 +299,12 @@ def _hermite_dip(g0, g1, d0, d1):
         if 0.0 < r < 1.0:
             t2 = r * r
             t3 = t2 * r
-            best_v = (g0 * (2 * t3 - 3 * t2 + 1) + d0 * (t3 - 2 * t2 + r)
-                      + g1 * (-2 * t3 + 3 * t2) + d1 * (t3 - t2))
+            best_v = (
+                g0 * (2 * t3 - 3 * t2 + 1)
+                + d0 * (t3 - 2 * t2 + r)
+                + g1 * (-2 * t3 + 3 * t2)
+                + d1 * (t3 - t2)
+            )
             best_t = r
     return best_t, best_v
 
@@ -302,14 +312,25 @@ def _hermite_dip(g0, g1, d0, d1):
 @kernel(inner=True)
 def _rk_vectors(W):
     """The contact phases' vectors in the workspace (layout W_U ... in layout.py)."""
-    return (W[W_U:W_U + N_U], W[W_ATOL:W_ATOL + N_U], W[W_GV:W_GV + N_GUARDS],
-            W[W_GNEW:W_GNEW + N_GUARDS], W[W_LEVEL:W_LEVEL + N_GUARDS],
-            W[W_GTOL:W_GTOL + N_GUARDS], W[W_ARMED:W_ARMED + N_GUARDS],
-            W[W_F0:W_F0 + N_U], W[W_KST:W_KST + RK_STAGES * N_U].reshape((RK_STAGES, N_U)),
-            W[W_YTMP:W_YTMP + N_U], W[W_UNEW:W_UNEW + N_U], W[W_UTRY:W_UTRY + N_U],
-            W[W_F1:W_F1 + N_U], W[W_RATE0:W_RATE0 + N_GUARDS],
-            W[W_RATE1:W_RATE1 + N_GUARDS], W[W_GTRY:W_GTRY + N_GUARDS],
-            W[W_GTMP:W_GTMP + N_GUARDS])
+    return (
+        W[W_U : W_U + N_U],
+        W[W_ATOL : W_ATOL + N_U],
+        W[W_GV : W_GV + N_GUARDS],
+        W[W_GNEW : W_GNEW + N_GUARDS],
+        W[W_LEVEL : W_LEVEL + N_GUARDS],
+        W[W_GTOL : W_GTOL + N_GUARDS],
+        W[W_ARMED : W_ARMED + N_GUARDS],
+        W[W_F0 : W_F0 + N_U],
+        W[W_KST : W_KST + RK_STAGES * N_U].reshape((RK_STAGES, N_U)),
+        W[W_YTMP : W_YTMP + N_U],
+        W[W_UNEW : W_UNEW + N_U],
+        W[W_UTRY : W_UTRY + N_U],
+        W[W_F1 : W_F1 + N_U],
+        W[W_RATE0 : W_RATE0 + N_GUARDS],
+        W[W_RATE1 : W_RATE1 + N_GUARDS],
+        W[W_GTRY : W_GTRY + N_GUARDS],
+        W[W_GTMP : W_GTMP + N_GUARDS],
+    )
 
 
 @kernel(inner=True)
@@ -335,7 +356,7 @@ def _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W):
     _guards(P, k, sliding, sigma, T, xpiv, xt, u, gv)
     # the other bottom corner already down and moving down: impact now
     dxo, dyo = corner_offset(P, 1 - k, u[0])
-    vyo = S[S_W] * dx0 - S[S_W] * dxo      # vy = w dx_k, minus w dx_other
+    vyo = S[S_W] * dx0 - S[S_W] * dxo  # vy = w dx_k, minus w dx_other
     if gv[GUARD_TOUCH] <= H_TOL and vyo < -V_TOL:
         return PH_TOUCH
     if gv[GUARD_TOP_R] <= 0.0 or gv[GUARD_TOP_L] <= 0.0:
@@ -354,8 +375,30 @@ def _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W):
 
 
 @kernel(inner=True)
-def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol, gv, gnew, level,
-                    f0, kst, ytmp, utry, rate0, rate1, gtry, gtmp):
+def _first_crossing(
+    P,
+    k,
+    sliding,
+    sigma,
+    T,
+    xpiv,
+    xt,
+    h,
+    rtol,
+    u,
+    atol,
+    gv,
+    gnew,
+    level,
+    f0,
+    kst,
+    ytmp,
+    utry,
+    rate0,
+    rate1,
+    gtry,
+    gtmp,
+):
     """The guard that crosses its level first inside the accepted step of length h (the
     guards and rates at both ends given), and the step length s where it does: (-1, h)
     when none does."""
@@ -363,9 +406,28 @@ def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol, gv, gne
     s_first = h
     for i in range(N_GUARDS):
         if gnew[i] - level[i] <= 0.0:
-            s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp,
-                          utry, gtmp, rtol, atol, i, level[i], gv[i] - level[i],
-                          gnew[i] - level[i])
+            s_i = _locate(
+                P,
+                k,
+                sliding,
+                sigma,
+                T,
+                xpiv,
+                xt,
+                u,
+                h,
+                f0,
+                kst,
+                ytmp,
+                utry,
+                gtmp,
+                rtol,
+                atol,
+                i,
+                level[i],
+                gv[i] - level[i],
+                gnew[i] - level[i],
+            )
             if first < 0 or s_i < s_first:
                 first = i
                 s_first = s_i
@@ -374,16 +436,35 @@ def _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol, gv, gne
     # Hermite interpolant is lowest and confirm there with the step itself.
     for i in range(N_GUARDS):
         if gnew[i] - level[i] > 0.0 and rate0[i] * rate1[i] < 0.0 and rate0[i] < 0.0:
-            tau, low = _hermite_dip(gv[i] - level[i], gnew[i] - level[i],
-                                    rate0[i] * h, rate1[i] * h)
+            tau, low = _hermite_dip(
+                gv[i] - level[i], gnew[i] - level[i], rate0[i] * h, rate1[i] * h
+            )
             if low < 0.0:
-                _dop853_step(P, k, sliding, sigma, T, u, tau * h, f0, kst, ytmp, utry,
-                             rtol, atol)
+                _dop853_step(P, k, sliding, sigma, T, u, tau * h, f0, kst, ytmp, utry, rtol, atol)
                 _guards(P, k, sliding, sigma, T, xpiv, xt, utry, gtry)
                 if gtry[i] - level[i] <= 0.0:
-                    s_i = _locate(P, k, sliding, sigma, T, xpiv, xt, u, tau * h, f0, kst,
-                                  ytmp, utry, gtmp, rtol, atol, i, level[i],
-                                  gv[i] - level[i], gtry[i] - level[i])
+                    s_i = _locate(
+                        P,
+                        k,
+                        sliding,
+                        sigma,
+                        T,
+                        xpiv,
+                        xt,
+                        u,
+                        tau * h,
+                        f0,
+                        kst,
+                        ytmp,
+                        utry,
+                        gtmp,
+                        rtol,
+                        atol,
+                        i,
+                        level[i],
+                        gv[i] - level[i],
+                        gtry[i] - level[i],
+                    )
                     if first < 0 or s_i < s_first:
                         first = i
                         s_first = s_i
@@ -458,14 +539,31 @@ def contact_phase(S, P, O, t_stop, W):
     rtol = O[O_RTOL]
     xt = S[S_XT]
     dx0, dy0 = corner_offset(P, k, S[S_TH])
-    xpiv = S[S_X] + dx0          # pivot point (fixed when pivoting)
+    xpiv = S[S_X] + dx0  # pivot point (fixed when pivoting)
     kind = _start_phase(S, P, k, sliding, sigma, T, rtol, xpiv, xt, dx0, W)
     if kind != PH_NONE:
         return kind
     # the hot loop below passes these views on (not W): one slicing per phase
-    u, atol, gv, gnew, level, tol, armed, f0, kst, ytmp, unew, utry, f1, rate0, rate1, gtry, \
-        gtmp = _rk_vectors(W)
-    h_prop = S[S_HSTEP]             # proposed step, remembered across phases
+    (
+        u,
+        atol,
+        gv,
+        gnew,
+        level,
+        tol,
+        armed,
+        f0,
+        kst,
+        ytmp,
+        unew,
+        utry,
+        f1,
+        rate0,
+        rate1,
+        gtry,
+        gtmp,
+    ) = _rk_vectors(W)
+    h_prop = S[S_HSTEP]  # proposed step, remembered across phases
     if not (h_prop > 0.0 and h_prop < math.inf):
         h_prop = 1e-3
     t = S[S_T]
@@ -479,7 +577,7 @@ def contact_phase(S, P, O, t_stop, W):
         err = _dop853_step(P, k, sliding, sigma, T, u, h, f0, kst, ytmp, unew, rtol, atol)
         n_steps += 1
         if n_steps > MAX_RK_STEPS:
-            S[S_ERROR] = ERR_STEP           # a bound on every loop: never a hang
+            S[S_ERROR] = ERR_STEP  # a bound on every loop: never a hang
             break
         W[W_WORK] += 1.0
         if W[W_WORK] > MAX_WORK:
@@ -493,16 +591,37 @@ def contact_phase(S, P, O, t_stop, W):
             else:
                 h_prop = h * RK_MIN_FACTOR
             if h_prop < 1e-14 * (1.0 + abs(t)):
-                S[S_ERROR] = ERR_STEP       # step-size underflow: the field is too stiff
+                S[S_ERROR] = ERR_STEP  # step-size underflow: the field is too stiff
                 break
             continue
         for j in range(N_U):
-            f1[j] = kst[RK_STAGES - 1, j]   # kst is scratch for the searches below
+            f1[j] = kst[RK_STAGES - 1, j]  # kst is scratch for the searches below
         _guards(P, k, sliding, sigma, T, xpiv, xt, unew, gnew)
         _guard_rates(P, k, sliding, sigma, T, unew, f1, rate1)
-        first, s_first = _first_crossing(P, k, sliding, sigma, T, xpiv, xt, h, rtol, u, atol,
-                                         gv, gnew, level, f0, kst, ytmp, utry, rate0, rate1,
-                                         gtry, gtmp)
+        first, s_first = _first_crossing(
+            P,
+            k,
+            sliding,
+            sigma,
+            T,
+            xpiv,
+            xt,
+            h,
+            rtol,
+            u,
+            atol,
+            gv,
+            gnew,
+            level,
+            f0,
+            kst,
+            ytmp,
+            utry,
+            rate0,
+            rate1,
+            gtry,
+            gtmp,
+        )
         if first >= 0:
             _dop853_step(P, k, sliding, sigma, T, u, s_first, f0, kst, ytmp, unew, rtol, atol)
             for j in range(N_U):
@@ -512,10 +631,13 @@ def contact_phase(S, P, O, t_stop, W):
             break
         _next_step_start(u, gv, gnew, level, tol, armed, f0, unew, f1, rate0, rate1)
         t = t_stop if last else t + h
-        fac = RK_MAX_FACTOR if err == 0.0 else min(RK_MAX_FACTOR, max(
-            RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0)))
+        fac = (
+            RK_MAX_FACTOR
+            if err == 0.0
+            else min(RK_MAX_FACTOR, max(RK_MIN_FACTOR, RK_SAFETY * err ** (-1.0 / 8.0)))
+        )
         if last and h < h_prop:
-            h_prop = max(h_prop, h * fac)   # a step cut short by t_stop says little
+            h_prop = max(h_prop, h * fac)  # a step cut short by t_stop says little
         else:
             h_prop = h * fac
     S[S_HSTEP] = h_prop
@@ -524,8 +646,9 @@ def contact_phase(S, P, O, t_stop, W):
 
 
 @kernel(inner=True)
-def _locate(P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, rtol, atol,
-            gi, lev, fa, fb):
+def _locate(
+    P, k, sliding, sigma, T, xpiv, xt, u, h, f0, kst, ytmp, utry, gtmp, rtol, atol, gi, lev, fa, fb
+):
     """Smallest s in (0, h] where guard gi - lev changes sign: Illinois regula falsi on
     the step length (the DOP853 step re-taken from u). Returns the right end of the
     final bracket, so the event has happened at the returned length."""

@@ -1,7 +1,6 @@
 """The Euler integrator: the contest-style fixed-step baseline (docs/MODEL.md
 section 10), over the same forces, transitions and impact law."""
 
-
 from hoprover_env.core.forces import (
     contact_corner,
     corner_offset,

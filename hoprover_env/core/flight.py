@@ -107,6 +107,7 @@ def resting_corner_driven_down(S, P, k):
 # Event integrator: flight by conservative advancement on closed forms
 # ----------------------------------------------------------------------------------
 
+
 @kernel(inner=True)
 def _commit_flight(S, P, tau):
     x, y, th, vx, vy, w = flight_at(S, P, tau)
@@ -146,7 +147,7 @@ def _polish_touchdown(S, P, k, tau, tau_end, level, armed, f, v):
         if hi >= tau_end:
             break
         dt *= 2.0
-    return tau      # it curves away within CA_TOL of the ground: touching at tau
+    return tau  # it curves away within CA_TOL of the ground: touching at tau
 
 
 @kernel(I64x2(VEC, VEC, F64, VEC), inner=True)
@@ -170,12 +171,12 @@ def flight_phase(S, P, t_stop, W):
     tau_end = t_stop - S[S_T]
     if tau_end <= 0.0:
         return PH_NONE, -1
-    g = P[P_GC]         # corner heights feel only gravity's normal component
+    g = P[P_GC]  # corner heights feel only gravity's normal component
     beta = S[S_TORQUE] / P[P_I]
     ell = math.hypot(P[P_R], P[P_H])
     w0 = S[S_W]
-    level = W[W_FLT:W_FLT + 4]
-    armed = W[W_FLT + 4:W_FLT + 8]        # 1.0 / 0.0 flags
+    level = W[W_FLT : W_FLT + 4]
+    armed = W[W_FLT + 4 : W_FLT + 8]  # 1.0 / 0.0 flags
     kind, corner = _arm_corners(S, P, level, armed)
     if kind != PH_NONE:
         return kind, corner
@@ -200,8 +201,7 @@ def flight_phase(S, P, t_stop, W):
             return PH_NONE, -1
         hit, hit_f, hit_v, step = _nearest_touchdown(P, y, th, vy, w, kbound, level, armed)
         if hit >= 0:
-            tau = _polish_touchdown(S, P, hit, tau, tau_end, level[hit], armed[hit],
-                                    hit_f, hit_v)
+            tau = _polish_touchdown(S, P, hit, tau, tau_end, level[hit], armed[hit], hit_f, hit_v)
             _commit_flight(S, P, tau)
             return (PH_BROKEN if hit >= 2 else PH_TOUCH), hit
         step = min(step, window)

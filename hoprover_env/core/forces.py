@@ -56,7 +56,7 @@ def corner_offset(P, k, th):
 @kernel
 def wrap_angle(th):
     """Attitude in (-pi, pi]."""
-    w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)   # exact for th in range
+    w = th - TWO_PI * math.floor((th + math.pi) / TWO_PI)  # exact for th in range
     return math.pi if w == -math.pi else w
 
 
@@ -68,8 +68,11 @@ def kinetic_energy(S, P):
 @kernel
 def total_energy(S, P):
     """Kinetic plus potential energy along the tilted gravity, m g (x sin phi + y cos phi)."""
-    return 0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2) + 0.5 * P[P_I] * S[S_W] ** 2 \
+    return (
+        0.5 * P[P_M] * (S[S_VX] ** 2 + S[S_VY] ** 2)
+        + 0.5 * P[P_I] * S[S_W] ** 2
         + P[P_M] * (P[P_GS] * S[S_X] + P[P_GC] * S[S_Y])
+    )
 
 
 @kernel(I64(I64), inner=True)

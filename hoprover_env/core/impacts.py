@@ -64,9 +64,11 @@ def _solve_sym3(a00, a01, a02, a11, a12, a22, b0, b1, b2):
     c11 = a00 * a22 - a02 * a02
     c12 = a01 * a02 - a00 * a12
     c22 = a00 * a11 - a01 * a01
-    return ((c00 * b0 + c01 * b1 + c02 * b2) / det,
-            (c01 * b0 + c11 * b1 + c12 * b2) / det,
-            (c02 * b0 + c12 * b1 + c22 * b2) / det)
+    return (
+        (c00 * b0 + c01 * b1 + c02 * b2) / det,
+        (c01 * b0 + c11 * b1 + c12 * b2) / det,
+        (c02 * b0 + c12 * b1 + c22 * b2) / det,
+    )
 
 
 @kernel
@@ -243,11 +245,18 @@ def resolve_impact_tilted(S, P, law, W, psi):
 @kernel(inner=True)
 def _impact_vectors(W):
     """The impacts' vectors in the workspace (layout W_IMP_* in layout.py)."""
-    return (W[W_IMP_DX:W_IMP_DX + 2], W[W_IMP_DY:W_IMP_DY + 2], W[W_IMP_VPX:W_IMP_VPX + 2],
-            W[W_IMP_VPY:W_IMP_VPY + 2], W[W_IMP_ON:W_IMP_ON + 2],
-            W[W_IMP_PART:W_IMP_PART + 2], W[W_IMP_DV:W_IMP_DV + 4],
-            W[W_IMP_TGT_Y:W_IMP_TGT_Y + 2], W[W_IMP_LX:W_IMP_LX + 2],
-            W[W_IMP_LY:W_IMP_LY + 2])
+    return (
+        W[W_IMP_DX : W_IMP_DX + 2],
+        W[W_IMP_DY : W_IMP_DY + 2],
+        W[W_IMP_VPX : W_IMP_VPX + 2],
+        W[W_IMP_VPY : W_IMP_VPY + 2],
+        W[W_IMP_ON : W_IMP_ON + 2],
+        W[W_IMP_PART : W_IMP_PART + 2],
+        W[W_IMP_DV : W_IMP_DV + 4],
+        W[W_IMP_TGT_Y : W_IMP_TGT_Y + 2],
+        W[W_IMP_LX : W_IMP_LX + 2],
+        W[W_IMP_LY : W_IMP_LY + 2],
+    )
 
 
 @kernel(inner=True)
@@ -292,12 +301,15 @@ def _apply_law(S, P, law, ke0, W):
     ok = True
     for k in range(2):
         if part[k] != 0.0 and ly[k] < -1e-12 * lam_scale:
-            ok = False               # the exact law would pull on the ground
+            ok = False  # the exact law would pull on the ground
         if on[k] != 0.0 and S[S_VY] - S[S_W] * dxs[k] < -V_TOL:
-            ok = False               # a grounded corner would end moving down
-        if law == LAW_DISSIPATIVE and part[k] != 0.0 and \
-                abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale:
-            ok = False               # outside the friction cone
+            ok = False  # a grounded corner would end moving down
+        if (
+            law == LAW_DISSIPATIVE
+            and part[k] != 0.0
+            and abs(lx[k]) > P[P_MUS] * ly[k] + 1e-12 * lam_scale
+        ):
+            ok = False  # outside the friction cone
     if ok and law == LAW_DISSIPATIVE and kinetic_energy(S, P) > ke0:
         ok = False
     if not ok:
@@ -366,8 +378,7 @@ def _classify_after_impact(S, P, W):
 @kernel(I64(VEC, VEC, VEC, MAT, I64, VEC), inner=True)
 def impact_event(S, P, O, ev, n, W):
     # a touchdown is only ever reported with a bottom corner on the ground
-    if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) \
-            + S[S_Y] > H_IMPACT:
+    if min(corner_offset(P, 0, S[S_TH])[1], corner_offset(P, 1, S[S_TH])[1]) + S[S_Y] > H_IMPACT:
         return n
     before = S[S_MODE]
     ratio = resolve_impact(S, P, int(O[O_LAW]), W)

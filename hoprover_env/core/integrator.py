@@ -66,7 +66,7 @@ def advance_event_loop(S, P, O, t_stop, ev, n, W):
         if S[S_ERROR] != 0.0:
             break
         phases += 1
-        if phases > MAX_PHASES:         # phases that log no event would otherwise spin
+        if phases > MAX_PHASES:  # phases that log no event would otherwise spin
             S[S_ERROR] = ERR_STEP
             break
         mode = int(S[S_MODE])
@@ -78,7 +78,7 @@ def advance_event_loop(S, P, O, t_stop, ev, n, W):
             if S[S_T] < t_star < t_stop:
                 t_lim = t_star
         if mode == MODE_F:
-            S[S_T] = t_lim                  # at rest: nothing to integrate
+            S[S_T] = t_lim  # at rest: nothing to integrate
             if t_lim < t_stop:
                 n = judge_check(S, P, ev, n)
                 continue
@@ -91,7 +91,7 @@ def advance_event_loop(S, P, O, t_stop, ev, n, W):
             kind = contact_phase(S, P, O, t_lim, W)
         n = after_phase(S, P, O, ev, n, kind, W)
         if kind == PH_NONE and t_lim < t_stop:
-            n = judge_check(S, P, ev, n)   # the phase ended at the judge's deadline
+            n = judge_check(S, P, ev, n)  # the phase ended at the judge's deadline
     return n
 
 
@@ -118,7 +118,7 @@ def _advance_begin(S, P, torque_cmd, t_stop, ev, W):
 @kernel(inner=True)
 def _advance_end(S, P, ev, n):
     if n > 0:
-        track_min_height(S, P)         # between events no corner can sink
+        track_min_height(S, P)  # between events no corner can sink
     return judge_check(S, P, ev, n)
 
 
@@ -160,7 +160,7 @@ def advance_event(S, P, O, torque_cmd, t_stop, ev, W):
 
 
 INIT_OK, INIT_PENETRATION, INIT_TOP_DOWN, INIT_MOVING_DOWN, INIT_NOT_FLAT = range(5)
-INIT_GROUND_TOL = 1e-9   # m: how far a given initial corner may be from the ground
+INIT_GROUND_TOL = 1e-9  # m: how far a given initial corner may be from the ground
 
 
 @kernel(I64(VEC, VEC, F64, F64, F64, F64, F64, F64, F64))

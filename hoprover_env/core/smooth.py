@@ -16,27 +16,45 @@ trajectory is the same bit for bit (tests/core/test_smooth_build.py). The envs u
 every rover of theirs is on smooth ground (`tasks.common.TaskSpec.kernels`); slopes are
 smooth ground too (a slope turns gravity, docs/MODEL.md section 11).
 """
+
 from hoprover_env.core import contact_phases, flight, impacts, integrator, phase_end
 from hoprover_env.jit.compiler import rebind, register_warm
 
 # each stored under the name it is compiled and cached as (a kernel pickles by reference)
-resolve_impact_tilted_smooth = rebind(impacts.resolve_impact_tilted,
-                                      "resolve_impact_tilted_smooth", __name__, inner=True,
-                                      ROUGH=False)
-resolve_impact_smooth = rebind(impacts.resolve_impact, "resolve_impact_smooth", __name__,
-                               inner=True, ROUGH=False,
-                               resolve_impact_tilted=resolve_impact_tilted_smooth)
-impact_event_smooth = rebind(impacts.impact_event, "impact_event_smooth", __name__,
-                             resolve_impact=resolve_impact_smooth)
-after_phase_smooth = rebind(phase_end.after_phase, "after_phase_smooth", __name__,
-                            impact_event=impact_event_smooth)
-advance_event_loop_smooth = rebind(integrator.advance_event_loop, "advance_event_loop_smooth",
-                                   __name__, after_phase=after_phase_smooth)
-advance_event_smooth = rebind(integrator.advance_event, "advance_event_smooth", __name__,
-                              advance_event_loop=advance_event_loop_smooth)
+resolve_impact_tilted_smooth = rebind(
+    impacts.resolve_impact_tilted, "resolve_impact_tilted_smooth", __name__, inner=True, ROUGH=False
+)
+resolve_impact_smooth = rebind(
+    impacts.resolve_impact,
+    "resolve_impact_smooth",
+    __name__,
+    inner=True,
+    ROUGH=False,
+    resolve_impact_tilted=resolve_impact_tilted_smooth,
+)
+impact_event_smooth = rebind(
+    impacts.impact_event, "impact_event_smooth", __name__, resolve_impact=resolve_impact_smooth
+)
+after_phase_smooth = rebind(
+    phase_end.after_phase, "after_phase_smooth", __name__, impact_event=impact_event_smooth
+)
+advance_event_loop_smooth = rebind(
+    integrator.advance_event_loop,
+    "advance_event_loop_smooth",
+    __name__,
+    after_phase=after_phase_smooth,
+)
+advance_event_smooth = rebind(
+    integrator.advance_event,
+    "advance_event_smooth",
+    __name__,
+    advance_event_loop=advance_event_loop_smooth,
+)
 
 # what the parallel cold compile builds (jit/compiler.py, `prepare`): the end of a phase
 # for the ground, then the rest, largest first
-register_warm(after_phase={True: phase_end.after_phase, False: after_phase_smooth},
-              queue=(contact_phases.contact_phase, flight.flight_phase),
-              queue_end=(integrator.init_state, contact_phases.g_phase))
+register_warm(
+    after_phase={True: phase_end.after_phase, False: after_phase_smooth},
+    queue=(contact_phases.contact_phase, flight.flight_phase),
+    queue_end=(integrator.init_state, contact_phases.g_phase),
+)

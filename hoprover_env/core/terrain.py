@@ -19,17 +19,17 @@ from hoprover_env.core.params import P_ROUGH
 from hoprover_env.jit.compiler import F64, VEC, kernel
 
 _U = nt.uint64
-_M0 = np.uint64(0xD2E7470EE14C6C93)      # Philox4x64 multipliers
+_M0 = np.uint64(0xD2E7470EE14C6C93)  # Philox4x64 multipliers
 _M1 = np.uint64(0xCA5A826395121157)
-_W0 = np.uint64(0x9E3779B97F4A7C15)      # Weyl key increments
+_W0 = np.uint64(0x9E3779B97F4A7C15)  # Weyl key increments
 _W1 = np.uint64(0xBB67AE8584CAA73B)
 _LO32 = np.uint64(0xFFFFFFFF)
 _32 = np.uint64(32)
 _11 = np.uint64(11)
 _ONE = np.uint64(1)
-_2M53 = 2.0 ** -53
-TRUNCATION = 3.0            # tilts beyond 3 standard deviations are redrawn
-MAX_ATTEMPTS = 64           # blocks of 4 candidates; P(all 256 rejected) = 0.0027^256
+_2M53 = 2.0**-53
+TRUNCATION = 3.0  # tilts beyond 3 standard deviations are redrawn
+MAX_ATTEMPTS = 64  # blocks of 4 candidates; P(all 256 rejected) = 0.0027^256
 
 
 @kernel(nt.UniTuple(_U, 2)(_U, _U), inner=True)

@@ -119,7 +119,7 @@ def _settle_double(S, P, ev, n, mode, ftol):
         # split between the corners is indeterminate, so the totals decide:
         # F holds while |m g sin(phi)| <= mu_s (f_Ay + f_By) = mu_s m g cos(phi).
         S[S_MODE] = MODE_G
-        S[S_SIGMA] = -1.0 if gs > 0.0 else 1.0      # down the slope
+        S[S_SIGMA] = -1.0 if gs > 0.0 else 1.0  # down the slope
         return log_event(S, ev, n, t, EV_SLIP, mode, MODE_G, 0.0), True
     return n, False
 
@@ -173,14 +173,14 @@ def _settle_slide(S, P, ev, n, mode, ftol):
     w = S[S_W]
     vpx = S[S_VX] + w * dy
     if abs(vpx) > V_TOL:
-        if vpx * sigma < 0.0:       # cannot happen after an event; keep sigma honest
+        if vpx * sigma < 0.0:  # cannot happen after an event; keep sigma honest
             S[S_SIGMA] = 1.0 if vpx > 0.0 else -1.0
             return n, True
         return n, False
     # The contact point is (momentarily) at rest: does it keep sliding?
     apx = fx / m - P[P_GS] + thdd * dy - w * w * dx
     if sigma * apx > A_TOL:
-        return n, False             # it accelerates in sigma: the slide goes on
+        return n, False  # it accelerates in sigma: the slide goes on
     _, fxp, fyp, _, _ = pivot_dynamics(P, k, T, S[S_TH], w)
     if abs(fxp) <= P[P_MUS] * fyp + ftol and fyp >= -ftol:
         new = pinned_mode(k)

@@ -7,6 +7,7 @@ What an env of a task observes, does and pays is the task's: its module's docstr
 the tables (hoprover_env/tasks/torque.py for HopRover-v0). HopRoverEnv itself is the
 torque task's env; every other task's subclasses it (hoprover_env/envs/tasks.py).
 """
+
 from __future__ import annotations
 
 import math
@@ -44,15 +45,15 @@ def check_actions(action, shape, what="action") -> np.ndarray:
     size ((1, 4) or (2, 2) for 4 sub-envs)."""
     a = np.asarray(action)
     if a.dtype.kind not in "iuf":
-        raise ValueError(f"{what} must be real numbers, got {type(action).__name__} "
-                         f"{action!r} (dtype {a.dtype})")
+        raise ValueError(
+            f"{what} must be real numbers, got {type(action).__name__} {action!r} (dtype {a.dtype})"
+        )
     if a.shape != tuple(shape) and a.shape != tuple(shape[:-1]):
         raise ValueError(f"{what} must have shape {tuple(shape)}, got shape {a.shape}")
     a = a.astype(np.float64).reshape(shape)
     if not np.all(np.isfinite(a)):
         bad = np.flatnonzero(~np.isfinite(a.ravel()))
-        raise ValueError(f"{what} must be finite, got {a.ravel()[bad[0]]!r} "
-                         f"(flat index {bad[0]})")
+        raise ValueError(f"{what} must be finite, got {a.ravel()[bad[0]]!r} (flat index {bad[0]})")
     return a
 
 
@@ -62,19 +63,19 @@ class HopRoverEnv(gym.Env):
     task's env class is this one with its own `task` (hoprover_env/envs/tasks.py).
     Keyword arguments are the task config's (unknown names raise TypeError, arguments
     the task does not use too); render_mode is None, "rgb_array" or "human"."""
+
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
-    task = torque.TASK          # the written interface (tasks/common.py TaskSpec)
+    task = torque.TASK  # the written interface (tasks/common.py TaskSpec)
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any):
-        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
-                                                   **kwargs)
+        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__", **kwargs)
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
         self.action_space, self.observation_space = task_spaces(self.task, self.config)
         self._o = self.config.options_vector()
         # cold cache: compile on 2 cores, for the ground the config's episodes are on
         _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
-        self._step_kernel = None                        # chosen at reset, by the ground
+        self._step_kernel = None  # chosen at reset, by the ground
         self._e = self.config.task_vector()
         self._rw = self.config.reward_vector()
         self._rm = reward.new_memory()
@@ -108,9 +109,11 @@ class HopRoverEnv(gym.Env):
         super().reset(seed=seed)
         self._start(seed, reset_options.check(self.task, options))
         self._rm[:] = reward.new_memory()
-        self._episode = (np.float64(self.target_x), np.float64(self._p[P_SLOPE]),
-                         np.int64(NO_TERRAIN_SEED if self.terrain_seed is None
-                                  else self.terrain_seed))
+        self._episode = (
+            np.float64(self.target_x),
+            np.float64(self._p[P_SLOPE]),
+            np.int64(NO_TERRAIN_SEED if self.terrain_seed is None else self.terrain_seed),
+        )
         self.task.observe(self._s, self._p, self._e, self._m, self._obs)
         self._trace = []
         self._done = False
@@ -127,15 +130,15 @@ class HopRoverEnv(gym.Env):
             keys.next_episode(self._row)
         else:
             keys.seed_rows(self._row, [seed])
-        ep = draws.sample_episodes(self.task, self.config, keys.lo, keys.hi, keys.episode,
-                                   options)
+        ep = draws.sample_episodes(self.task, self.config, keys.lo, keys.hi, keys.episode, options)
         self._s, self._p = ep.S[0], ep.P[0]
         self._params = None
         self.target_x = float(ep.targets[0])
         seed = int(ep.terrain_seeds[0])
         self.terrain_seed = None if seed == NO_TERRAIN_SEED else seed
-        self._step_kernel = self.task.kernels(self.config.integrator,
-                                              rough=self._p[P_ROUGH] > 0.0).step
+        self._step_kernel = self.task.kernels(
+            self.config.integrator, rough=self._p[P_ROUGH] > 0.0
+        ).step
         m = self._m[None, :]
         self.task.start_rows(self.config, ep.U, ep.S, ep.P, m, ep.fixed)
 
@@ -153,25 +156,35 @@ class HopRoverEnv(gym.Env):
         if self._s.size == 0:
             raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:
-            raise gym.error.ResetNeeded("the episode has ended (terminated or truncated): "
-                                        "call reset() before step()")
+            raise gym.error.ResetNeeded(
+                "the episode has ended (terminated or truncated): call reset() before step()"
+            )
         a = self._a
         if type(action) is np.ndarray and action.shape == a.shape and action.dtype.kind == "f":
-            a[:] = action                           # the common case, kept cheap
+            a[:] = action  # the common case, kept cheap
             if not math.isfinite(a.sum()):
                 raise ValueError(f"action must be finite, got {action!r}")
         else:
             a[:] = check_actions(action, a.shape)
         reward, terminated, truncated, _, n_ev = self._step_kernel(
-            self._s, self._p, self._o, self._e, self._rw, self._rm, self._m, a, self._obs,
-            _NO_LOG, self._w)
+            self._s,
+            self._p,
+            self._o,
+            self._e,
+            self._rw,
+            self._rm,
+            self._m,
+            a,
+            self._obs,
+            _NO_LOG,
+            self._w,
+        )
         if self.render_mode is not None:
             self._trace.append((float(self._s[core.S_X]), float(self._s[core.S_Y])))
             if self.render_mode == "human":
                 self.render()
         self._done = bool(terminated or truncated)
-        return self._obs.copy(), float(reward), bool(terminated), bool(truncated), \
-            self._info(n_ev)
+        return self._obs.copy(), float(reward), bool(terminated), bool(truncated), self._info(n_ev)
 
     def continue_episode(self) -> None:
         """Let an episode that ended in success go on: the rover keeps its state and the
@@ -179,12 +192,17 @@ class HopRoverEnv(gym.Env):
         learner that keeps going after success, hoprover_env/envs/goal.py). A rover that
         broke or ran out of time stays ended (ResetNeeded)."""
         if self._s.size == 0 or not self._done:
-            raise gym.error.ResetNeeded("continue_episode() follows a step that ended the "
-                                        "episode in success")
-        if self._s[core.S_BROKEN] != 0.0 or self._s[core.S_ERROR] != 0.0 \
-                or self._s[core.S_T] >= self._e[E_T_TOTAL]:
-            raise gym.error.ResetNeeded("the episode ended in a break or at the time limit: "
-                                        "call reset()")
+            raise gym.error.ResetNeeded(
+                "continue_episode() follows a step that ended the episode in success"
+            )
+        if (
+            self._s[core.S_BROKEN] != 0.0
+            or self._s[core.S_ERROR] != 0.0
+            or self._s[core.S_T] >= self._e[E_T_TOTAL]
+        ):
+            raise gym.error.ResetNeeded(
+                "the episode ended in a break or at the time limit: call reset()"
+            )
         self._done = False
 
     def _info(self, n_events: int) -> dict:
@@ -194,12 +212,17 @@ class HopRoverEnv(gym.Env):
         # scalar built per key, or a dict keyed by numpy bools, cost 10 us a step).
         s = self._s
         ttrtp = s[core.S_TTRTP]
-        reached = ttrtp == ttrtp                      # not NaN
-        info = make_info(np.True_ if reached else np.False_,
-                         ttrtp if reached else _NOT_REACHED, _STATE_CODE[int(s[core.S_MODE])],
-                         self._episode[0], np.True_ if s[core.S_BROKEN] != 0.0 else np.False_,
-                         _COUNT[n_events] if n_events < len(_COUNT) else np.int64(n_events),
-                         self._episode[1], self._episode[2])
+        reached = ttrtp == ttrtp  # not NaN
+        info = make_info(
+            np.True_ if reached else np.False_,
+            ttrtp if reached else _NOT_REACHED,
+            _STATE_CODE[int(s[core.S_MODE])],
+            self._episode[0],
+            np.True_ if s[core.S_BROKEN] != 0.0 else np.False_,
+            _COUNT[n_events] if n_events < len(_COUNT) else np.int64(n_events),
+            self._episode[1],
+            self._episode[2],
+        )
         if self.config.info_level == "full":
             info.update(full_info(s, self._p, self._rm))
             if self.task.hidden_info is not None:
@@ -211,18 +234,27 @@ class HopRoverEnv(gym.Env):
         """The current frame (an RGB array) with render_mode="rgb_array"; draws the
         window with "human"; None (and a warning) without a render_mode."""
         if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; "
-                            'e.g. gym.make("HopRover-v0", render_mode="rgb_array")')
+            gym.logger.warn(
+                "render() called without a render_mode; "
+                'e.g. gym.make("HopRover-v0", render_mode="rgb_array")'
+            )
             return None
         if self._s.size == 0:
             raise gym.error.ResetNeeded("call reset() before render()")
         if self._renderer is None:
             from hoprover_env.envs.rendering import Renderer
+
             self._renderer = Renderer(mode=self.render_mode, fps=self.metadata["render_fps"])
         s = self._s
-        return self._renderer.draw(s, self.params, self.target_x, self._trace,
-                                   float(s[core.S_T]), core.MODE_LETTERS[int(s[core.S_MODE])],
-                                   float(s[core.S_TORQUE]))
+        return self._renderer.draw(
+            s,
+            self.params,
+            self.target_x,
+            self._trace,
+            float(s[core.S_T]),
+            core.MODE_LETTERS[int(s[core.S_MODE])],
+            float(s[core.S_TORQUE]),
+        )
 
     def __getstate__(self):
         # a pygame window/font cannot be pickled or deep-copied; render() rebuilds it on demand

@@ -55,6 +55,7 @@ state of the episode stays reachable from the states before it.
 `keep_going` (False) and HopRoverRL-v1's arguments, but `band_weight` (refused) and
 `info_level` (always "full" underneath).
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
+
 from __future__ import annotations
 
 from typing import Any
@@ -70,8 +71,9 @@ BASE_ID = "HopRoverRL-v1"
 # the slots of v1's observation measured from the target, made absolute; and those that
 # only make sense for the drawn target, dropped
 _ABSOLUTE = (v1.OBS_DX, v1.OBS_LANDING)
-_KEPT = np.array([i for i in range(v1.OBS_DIM)
-                  if i not in (v1.OBS_DWELL, v1.OBS_REF, v1.OBS_REF_FAR)])
+_KEPT = np.array(
+    [i for i in range(v1.OBS_DIM) if i not in (v1.OBS_DWELL, v1.OBS_REF, v1.OBS_REF_FAR)]
+)
 _FREE_TERMS = ("attitude", "time", "penalty", "energy", "attitude_cost")
 
 
@@ -83,24 +85,30 @@ class HopRoverGoalEnv(gym.Env):
     def __init__(self, keep_going: bool = False, **kwargs: Any):
         for name in ("band_weight", "info_level"):
             if name in kwargs:
-                raise TypeError(f"HopRoverGoalEnv() got the argument {name!r}, which the goal "
-                                f"variant fixes (its module docstring says why)")
+                raise TypeError(
+                    f"HopRoverGoalEnv() got the argument {name!r}, which the goal "
+                    f"variant fixes (its module docstring says why)"
+                )
         self.keep_going = bool(keep_going)
-        kwargs = {**task(BASE_ID).kwargs, **kwargs}         # the id's settings, as gym.make
+        kwargs = {**task(BASE_ID).kwargs, **kwargs}  # the id's settings, as gym.make
         self.base = env_class(BASE_ID)(band_weight=0.0, info_level="full", **kwargs)
         cfg = self.base.config
         self.gamma, self.dist_weight, self.dist_cap = cfg.gamma, cfg.dist_weight, cfg.dist_cap
         self.success_bonus = cfg.success_bonus
         low, high = self.base.observation_space.low, self.base.observation_space.high
         low, high = low.copy(), high.copy()
-        for i in _ABSOLUTE:           # measured from x = 0: the target range widens them
+        for i in _ABSOLUTE:  # measured from x = 0: the target range widens them
             low[i] -= max(abs(r) for r in cfg.target_range)
             high[i] += max(abs(r) for r in cfg.target_range)
         far = v1.FAR + max(abs(r) for r in cfg.target_range)
         goal = gym.spaces.Box(-far, far, (1,), np.float32)
-        self.observation_space = gym.spaces.Dict({
-            "observation": gym.spaces.Box(low[_KEPT], high[_KEPT], dtype=np.float32),
-            "achieved_goal": goal, "desired_goal": goal})
+        self.observation_space = gym.spaces.Dict(
+            {
+                "observation": gym.spaces.Box(low[_KEPT], high[_KEPT], dtype=np.float32),
+                "achieved_goal": goal,
+                "desired_goal": goal,
+            }
+        )
         self.action_space = self.base.action_space
         self._achieved = 0.0
         self._target = 0.0
@@ -108,9 +116,11 @@ class HopRoverGoalEnv(gym.Env):
     def _observe(self, obs: np.ndarray) -> dict:
         full = obs.astype(np.float32).copy()
         full[list(_ABSOLUTE)] += np.float32(self._target)
-        return {"observation": full[_KEPT],
-                "achieved_goal": np.array([full[v1.OBS_LANDING]], dtype=np.float32),
-                "desired_goal": np.array([self._target], dtype=np.float32)}
+        return {
+            "observation": full[_KEPT],
+            "achieved_goal": np.array([full[v1.OBS_LANDING]], dtype=np.float32),
+            "desired_goal": np.array([self._target], dtype=np.float32),
+        }
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         obs, info = self.base.reset(seed=seed, options=options)
@@ -122,7 +132,7 @@ class HopRoverGoalEnv(gym.Env):
     def step(self, action):
         obs, _, terminated, truncated, info = self.base.step(action)
         broken = bool(info["broken"])
-        if terminated and not broken:       # the judge's success: the goal is not its
+        if terminated and not broken:  # the judge's success: the goal is not its
             self.base.continue_episode()
             terminated = False
         out = self._observe(obs)
@@ -130,8 +140,7 @@ class HopRoverGoalEnv(gym.Env):
         info["previous_achieved_goal"] = self._achieved
         info["goal_free_reward"] = float(sum(info[f"reward_{t}"] for t in _FREE_TERMS))
         info["at_rest"] = int(info["state"]) == MODE_F
-        info["goal_radius"] = float(self.base.params.half_width
-                                   + self.base.params.band_half_width)
+        info["goal_radius"] = float(self.base.params.half_width + self.base.params.band_half_width)
         info["truncated"] = bool(truncated)
         self._achieved = float(out["achieved_goal"][0])
         success = bool(self._success(out["achieved_goal"], out["desired_goal"], info)[0])
@@ -152,21 +161,23 @@ class HopRoverGoalEnv(gym.Env):
 
     def _success(self, achieved_goal, desired_goal, info) -> np.ndarray:
         at_rest, radius = self._columns(info, "at_rest", "goal_radius")
-        gap = np.abs(np.asarray(achieved_goal, float)[..., 0]
-                     - np.asarray(desired_goal, float)[..., 0])
+        gap = np.abs(
+            np.asarray(achieved_goal, float)[..., 0] - np.asarray(desired_goal, float)[..., 0]
+        )
         return at_rest.astype(bool) & (gap <= radius)
 
     def compute_reward(self, achieved_goal, desired_goal, info):
         """The reward of transitions that reached `achieved_goal` under the goals
         `desired_goal` (a scalar for a dict `info`, else one per transition)."""
-        prev, free, broken = self._columns(info, "previous_achieved_goal",
-                                           "goal_free_reward", "broken")
+        prev, free, broken = self._columns(
+            info, "previous_achieved_goal", "goal_free_reward", "broken"
+        )
         x1 = np.asarray(achieved_goal, float)[..., 0]
         g = np.asarray(desired_goal, float)[..., 0]
-        shaping = np.where(broken.astype(bool), 0.0,
-                           self.gamma * self._potential(x1, g) - self._potential(prev, g))
-        r = free + shaping + self.success_bonus * self._success(achieved_goal, desired_goal,
-                                                                info)
+        shaping = np.where(
+            broken.astype(bool), 0.0, self.gamma * self._potential(x1, g) - self._potential(prev, g)
+        )
+        r = free + shaping + self.success_bonus * self._success(achieved_goal, desired_goal, info)
         return float(r[0]) if isinstance(info, dict) else r
 
     def compute_terminated(self, achieved_goal, desired_goal, info):

@@ -18,6 +18,7 @@ tasks names its task modules in the entry-point group ``hoprover.tasks`` (its
 pyproject's ``[project.entry-points."hoprover.tasks"]``, ``name = "package.module"``):
 importing hoprover_env registers each (`register_installed`).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -43,7 +44,7 @@ from hoprover_env.envs.tasks import (  # noqa: F401 (the classes, importable fro
 from hoprover_env.envs.vector_env import HopRoverVectorEnv
 from hoprover_env.tasks import TASK_MODULES, task_module
 
-ENTRY_POINT_GROUP = "hoprover.tasks"     # installed task modules (register_installed)
+ENTRY_POINT_GROUP = "hoprover.tasks"  # installed task modules (register_installed)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,6 +56,7 @@ class Task:
     task is scored on none); `hops` says whether one action is a whole hop (its launch
     torque) rather than a torque held over a control period; `module` is the task
     module."""
+
     env: str
     vector_env: str
     kwargs: dict = dataclasses.field(default_factory=dict)
@@ -96,20 +98,31 @@ def classes_of(module) -> tuple[type, type]:
     env_name, vec_name = class_names(module.REGISTER[0].id)
     if env_cls is None:
         title = (module.__doc__ or env_name).strip().splitlines()[0]
-        doc = (f"{title}\n\n{env_name}: HopRoverEnv with the task of {module.__name__}, "
-               f"whose module docstring has the env's tables (spaces, rewards, episode, "
-               f"arguments).")
-        env_cls = type(env_name, (HopRoverEnv,), {"task": module.TASK, "__doc__": doc,
-                                                  "__module__": module.__name__})
+        doc = (
+            f"{title}\n\n{env_name}: HopRoverEnv with the task of {module.__name__}, "
+            f"whose module docstring has the env's tables (spaces, rewards, episode, "
+            f"arguments)."
+        )
+        env_cls = type(
+            env_name,
+            (HopRoverEnv,),
+            {"task": module.TASK, "__doc__": doc, "__module__": module.__name__},
+        )
         setattr(module, env_name, env_cls)
     if vec_cls is None:
         # VectorEnv named again (already a base): skrl's wrap_env recognises a Gymnasium
         # env by its class's direct bases
-        vec_cls = type(vec_name, (HopRoverVectorEnv, VectorEnv), {
-            "task": module.TASK, "__module__": module.__name__,
-            "__doc__": f"N {env_cls.__name__} rovers stepped in one jitted call; sub-env i "
-                       f"equals {env_cls.__name__} seeded with seed + i. The task: "
-                       f"{module.__name__}."})
+        vec_cls = type(
+            vec_name,
+            (HopRoverVectorEnv, VectorEnv),
+            {
+                "task": module.TASK,
+                "__module__": module.__name__,
+                "__doc__": f"N {env_cls.__name__} rovers stepped in one jitted call; sub-env i "
+                f"equals {env_cls.__name__} seeded with seed + i. The task: "
+                f"{module.__name__}.",
+            },
+        )
         setattr(module, vec_name, vec_cls)
     return env_cls, vec_cls
 
@@ -121,9 +134,14 @@ def add_task(name: str) -> list[str]:
     env_cls, vec_cls = classes_of(module)
     ids = []
     for reg in module.REGISTER:
-        ENVS[reg.id] = Task(f"{env_cls.__module__}:{env_cls.__name__}",
-                            f"{vec_cls.__module__}:{vec_cls.__name__}",
-                            dict(reg.kwargs), reg.suite, reg.hops, module.__name__)
+        ENVS[reg.id] = Task(
+            f"{env_cls.__module__}:{env_cls.__name__}",
+            f"{vec_cls.__module__}:{vec_cls.__name__}",
+            dict(reg.kwargs),
+            reg.suite,
+            reg.hops,
+            module.__name__,
+        )
         ids.append(reg.id)
     return ids
 
@@ -132,8 +150,12 @@ def gym_register(env_id: str) -> None:
     """Register one id of ENVS with gymnasium (nothing if it already is)."""
     entry = ENVS[env_id]
     if env_id not in gym.registry:
-        gym.register(id=env_id, entry_point=entry.env, vector_entry_point=entry.vector_env,
-                     kwargs=entry.kwargs)
+        gym.register(
+            id=env_id,
+            entry_point=entry.env,
+            vector_entry_point=entry.vector_env,
+            kwargs=entry.kwargs,
+        )
 
 
 def register_task(name: str) -> list[str]:
@@ -159,11 +181,14 @@ def register_installed() -> list[str]:
         module = entry.value.split(":")[0].strip()
         try:
             ids += register_task(module)
-        except Exception as exc:    # noqa: BLE001 - another package's fault, reported
-            warnings.warn(f"hoprover_env: the task module {module!r} (entry point "
-                          f"{entry.name!r} of group {ENTRY_POINT_GROUP!r}) was not "
-                          f"registered: {type(exc).__name__}: {exc}", RuntimeWarning,
-                          stacklevel=2)
+        except Exception as exc:  # noqa: BLE001 - another package's fault, reported
+            warnings.warn(
+                f"hoprover_env: the task module {module!r} (entry point "
+                f"{entry.name!r} of group {ENTRY_POINT_GROUP!r}) was not "
+                f"registered: {type(exc).__name__}: {exc}",
+                RuntimeWarning,
+                stacklevel=2,
+            )
     return ids
 
 

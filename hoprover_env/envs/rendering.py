@@ -4,6 +4,7 @@ Drawn with pygame on an off-screen Surface, so ``rgb_array`` needs no display;
 ``human`` blits the same Surface to a window. Nothing here runs unless an environment
 was created with a render mode.
 """
+
 from __future__ import annotations
 
 import math
@@ -11,11 +12,24 @@ import os
 
 import numpy as np
 
-STATE_NAMES = {"A": "A flight", "B": "B pivot on A", "C": "C slide on A", "D": "D pivot on B",
-               "E": "E slide on B", "F": "F at rest", "G": "G slide on both"}
-STATE_COLOURS = {"A": (70, 130, 220), "B": (230, 150, 40), "C": (220, 90, 40),
-                 "D": (230, 150, 40), "E": (220, 90, 40), "F": (60, 170, 90),
-                 "G": (150, 110, 200)}
+STATE_NAMES = {
+    "A": "A flight",
+    "B": "B pivot on A",
+    "C": "C slide on A",
+    "D": "D pivot on B",
+    "E": "E slide on B",
+    "F": "F at rest",
+    "G": "G slide on both",
+}
+STATE_COLOURS = {
+    "A": (70, 130, 220),
+    "B": (230, 150, 40),
+    "C": (220, 90, 40),
+    "D": (230, 150, 40),
+    "E": (220, 90, 40),
+    "F": (60, 170, 90),
+    "G": (150, 110, 200),
+}
 
 
 def _pygame():
@@ -26,8 +40,9 @@ def _pygame():
     try:
         import pygame
     except ImportError as exc:
-        raise ImportError("rendering needs pygame, in the render extra: "
-                          "pip install 'hoprover[render]'") from exc
+        raise ImportError(
+            "rendering needs pygame, in the render extra: pip install 'hoprover[render]'"
+        ) from exc
     return pygame
 
 
@@ -40,8 +55,7 @@ class Renderer:
     missing.
     """
 
-    def __init__(self, width: int = 640, height: int = 360, mode: str = "rgb_array",
-                 fps: int = 30):
+    def __init__(self, width: int = 640, height: int = 360, mode: str = "rgb_array", fps: int = 30):
         self.pg = _pygame()
         self.width, self.height, self.mode, self.fps = width, height, mode, fps
         self.pg.font.init()
@@ -49,8 +63,8 @@ class Renderer:
         self.surface = self.pg.Surface((width, height))
         self.window = None
         self.clock = None
-        self.view = None        # (world x at the centre, world y on the ground row,
-                                # metres per pixel)
+        self.view = None  # (world x at the centre, world y on the ground row,
+        # metres per pixel)
 
     def _fit_view(self, pts, ground_x, cos_phi, tan_phi):
         """A view that keeps the rover, its recent path and the target band in sight.
@@ -62,12 +76,12 @@ class Renderer:
         xs = [p[0] for p in pts]
         lo = min(min(xs), min(ground_x)) - 0.15 * cos_phi
         hi = max(max(xs), max(ground_x)) + 0.15 * cos_phi
-        ends = (lo * tan_phi, hi * tan_phi)      # the ground's height at the ends
+        ends = (lo * tan_phi, hi * tan_phi)  # the ground's height at the ends
         bottom = min(min(p[1] for p in pts), *ends)
         top = max(max(p[1] for p in pts) + 0.15, max(ends) + 0.3)
         scale = max((hi - lo) / self.width, (top - bottom) / (0.8 * self.height))
         center = 0.5 * (lo + hi)
-        if self.view is not None:         # move the camera smoothly, zoom out at once
+        if self.view is not None:  # move the camera smoothly, zoom out at once
             c0, b0, s0 = self.view
             scale = max(scale, 0.9 * s0 + 0.1 * scale)
             center = 0.8 * c0 + 0.2 * center
@@ -98,31 +112,43 @@ class Renderer:
 
         pts = trace[-400:] if trace else [(x, y)]
         w_band = params.band_half_width
-        self._fit_view([world(a, b) for a, b in pts] + [world(x, y)],
-                       [(target - w_band) * cp, (target + w_band) * cp], cp, sp / cp)
+        self._fit_view(
+            [world(a, b) for a, b in pts] + [world(x, y)],
+            [(target - w_band) * cp, (target + w_band) * cp],
+            cp,
+            sp / cp,
+        )
         center, bottom, scale = self.view
         ground = int(self.height * 0.88)
 
         def px(gx, gy):
             wx, wy = world(gx, gy)
-            return (int(round(self.width / 2 + (wx - center) / scale)),
-                    int(round(ground - (wy - bottom) / scale)))
+            return (
+                int(round(self.width / 2 + (wx - center) / scale)),
+                int(round(ground - (wy - bottom) / scale)),
+            )
 
         surf = self.surface
         surf.fill((245, 245, 240))
         # the ground line from the left edge of the picture to the right one
         half = 0.5 * self.width * scale / cp + 1.0
         g0, g1 = px(center / cp - half, 0.0), px(center / cp + half, 0.0)
-        pg.draw.polygon(surf, (200, 190, 170), [g0, g1, (g1[0], self.height + 10),
-                                                (g0[0], self.height + 10)])
+        pg.draw.polygon(
+            surf, (200, 190, 170), [g0, g1, (g1[0], self.height + 10), (g0[0], self.height + 10)]
+        )
         # the target band: a strip 8 px thick across the ground line, along it (on level
         # ground exactly the rectangle of pixels it always was)
-        nx, ny = -sp, -cp                         # the outward normal in pixels (rows down)
+        nx, ny = -sp, -cp  # the outward normal in pixels (rows down)
         a, b = px(target - w_band, 0.0), px(target + w_band, 0.0)
-        b = (max(b[0], a[0] + 2) - 1, b[1])       # a band under 2 px still shows
-        pg.draw.polygon(surf, (120, 200, 120),    # rounded: pygame would truncate
-                        [(round(p[0] + k * nx), round(p[1] + k * ny))
-                         for p, k in ((a, 4), (b, 4), (b, -3), (a, -3))])
+        b = (max(b[0], a[0] + 2) - 1, b[1])  # a band under 2 px still shows
+        pg.draw.polygon(
+            surf,
+            (120, 200, 120),  # rounded: pygame would truncate
+            [
+                (round(p[0] + k * nx), round(p[1] + k * ny))
+                for p, k in ((a, 4), (b, 4), (b, -3), (a, -3))
+            ],
+        )
         # the target: a mark along the ground's normal (positions are along the surface)
         pg.draw.line(surf, (40, 120, 40), px(target, 0), px(target, 0.25 * self.height * scale), 1)
         pg.draw.line(surf, (90, 80, 60), g0, g1, 2)
@@ -130,21 +156,24 @@ class Renderer:
             pg.draw.lines(surf, (150, 170, 210), False, [px(a, b) for a, b in pts], 1)
         r, h = params.half_width, params.half_height
         c, s = math.cos(th), math.sin(th)
-        corners = [(x + bx * c + by * s, y - bx * s + by * c)
-                   for bx, by in ((r, -h), (r, h), (-r, h), (-r, -h))]
+        corners = [
+            (x + bx * c + by * s, y - bx * s + by * c)
+            for bx, by in ((r, -h), (r, h), (-r, h), (-r, -h))
+        ]
         colour = STATE_COLOURS.get(letter, (80, 80, 80))
         pg.draw.polygon(surf, colour, [px(*p) for p in corners])
         pg.draw.polygon(surf, (30, 30, 30), [px(*p) for p in corners], 1)
         # bottom corners A (right) and B (left), so that the contact state can be read
         pg.draw.circle(surf, (20, 20, 20), px(*corners[0]), 3)
         pg.draw.circle(surf, (255, 255, 255), px(*corners[3]), 3)
-        lines = [f"t = {t:7.2f} s   state {STATE_NAMES.get(letter, letter)}",
-                 f"x = {x:+.3f} m   target {target:+.3f} m   T = {_torque_text(torque)} N m"]
+        lines = [
+            f"t = {t:7.2f} s   state {STATE_NAMES.get(letter, letter)}",
+            f"x = {x:+.3f} m   target {target:+.3f} m   T = {_torque_text(torque)} N m",
+        ]
         if phi:
-            lines.append(f"slope {phi:+.3f} rad ({math.degrees(phi):+.1f} deg), "
-                         "x along the ground")
+            lines.append(f"slope {phi:+.3f} rad ({math.degrees(phi):+.1f} deg), x along the ground")
         texts = [self.font.render(text, True, (20, 20, 20)) for text in lines]
-        if phi:      # an inclined ground may run under the text: keep it readable
+        if phi:  # an inclined ground may run under the text: keep it readable
             box = pg.Surface((max(tx.get_width() for tx in texts) + 12, 18 * len(texts) + 6))
             box.fill((245, 245, 240))
             box.set_alpha(210)

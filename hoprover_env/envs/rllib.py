@@ -5,6 +5,7 @@ contest judge's verdict of each episode as RLlib metrics. It lives in the instal
 package so that EnvRunner processes, on any machine with hoprover installed, can
 unpickle both. See examples/rllib_ppo.py.
 """
+
 from __future__ import annotations
 
 from ray.rllib.callbacks.callbacks import RLlibCallback

@@ -14,6 +14,7 @@ the info table in env.py). Environment arguments
 are those of `HopRoverEnv`; `seed` seeds sub-env i with seed + i, as `VecEnv.seed` does;
 `env_id` picks the task (HopRover-v0, HopRoverContest-v0 or the hop-level HopRoverHop-v0).
 """
+
 from __future__ import annotations
 
 import time
@@ -46,20 +47,32 @@ class HopRoverSB3VecEnv(VecEnv):
     `step_wait`) and TypeError (an unknown env argument), naming the argument.
     """
 
-    def __init__(self, num_envs: int = 1, seed: int | None = None, threads: bool | None = None,
-                 render_mode: str | None = None, env_id: str = "HopRover-v0",
-                 **env_kwargs: Any):
+    def __init__(
+        self,
+        num_envs: int = 1,
+        seed: int | None = None,
+        threads: bool | None = None,
+        render_mode: str | None = None,
+        env_id: str = "HopRover-v0",
+        **env_kwargs: Any,
+    ):
         cls = vector_env_class(env_id)
         env_kwargs = {**ENVS[env_id].kwargs, **env_kwargs}
-        self.venv = cls(num_envs, autoreset_mode=AutoresetMode.SAME_STEP,
-                        threads=threads, render_mode=render_mode, **env_kwargs)
+        self.venv = cls(
+            num_envs,
+            autoreset_mode=AutoresetMode.SAME_STEP,
+            threads=threads,
+            render_mode=render_mode,
+            **env_kwargs,
+        )
         self.config = self.venv.config
-        super().__init__(num_envs, self.venv.single_observation_space,
-                         self.venv.single_action_space)
+        super().__init__(
+            num_envs, self.venv.single_observation_space, self.venv.single_action_space
+        )
         if seed is not None:
             self.seed(seed)
         self._actions: np.ndarray | None = None
-        self.step_seconds = 0.0          # wall time spent inside step_wait (the env's share)
+        self.step_seconds = 0.0  # wall time spent inside step_wait (the env's share)
 
     # ---- the VecEnv contract ------------------------------------------------------
     def reset(self):
@@ -103,13 +116,15 @@ class HopRoverSB3VecEnv(VecEnv):
         if dones.any():
             fin, final_obs = infos["final_info"], infos["final_obs"]
             for i in np.flatnonzero(dones):
-                out[i] = {"terminal_observation": final_obs[i],
-                          "TimeLimit.truncated": bool(trunc[i] and not term[i]),
-                          "is_success": bool(fin["is_success"][i]),
-                          "ttrtp": float(fin["ttrtp"][i]),
-                          "broken": bool(fin["broken"][i]),
-                          "target_x": float(fin["target_x"][i]),
-                          "state": int(fin["state"][i])}
+                out[i] = {
+                    "terminal_observation": final_obs[i],
+                    "TimeLimit.truncated": bool(trunc[i] and not term[i]),
+                    "is_success": bool(fin["is_success"][i]),
+                    "ttrtp": float(fin["ttrtp"][i]),
+                    "broken": bool(fin["broken"][i]),
+                    "target_x": float(fin["target_x"][i]),
+                    "state": int(fin["state"][i]),
+                }
         return obs, rew.astype(np.float32), dones, out
 
     def close(self) -> None:

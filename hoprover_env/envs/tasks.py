@@ -8,6 +8,7 @@ its two classes; hoprover_env.envs.registry enters their ids.
 A vector env class names VectorEnv again among its bases (it already is one):
 skrl's wrap_env recognises a Gymnasium env by its class's direct bases.
 """
+
 from __future__ import annotations
 
 from gymnasium.vector import VectorEnv

@@ -17,6 +17,7 @@ Gymnasium's dict-of-arrays convention (each key with its `_key` mask); with Same
 `final_obs` and `final_info` carry the ended episodes' last observation and info. The
 info values and their types are those of HopRoverEnv (the table in env.py), as arrays.
 """
+
 from __future__ import annotations
 
 import functools
@@ -57,18 +58,30 @@ def _threaded_step(batch_threaded, order, *args):
 class HopRoverVectorEnv(VectorEnv):
     """N rovers of the torque task stepped in one jitted call (the module docstring has
     the arguments); sub-env i equals a HopRoverEnv seeded with seed + i."""
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 30,
-                "autoreset_mode": AutoresetMode.NEXT_STEP}
-    task = torque.TASK          # the written interface (tasks/common.py TaskSpec)
 
-    def __init__(self, num_envs: int = 1, autoreset_mode=AutoresetMode.NEXT_STEP,
-                 max_episode_steps: int | None = None, threads: bool | None = None,
-                 render_mode: str | None = None, **kwargs: Any):
-        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)
-                and num_envs >= 1):
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 30,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+    task = torque.TASK  # the written interface (tasks/common.py TaskSpec)
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        autoreset_mode=AutoresetMode.NEXT_STEP,
+        max_episode_steps: int | None = None,
+        threads: bool | None = None,
+        render_mode: str | None = None,
+        **kwargs: Any,
+    ):
+        if not (
+            isinstance(num_envs, (int, np.integer))
+            and not isinstance(num_envs, bool)
+            and num_envs >= 1
+        ):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
-        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__",
-                                                   **kwargs)
+        self.config = self.task.config.from_kwargs(f"{type(self).__name__}.__init__", **kwargs)
         # cold cache: compile on 2 cores, for the ground the config's episodes are on
         _compile.prepare(self.task.compile_extra, rough=self.config.draws_bumps())
         self.num_envs = int(num_envs)
@@ -76,16 +89,21 @@ class HopRoverVectorEnv(VectorEnv):
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
-            mode = AutoresetMode[str(autoreset_mode).upper()] if str(autoreset_mode).upper() \
-                in AutoresetMode.__members__ else None
+            mode = (
+                AutoresetMode[str(autoreset_mode).upper()]
+                if str(autoreset_mode).upper() in AutoresetMode.__members__
+                else None
+            )
         if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
             raise ValueError(f"autoreset_mode must be NextStep or SameStep, got {autoreset_mode!r}")
         self.autoreset_mode = mode
         self.metadata = {**type(self).metadata, "autoreset_mode": mode}
-        if max_episode_steps is not None and not (isinstance(max_episode_steps, (int, np.integer))
-                                                  and max_episode_steps >= 1):
-            raise ValueError(f"max_episode_steps must be a positive integer or None, got "
-                             f"{max_episode_steps!r}")
+        if max_episode_steps is not None and not (
+            isinstance(max_episode_steps, (int, np.integer)) and max_episode_steps >= 1
+        ):
+            raise ValueError(
+                f"max_episode_steps must be a positive integer or None, got {max_episode_steps!r}"
+            )
         self.max_episode_steps = max_episode_steps
         check_render_mode(render_mode, self.metadata["render_modes"])
         self.render_mode = render_mode
@@ -94,8 +112,9 @@ class HopRoverVectorEnv(VectorEnv):
         # chosen at reset, by the ground (_choose_kernel)
         self._kernel: Callable[..., Any] | None = None
 
-        self.single_action_space, self.single_observation_space = task_spaces(self.task,
-                                                                              self.config)
+        self.single_action_space, self.single_observation_space = task_spaces(
+            self.task, self.config
+        )
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
 
@@ -120,13 +139,17 @@ class HopRoverVectorEnv(VectorEnv):
         # the info columns, one contiguous array each (TTRTP, reached, state code,
         # broken), written by the step kernel for the rows it steps and by _note_info for
         # the rows reset; the slope changes at resets only
-        self._info_columns = (np.zeros(n), np.zeros(n, dtype=np.bool_),
-                              np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.bool_))
+        self._info_columns = (
+            np.zeros(n),
+            np.zeros(n, dtype=np.bool_),
+            np.zeros(n, dtype=np.int64),
+            np.zeros(n, dtype=np.bool_),
+        )
         self._slope = np.zeros(n)
         self._all = np.ones(n, dtype=np.bool_)
         self._log = np.zeros((0, core.EV_COLS))
         self._work = np.zeros((numba.config.NUMBA_NUM_THREADS, core.N_WORK))
-        self._order = spread_order(n)       # the rows in the order the threaded step reads them
+        self._order = spread_order(n)  # the rows in the order the threaded step reads them
         self.targets = np.zeros(n)
         self.terrain_seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
         self._params = draws.ParamsView(self.P)
@@ -135,7 +158,7 @@ class HopRoverVectorEnv(VectorEnv):
         self._traces: list = [[] for _ in range(n)] if render_mode else []
         self._renderers: list = []
         self._ready = False
-        self._note_info(np.arange(n))       # those of the all-zero rows of a sub-env never reset
+        self._note_info(np.arange(n))  # those of the all-zero rows of a sub-env never reset
 
     # ------------------------------------------------------------------------------
     def _choose_kernel(self, rough: bool | np.bool_) -> None:
@@ -147,9 +170,11 @@ class HopRoverVectorEnv(VectorEnv):
             # a threaded step leaves the caller's OpenMP thread count (torch's) as it was,
             # and reads the rovers in an order that gives each thread a fair share of
             # the costly ones (jit.spread)
-            self._kernel = (functools.partial(_threaded_step, kernels.batch_threaded,
-                                              self._order)
-                            if self.threads else kernels.batch)
+            self._kernel = (
+                functools.partial(_threaded_step, kernels.batch_threaded, self._order)
+                if self.threads
+                else kernels.batch
+            )
             self._rough = rough
 
     @property
@@ -162,10 +187,14 @@ class HopRoverVectorEnv(VectorEnv):
         seed and episode number (hoprover_env/tasks/draws.py), under `options` (checked,
         one row per sub-env)."""
         keys = self._keys
-        ep = draws.sample_episodes(self.task, self.config, keys.lo[rows], keys.hi[rows],
-                                   keys.episode[rows],
-                                   None if options is None else
-                                   {k: v[rows] for k, v in options.items()})
+        ep = draws.sample_episodes(
+            self.task,
+            self.config,
+            keys.lo[rows],
+            keys.hi[rows],
+            keys.episode[rows],
+            None if options is None else {k: v[rows] for k, v in options.items()},
+        )
         self.S[rows] = ep.S
         self.P[rows] = ep.P
         self._params.forget(rows)
@@ -176,7 +205,7 @@ class HopRoverVectorEnv(VectorEnv):
         m = self.task.new_memory(len(rows))
         self.task.start_rows(self.config, ep.U, ep.S, ep.P, m, ep.fixed)
         self.M[rows] = m
-        if not self._rough and (ep.P[:, P_ROUGH] > 0.0).any():   # an autoreset onto bumps
+        if not self._rough and (ep.P[:, P_ROUGH] > 0.0).any():  # an autoreset onto bumps
             self._choose_kernel(True)
         self._observe_rows(self.S, self.P, self._e, self.M, self._obs, rows)
         self._note_info(rows)
@@ -200,7 +229,7 @@ class HopRoverVectorEnv(VectorEnv):
         value or one per sub-env. Returns (observations, infos)."""
         super().reset(seed=int(seed) if isinstance(seed, (int, np.integer)) else None)
         n = self.num_envs
-        first: int | None = None         # an int seed: sub-env i's is first + i
+        first: int | None = None  # an int seed: sub-env i's is first + i
         if seed is None or isinstance(seed, (int, np.integer)):
             seeds = None
             first = None if seed is None else int(seed)
@@ -212,8 +241,7 @@ class HopRoverVectorEnv(VectorEnv):
         mask = np.asarray(options.pop("reset_mask", self._all), dtype=np.bool_)
         if mask.shape != (n,):
             raise ValueError(f"options['reset_mask'] must have shape ({n},), got {mask.shape}")
-        per_env = reset_options.check(self.task, options, n, per_rover=True,
-                                      also=("reset_mask",))
+        per_env = reset_options.check(self.task, options, n, per_rover=True, also=("reset_mask",))
         rows = np.flatnonzero(mask)
         keys = self._keys
         if first is not None:
@@ -238,9 +266,13 @@ class HopRoverVectorEnv(VectorEnv):
             raise RuntimeError("call reset() before step()")
         n = self.num_envs
         shape = (n, self.task.action_dim)
-        if type(actions) is np.ndarray and actions.shape == shape and \
-                actions.dtype == np.float64 and actions.flags.c_contiguous:
-            a = actions                   # the common case; finiteness checked in the kernel
+        if (
+            type(actions) is np.ndarray
+            and actions.shape == shape
+            and actions.dtype == np.float64
+            and actions.flags.c_contiguous
+        ):
+            a = actions  # the common case; finiteness checked in the kernel
         else:
             a = np.ascontiguousarray(check_actions(actions, shape, "actions"))
         if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset.any():
@@ -252,13 +284,31 @@ class HopRoverVectorEnv(VectorEnv):
         # flags the ended episodes and writes the info columns (tasks/common.py
         # close_row), each row while it is in its thread's cache; the rows not stepped get
         # the outputs of a reset (idle_row)
-        bad = self._kernel(self.S, self.P, self._o, self._e, self._rw, self._rm, self.M, a,
-                           active, self._obs, self._rew, self._term, self._trunc, self._succ,
-                           self._nev, self._log, self._work, self._steps, self._max_steps,
-                           self._ended, *self._info_columns)
+        bad = self._kernel(
+            self.S,
+            self.P,
+            self._o,
+            self._e,
+            self._rw,
+            self._rm,
+            self.M,
+            a,
+            active,
+            self._obs,
+            self._rew,
+            self._term,
+            self._trunc,
+            self._succ,
+            self._nev,
+            self._log,
+            self._work,
+            self._steps,
+            self._max_steps,
+            self._ended,
+            *self._info_columns,
+        )
         if bad >= 0:
-            raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env "
-                             f"{bad}")
+            raise ValueError(f"actions must be finite, got {a[bad].tolist()!r} for sub-env {bad}")
         if self.render_mode:
             for i in range(n):
                 self._traces[i].append((float(self.S[i, core.S_X]), float(self.S[i, core.S_Y])))
@@ -275,8 +325,7 @@ class HopRoverVectorEnv(VectorEnv):
         else:
             infos = self._infos(self._nev)
             np.copyto(self._autoreset, ended)
-        return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(),
-                infos)
+        return (self._obs.copy(), self._rew.copy(), self._term.copy(), self._trunc.copy(), infos)
 
     def _autoreset_rows(self, rows) -> None:
         self._keys.next_episode(rows)
@@ -286,15 +335,22 @@ class HopRoverVectorEnv(VectorEnv):
         n = self.num_envs
         mask = np.ones(n, dtype=np.bool_) if mask is None else mask.copy()
         ttrtp, reached, mode, broken = self._info_columns
-        info = make_info(reached.copy(), ttrtp.copy(), mode.copy(), self.targets.copy(),
-                         broken.copy(), nev.astype(np.int64), self._slope.copy(),
-                         self.terrain_seeds.copy())
+        info = make_info(
+            reached.copy(),
+            ttrtp.copy(),
+            mode.copy(),
+            self.targets.copy(),
+            broken.copy(),
+            nev.astype(np.int64),
+            self._slope.copy(),
+            self.terrain_seeds.copy(),
+        )
         if self.config.info_level == "full":
             info.update(full_info(self.S, self.P, self._rm))
             if self.task.hidden_info is not None:
                 info.update(self.task.hidden_info(self.M))
         for key in list(info):
-            info["_" + key] = mask       # one mask array shared by all keys of this step
+            info["_" + key] = mask  # one mask array shared by all keys of this step
         return info
 
     # ------------------------------------------------------------------------------
@@ -303,18 +359,27 @@ class HopRoverVectorEnv(VectorEnv):
         if self.render_mode is None:
             return None
         from hoprover_env.envs.rendering import Renderer
+
         while len(self._renderers) < self.num_envs:
             self._renderers.append(Renderer(mode="rgb_array"))
         frames = []
         for i in range(self.num_envs):
             s = self.S[i]
-            frames.append(self._renderers[i].draw(
-                s, self.params[i], self.targets[i], self._traces[i], float(s[core.S_T]),
-                core.MODE_LETTERS[int(s[core.S_MODE])], float(s[core.S_TORQUE])))
+            frames.append(
+                self._renderers[i].draw(
+                    s,
+                    self.params[i],
+                    self.targets[i],
+                    self._traces[i],
+                    float(s[core.S_T]),
+                    core.MODE_LETTERS[int(s[core.S_MODE])],
+                    float(s[core.S_TORQUE]),
+                )
+            )
         return tuple(frames)
 
     def close_extras(self, **kwargs):
         """Close the sub-envs' renderers."""
-        for r in getattr(self, "_renderers", ()):    # None if __init__ refused its arguments
+        for r in getattr(self, "_renderers", ()):  # None if __init__ refused its arguments
             r.close()
         self._renderers = []

@@ -6,6 +6,7 @@ videos (`replay`, `plots`) and offline-RL datasets (`datasets`).
 `hoprover_env.evaluation.run_episodes` and the other names of `episodes` are
 importable from here, as they were when evaluation was one module.
 """
+
 from hoprover_env.evaluation.episodes import (
     EpisodeResult,
     run_episodes,

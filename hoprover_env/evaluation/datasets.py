@@ -20,6 +20,7 @@ the mean returns of the random and the expert agent on the task's frozen suite
 
 Minari comes in the ``offline`` extra: ``pip install 'hoprover[offline]'``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -57,6 +58,7 @@ def dataset_id(task: str, level: str) -> str:
 def agents(task: str, level: str, seed: int) -> list:
     """The policies a level's episodes are drawn from (one, or three for mixed)."""
     from hoprover_env.agents.policies import BUNDLED, RandomPolicy, load_policy
+
     if task not in TASKS:
         raise ValueError(f"unknown task {task!r}; datasets exist for {list(TASKS)}")
     if level not in LEVELS:
@@ -66,16 +68,25 @@ def agents(task: str, level: str, seed: int) -> list:
     if level == "expert":
         return [load_policy(EXPERT[task])]
     if task not in MEDIUM or MEDIUM[task] not in BUNDLED:
-        raise ValueError(f"no medium policy is bundled for {task}: levels 'medium' and "
-                         f"'mixed' exist for {[t for t in MEDIUM if MEDIUM[t] in BUNDLED]}")
+        raise ValueError(
+            f"no medium policy is bundled for {task}: levels 'medium' and "
+            f"'mixed' exist for {[t for t in MEDIUM if MEDIUM[t] in BUNDLED]}"
+        )
     medium = load_policy(MEDIUM[task])
     if level == "medium":
         return [medium]
     return [RandomPolicy(seed), medium, load_policy(EXPERT[task])]
 
 
-def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
-            episodes: list | None = None, num_envs: int = 64, seed: int = 0):
+def collect(
+    task: str,
+    policies: list,
+    kwargs: dict,
+    n_steps: int | None = None,
+    episodes: list | None = None,
+    num_envs: int = 64,
+    seed: int = 0,
+):
     """Episodes of `policies` in `task`'s vector env, as Minari EpisodeBuffers.
 
     Either `n_steps` (episodes seeded seed, seed + 1, ... until that many steps are
@@ -86,10 +97,12 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
     from minari.data_collector.episode_buffer import EpisodeBuffer
 
     from hoprover_env.envs import registry as _registry
+
     if n_steps is None and episodes is None:
         raise ValueError("collect: give n_steps or episodes")
-    venv = _registry.vector_env_class(task)(num_envs, autoreset_mode=AutoresetMode.NEXT_STEP,
-                                               **kwargs)
+    venv = _registry.vector_env_class(task)(
+        num_envs, autoreset_mode=AutoresetMode.NEXT_STEP, **kwargs
+    )
     queue = list(episodes) if episodes is not None else None
     next_k = 0
 
@@ -106,7 +119,7 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
 
     for p in policies:
         p.reset(num_envs)
-    slots: list = [None] * num_envs    # (k, seed, options, obs, acts, rews, terms, truncs)
+    slots: list = [None] * num_envs  # (k, seed, options, obs, acts, rews, terms, truncs)
     buffers: dict = {}
     recorded = 0
     obs = np.zeros((num_envs, venv.single_observation_space.shape[0]), np.float32)
@@ -121,11 +134,13 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
         mask[i] = True
         seeds = [None] * num_envs
         seeds[i] = s
-        o, _ = venv.reset(seed=seeds, options={"reset_mask": mask, **{
-            key: np.full(num_envs, v) for key, v in opt.items()}})
+        o, _ = venv.reset(
+            seed=seeds,
+            options={"reset_mask": mask, **{key: np.full(num_envs, v) for key, v in opt.items()}},
+        )
         obs[i] = o[i]
         slots[i] = (k, s, opt, [o[i].copy()], [], [], [], [])
-        for p in policies:              # a recurrent policy forgets the slot's last episode
+        for p in policies:  # a recurrent policy forgets the slot's last episode
             if hasattr(p, "restart"):
                 p.restart([i])
 
@@ -152,12 +167,18 @@ def collect(task: str, policies: list, kwargs: dict, n_steps: int | None = None,
             tc.append(bool(tr[i]))
             recorded += 1
             if te[i] or tr[i]:
-                buffers[k] = EpisodeBuffer(id=k, seed=s, options=opt or None,
-                                           observations=np.array(ob),
-                                           actions=np.array(ac), rewards=rw,
-                                           terminations=tm, truncations=tc)
+                buffers[k] = EpisodeBuffer(
+                    id=k,
+                    seed=s,
+                    options=opt or None,
+                    observations=np.array(ob),
+                    actions=np.array(ac),
+                    rewards=rw,
+                    terminations=tm,
+                    truncations=tc,
+                )
                 if queue is None and n_steps is not None and recorded >= n_steps:
-                    slots[i] = None              # enough: let the others finish theirs
+                    slots[i] = None  # enough: let the others finish theirs
                     queue = []
                 else:
                     start(i)
@@ -168,16 +189,20 @@ def suite_return(task: str, policy, kwargs: dict, suite) -> float:
     """Mean undiscounted return of `policy` on `task`'s frozen suite (episode e seeded e,
     started as frozen: its target, ground and `task`'s start conditions)."""
     from hoprover_env.evaluation.suites import check_frozen
+
     check_frozen(task, kwargs)
     conditions = suite.conditions(task)
-    eps = [(e, {"target_x": float(suite.targets[e]),
-                **{k: v[e] for k, v in conditions.items()}}) for e in range(len(suite))]
+    eps = [
+        (e, {"target_x": float(suite.targets[e]), **{k: v[e] for k, v in conditions.items()}})
+        for e in range(len(suite))
+    ]
     bufs = collect(task, [policy], kwargs, episodes=eps, num_envs=min(64, len(eps)))
     return float(np.mean([sum(b.rewards) for b in bufs]))
 
 
-def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int = 0,
-          num_envs: int = 64):
+def build(
+    task: str, level: str, steps: int, out: str | os.PathLike, seed: int = 0, num_envs: int = 64
+):
     """Write dataset `hoprover/<task>/<level>-v0` under `out`. Raises ValueError for an
     unknown task or level, FileExistsError if `out` holds that dataset already."""
     minari = _minari()
@@ -191,6 +216,7 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
     os.environ["MINARI_DATASETS_PATH"] = str(out)
     from hoprover_env.agents.policies import RandomPolicy, load_policy
     from hoprover_env.evaluation import suites
+
     # every level is collected in the expert's MDP: its env arguments
     expert = pols[-1] if level in ("expert", "mixed") else load_policy(EXPERT[task])
     kwargs = dict(expert.env_kwargs)
@@ -203,24 +229,45 @@ def build(task: str, level: str, steps: int, out: str | os.PathLike, seed: int =
     import gymnasium as gym
 
     import hoprover_env  # noqa: F401  (registers the ids)
+
     env = gym.make(task, **kwargs)
-    names = {"random": "uniform random actions", "medium": f"PPO checkpoint {MEDIUM.get(task)}",
-             "expert": f"bundled policy {EXPERT[task]}",
-             "mixed": "random, medium and expert, episode by episode"}
+    names = {
+        "random": "uniform random actions",
+        "medium": f"PPO checkpoint {MEDIUM.get(task)}",
+        "expert": f"bundled policy {EXPERT[task]}",
+        "mixed": "random, medium and expert, episode by episode",
+    }
     ds = minari.create_dataset_from_buffers(
-        dataset_id=ds_id, buffer=bufs, env=env, eval_env=env, algorithm_name=names[level],
-        author="hoprover", author_email="hoprover@users.noreply.github.com",
-        code_permalink=CODE, ref_min_score=lo, ref_max_score=hi,
+        dataset_id=ds_id,
+        buffer=bufs,
+        env=env,
+        eval_env=env,
+        algorithm_name=names[level],
+        author="hoprover",
+        author_email="hoprover@users.noreply.github.com",
+        code_permalink=CODE,
+        ref_min_score=lo,
+        ref_max_score=hi,
         description=f"{task}, {level}: {names[level]}; env arguments {json.dumps(kwargs)}; "
-                    f"episodes seeded from {seed}; references: mean returns on the "
-                    f"{suite.name} suite",
-        requirements=["hoprover", "gymnasium", "numba"])
-    size = sum(f.stat().st_size for f in (out / "hoprover" / task / f"{level}-v0").rglob("*")
-               if f.is_file())
-    return ds, {"dataset_id": ds_id, "episodes": len(bufs), "steps": int(sum(
-        len(b.rewards) for b in bufs)), "collect_s": round(collect_s, 2),
-        "total_s": round(time.perf_counter() - t0, 2), "bytes": size,
-        "ref_min_score": lo, "ref_max_score": hi}
+        f"episodes seeded from {seed}; references: mean returns on the "
+        f"{suite.name} suite",
+        requirements=["hoprover", "gymnasium", "numba"],
+    )
+    size = sum(
+        f.stat().st_size
+        for f in (out / "hoprover" / task / f"{level}-v0").rglob("*")
+        if f.is_file()
+    )
+    return ds, {
+        "dataset_id": ds_id,
+        "episodes": len(bufs),
+        "steps": int(sum(len(b.rewards) for b in bufs)),
+        "collect_s": round(collect_s, 2),
+        "total_s": round(time.perf_counter() - t0, 2),
+        "bytes": size,
+        "ref_min_score": lo,
+        "ref_max_score": hi,
+    }
 
 
 def main(argv=None) -> int:

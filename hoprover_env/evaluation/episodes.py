@@ -13,6 +13,7 @@ script), the results put back in episode order. Only a policy whose every episod
 plays the same in any batch may say so: the results are then those of the serial run,
 field for field (the wall time aside).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -55,10 +56,16 @@ def seeded_targets(n: int, seed: int = 2015, low: float = -1.0, high: float = 1.
     return np.random.default_rng(seed).uniform(low, high, n)
 
 
-def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 256,
-                 progress=None, first_episode: int = 0,
-                 terrain: dict | None = None,
-                 workers: int | None = None) -> list[EpisodeResult]:
+def run_episodes(
+    policy,
+    targets,
+    env_kwargs: dict | None = None,
+    batch: int = 256,
+    progress=None,
+    first_episode: int = 0,
+    terrain: dict | None = None,
+    workers: int | None = None,
+) -> list[EpisodeResult]:
     """One episode per target, `batch` episodes side by side. `env_kwargs` configure the
     env (the policy's own `env_kwargs`, e.g. its control period, take precedence).
     `terrain` fixes each episode's start: {"slope": per-episode slopes [rad],
@@ -84,25 +91,29 @@ def run_episodes(policy, targets, env_kwargs: dict | None = None, batch: int = 2
     results: list[EpisodeResult] = []
     # seeds stay integers (terrain_seed, a task's seed options): up to 2^63, a float64
     # would round them to other bumps and other noise
-    terrain = {k: np.broadcast_to(_column(k, v), targets.shape)
-               for k, v in (terrain or {}).items()}
+    terrain = {k: np.broadcast_to(_column(k, v), targets.shape) for k, v in (terrain or {}).items()}
     n_workers = episode_workers(policy, workers, len(targets))
     if n_workers > 1:
-        return _run_spread(policy, targets, kwargs, batch, progress, first_episode,
-                           terrain, n_workers)
+        return _run_spread(
+            policy, targets, kwargs, batch, progress, first_episode, terrain, n_workers
+        )
     for start in range(0, len(targets), batch):
-        chunk = targets[start:start + batch]
-        ground = {k: v[start:start + batch] for k, v in terrain.items()}
-        results.extend(_run_batch(policy, chunk, first_episode + start, kwargs, progress,
-                                  len(results), ground))
+        chunk = targets[start : start + batch]
+        ground = {k: v[start : start + batch] for k, v in terrain.items()}
+        results.extend(
+            _run_batch(policy, chunk, first_episode + start, kwargs, progress, len(results), ground)
+        )
     return results
 
 
 def _column(key: str, value) -> np.ndarray:
     """A per-episode reset option as an array: integers as int64, the rest float."""
     v = np.asarray(value)
-    return v.astype(np.int64) if key == "terrain_seed" or (
-        v.dtype.kind in "iu" and v.dtype != np.bool_) else v.astype(float)
+    return (
+        v.astype(np.int64)
+        if key == "terrain_seed" or (v.dtype.kind in "iu" and v.dtype != np.bool_)
+        else v.astype(float)
+    )
 
 
 def policy_env_id(policy) -> str:
@@ -114,7 +125,8 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
     n = len(targets)
     # a policy of the hop-level task acts once per hop, in that task's vector env
     venv = vector_env_class(policy_env_id(policy))(
-        n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
+        n, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs
+    )
     # episode e's sub-env is seeded with e, whatever the batch it runs in: the draws a
     # task makes at reset that the options leave open belong to the episode
     obs, _ = venv.reset(seed=offset, options={"target_x": targets, **ground})
@@ -138,23 +150,29 @@ def _run_batch(policy, targets, offset, kwargs, progress, done_before, ground):
             for i in np.flatnonzero(ended):
                 success = bool(fin["is_success"][i])
                 out[i] = EpisodeResult(
-                    policy=getattr(policy, "name", "policy"), episode=offset + int(i),
-                    target_x=float(targets[i]), success=success,
+                    policy=getattr(policy, "name", "policy"),
+                    episode=offset + int(i),
+                    target_x=float(targets[i]),
+                    success=success,
                     ttrtp=float(fin["ttrtp"][i]) if success else None,
                     broken=bool(fin["broken"][i]),
-                    steps=int(steps[i]), sim_time=float(fin["t"][i]) if "t" in fin else
-                    float(steps[i] * venv.config.control_dt),
-                    final_x=float(venv_final_x(info, i)), wall_time=now)
+                    steps=int(steps[i]),
+                    sim_time=float(fin["t"][i])
+                    if "t" in fin
+                    else float(steps[i] * venv.config.control_dt),
+                    final_x=float(venv_final_x(info, i)),
+                    wall_time=now,
+                )
             active &= ~ended
             if progress is not None:
                 progress(done_before + int((~active).sum()))
     wall = time.perf_counter() - t_start
     for r in out:
-        r.wall_time = wall / n          # a batch shares its wall time: report the mean
+        r.wall_time = wall / n  # a batch shares its wall time: report the mean
     return out
 
 
-CHUNKS_PER_WORKER = 8     # chunks handed out as workers free up: the last ones end together
+CHUNKS_PER_WORKER = 8  # chunks handed out as workers free up: the last ones end together
 # a worker costs seconds to start (an interpreter importing hoprover, loading its compiled
 # kernels): left to choose, run_episodes gives each at least this many episodes
 EPISODES_PER_WORKER = 8
@@ -184,23 +202,36 @@ def episode_workers(policy, workers: int | None, n: int) -> int:
     return int(max(1, min(want, n)))
 
 
-def _run_spread(policy, targets, kwargs, batch, progress, first_episode, terrain,
-                n_workers) -> list[EpisodeResult]:
+def _run_spread(
+    policy, targets, kwargs, batch, progress, first_episode, terrain, n_workers
+) -> list[EpisodeResult]:
     """run_episodes over chunks of the targets in `n_workers` worker processes
     (evaluation.workers), each running its chunk with a copy of `policy` as the serial path
     would (episode e seeded first_episode + e); the results in order (each with the run's
     wall time per episode), the policy's statistics (if it keeps any: `statistics`/`add_statistics`)
     summed over the copies."""
     from hoprover_env.evaluation import workers as pool
+
     n = len(targets)
     size = -(-n // (n_workers * CHUNKS_PER_WORKER))
     starts = list(range(0, n, size))
     # each worker gets its share of the cores for numba's threads (a worker on every
     # core with a thread per core would only make them wait for each other)
     threads = max(1, cores() // n_workers)
-    calls = [(_run_chunk, (policy, targets[s:s + size], kwargs, batch, first_episode + s,
-                           {k: v[s:s + size] for k, v in terrain.items()}))
-             for s in starts]
+    calls = [
+        (
+            _run_chunk,
+            (
+                policy,
+                targets[s : s + size],
+                kwargs,
+                batch,
+                first_episode + s,
+                {k: v[s : s + size] for k, v in terrain.items()},
+            ),
+        )
+        for s in starts
+    ]
     chunks: list = [None] * len(starts)
     done = 0
     t_start = time.perf_counter()
@@ -222,6 +253,7 @@ def _run_spread(policy, targets, kwargs, batch, progress, first_episode, terrain
 
 def _start_worker(threads: int) -> None:
     import numba
+
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
@@ -229,8 +261,15 @@ def _run_chunk(policy, targets, kwargs, batch, first_episode, terrain):
     """One chunk in a worker: its results and what the policy's copy counted meanwhile."""
     keeps = hasattr(policy, "statistics")
     before = policy.statistics() if keeps else None
-    results = run_episodes(policy, targets, env_kwargs=kwargs, batch=batch,
-                           first_episode=first_episode, terrain=terrain, workers=1)
+    results = run_episodes(
+        policy,
+        targets,
+        env_kwargs=kwargs,
+        batch=batch,
+        first_episode=first_episode,
+        terrain=terrain,
+        workers=1,
+    )
     if not keeps:
         return results, None
     after = policy.statistics()

@@ -4,6 +4,7 @@ Positions are in the ground frame (x along the surface, y along its normal, docs
 section 11); the path panel of the position figure turns them by the slope into the
 world frame, so an inclined ground shows inclined.
 """
+
 from __future__ import annotations
 
 import math
@@ -46,9 +47,11 @@ def _ground_text(params) -> str:
 
 def _title(rec) -> str:
     """'scripted, target +0.600 m, TTRTP 12.34 s' and the ground (_ground_text)."""
-    return (f"{rec.policy}, target {rec.target_x:+.3f} m, TTRTP "
-            f"{'-' if rec.ttrtp is None else f'{rec.ttrtp:.2f} s'}"
-            f"{_ground_text(rec.rollout.params)}")
+    return (
+        f"{rec.policy}, target {rec.target_x:+.3f} m, TTRTP "
+        f"{'-' if rec.ttrtp is None else f'{rec.ttrtp:.2f} s'}"
+        f"{_ground_text(rec.rollout.params)}"
+    )
 
 
 def _world(params, x, y):
@@ -72,34 +75,55 @@ def _draw_path(ax, rec) -> None:
     ax.set_ylim(ys.min() - 0.1 * span, ys.max() + 0.1 * span)
     ends = np.array([xt - 20.0 * span, xt + 20.0 * span])
     gx, gy = _world(p, ends, np.zeros(2))
-    ax.fill_between(gx, gy, np.min(gy) - 40.0 * span, color=(0.78, 0.74, 0.67), lw=0,
-                    zorder=0)
+    ax.fill_between(gx, gy, np.min(gy) - 40.0 * span, color=(0.78, 0.74, 0.67), lw=0, zorder=0)
     ax.plot(gx, gy, color=(0.35, 0.31, 0.24), lw=1.5, label="ground")
-    ax.plot(bx, by, color="g", lw=6, alpha=0.5, solid_capstyle="butt",
-            label=f"target band {xt:+.3f} +- {w:g} m")
+    ax.plot(
+        bx,
+        by,
+        color="g",
+        lw=6,
+        alpha=0.5,
+        solid_capstyle="butt",
+        label=f"target band {xt:+.3f} +- {w:g} m",
+    )
     mx, my = _world(p, np.array([xt, xt]), np.array([0.0, 2.0 * p.half_height]))
     ax.plot(mx, my, color="g", lw=1)
     ax.plot(px, py, lw=1, color="C0", label="c.m. path")
     hw, hh = p.half_width, p.half_height
     for i, style in ((0, ":"), (len(r.t) - 1, "-")):
         c, s = math.cos(r.theta[i]), math.sin(r.theta[i])
-        body = np.array([(bx_ * c + by_ * s, -bx_ * s + by_ * c)
-                         for bx_, by_ in ((hw, -hh), (hw, hh), (-hw, hh), (-hw, -hh), (hw, -hh))])
-        ax.plot(*_world(p, r.x[i] + body[:, 0], r.y[i] + body[:, 1]), style, color="k",
-                lw=1, label=f"rover at t = {r.t[i]:.1f} s" if i else "rover at the start")
+        body = np.array(
+            [
+                (bx_ * c + by_ * s, -bx_ * s + by_ * c)
+                for bx_, by_ in ((hw, -hh), (hw, hh), (-hw, hh), (-hw, -hh), (hw, -hh))
+            ]
+        )
+        ax.plot(
+            *_world(p, r.x[i] + body[:, 0], r.y[i] + body[:, 1]),
+            style,
+            color="k",
+            lw=1,
+            label=f"rover at t = {r.t[i]:.1f} s" if i else "rover at the start",
+        )
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("world x [m] (gravity points down)")
     ax.set_ylabel("world y [m]")
-    ax.legend(loc="lower left", bbox_to_anchor=(0.0, 1.0), ncol=3, fontsize=7,
-              frameon=False, borderaxespad=0.2)
+    ax.legend(
+        loc="lower left",
+        bbox_to_anchor=(0.0, 1.0),
+        ncol=3,
+        fontsize=7,
+        frameon=False,
+        borderaxespad=0.2,
+    )
 
 
 def _fill_panel(ax) -> None:
     """Widen the x or y limits of the equal-scale Axes `ax` to the shape of its panel,
     so that it fills the panel rather than shrinking to the data's shape."""
-    box = ax.get_position(original=True)     # the panel, not the box the aspect shrank
+    box = ax.get_position(original=True)  # the panel, not the box the aspect shrank
     fw, fh = ax.figure.get_size_inches()
-    shape = (box.width * fw) / (box.height * fh)        # panel width / height
+    shape = (box.width * fw) / (box.height * fh)  # panel width / height
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     if (x1 - x0) / (y1 - y0) < shape:
         half = 0.5 * (y1 - y0) * shape
@@ -123,11 +147,21 @@ def position_figure(rec):
     along = " along the ground" if p.slope else ""
     ax_x.axhspan(xt - w, xt + w, color="g", alpha=0.15, label=f"band {xt:+.3f} +- {w:g} m")
     ax_x.plot(r.t, r.x, lw=1, label="c.m. x")
-    ax_x.plot(r.t, contact_point_x(r), lw=1.2, color="C3",
-              label="judge's contact point x (none in flight)")
-    if rec.ttrtp is not None:       # the judge's last 5 s, all in the band
-        ax_x.axvspan(rec.ttrtp - p.dwell_time, rec.ttrtp, color="0.5", alpha=0.15,
-                     label=f"last {p.dwell_time:g} s before the TTRTP")
+    ax_x.plot(
+        r.t,
+        contact_point_x(r),
+        lw=1.2,
+        color="C3",
+        label="judge's contact point x (none in flight)",
+    )
+    if rec.ttrtp is not None:  # the judge's last 5 s, all in the band
+        ax_x.axvspan(
+            rec.ttrtp - p.dwell_time,
+            rec.ttrtp,
+            color="0.5",
+            alpha=0.15,
+            label=f"last {p.dwell_time:g} s before the TTRTP",
+        )
     ax_x.set_ylabel(f"x [m]{along}")
     ax_x.legend(loc="best", fontsize=7)
     ax_y.plot(r.t, r.y, lw=1)
@@ -138,7 +172,7 @@ def position_figure(rec):
     ax_x.set_title(f"position -- {_title(rec)}", fontsize=9)
     for ax in fig.axes:
         ax.grid(alpha=0.3)
-    fig.draw_without_rendering()          # lay the panels out, then fill the path panel
+    fig.draw_without_rendering()  # lay the panels out, then fill the path panel
     _fill_panel(ax_path)
     return fig
 
@@ -161,13 +195,24 @@ def nine_figures(rec, out_dir: str) -> list[str]:
         ("2_attitude", [("theta [rad]", r.theta)]),
         ("3_velocity", [("vx [m/s]", r.vx), ("vy [m/s]", r.vy)]),
         ("4_rate", [("omega [rad/s]", r.omega)]),
-        ("5_corner_A", [("x_A [m]", xa), ("y_A [m]", ya),
-                        ("vx_A [m/s]", vxa), ("vy_A [m/s]", vya)]),
-        ("6_corner_B", [("x_B [m]", xb), ("y_B [m]", yb),
-                        ("vx_B [m/s]", vxb), ("vy_B [m/s]", vyb)]),
+        (
+            "5_corner_A",
+            [("x_A [m]", xa), ("y_A [m]", ya), ("vx_A [m/s]", vxa), ("vy_A [m/s]", vya)],
+        ),
+        (
+            "6_corner_B",
+            [("x_B [m]", xb), ("y_B [m]", yb), ("vx_B [m/s]", vxb), ("vy_B [m/s]", vyb)],
+        ),
         ("7_state", None),
-        ("8_contact_forces", [("f_Ax [N]", forces[:, 0]), ("f_Ay [N]", forces[:, 1]),
-                              ("f_Bx [N]", forces[:, 2]), ("f_By [N]", forces[:, 3])]),
+        (
+            "8_contact_forces",
+            [
+                ("f_Ax [N]", forces[:, 0]),
+                ("f_Ay [N]", forces[:, 1]),
+                ("f_Bx [N]", forces[:, 2]),
+                ("f_By [N]", forces[:, 3]),
+            ],
+        ),
         ("9_torque", None),
     ]
     paths = []
@@ -192,7 +237,7 @@ def nine_figures(rec, out_dir: str) -> list[str]:
             ax.legend()
             axes = [ax]
         else:
-            assert panels is not None       # every figure without panels is drawn above
+            assert panels is not None  # every figure without panels is drawn above
             fig, axes = plt.subplots(len(panels), 1, figsize=(8, 2.2 * len(panels)), sharex=True)
             axes = np.atleast_1d(axes)
             for ax, (label, data) in zip(axes, panels):
@@ -200,10 +245,10 @@ def nine_figures(rec, out_dir: str) -> list[str]:
                 ax.set_ylabel(label)
         for ax in axes:
             ax.grid(alpha=0.3)
-        if name != "1_position":        # its last panel is the path in space
+        if name != "1_position":  # its last panel is the path in space
             axes[-1].set_xlabel("t [s]")
         axes[0].set_title(f"{name[2:].replace('_', ' ')} -- {title}", fontsize=9)
-        if name != "1_position":        # laid out by matplotlib's constrained layout
+        if name != "1_position":  # laid out by matplotlib's constrained layout
             fig.tight_layout()
         path = os.path.join(out_dir, f"{name}.png")
         fig.savefig(path, dpi=90)

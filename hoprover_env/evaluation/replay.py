@@ -7,6 +7,7 @@ hop-level task (`HopRoverHop-v0`, one action per hop) runs in that task's env; i
 are replayed by the scripted hopper's launch / attitude-hold / settle controller
 (`hoprover_env.agents.scripted.ScriptedHopper`) fed with the launch torques the policy chose.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -40,8 +41,13 @@ class Recording:
     rollout: Rollout
 
 
-def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
-                   sample_dt: float = 0.1, terrain: dict | None = None) -> Recording:
+def record_episode(
+    policy,
+    target_x: float,
+    env_kwargs: dict | None = None,
+    sample_dt: float = 0.1,
+    terrain: dict | None = None,
+) -> Recording:
     """Run `policy` (see `hoprover_env.agents.policies`) for one episode towards `target_x` [m]
     in the vector env of its task (`policy.env_id`, default HopRover-v0) and replay it with
     samples every `sample_dt` [s] (at most one control period).
@@ -57,7 +63,7 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
     kwargs.pop("target_x", None)
     env_id = getattr(policy, "env_id", "HopRover-v0")
     venv = vector_env_class(env_id)(1, autoreset_mode=AutoresetMode.SAME_STEP, **kwargs)
-    hops = _registry.task(env_id).hops      # one action = one hop's launch torque
+    hops = _registry.task(env_id).hops  # one action = one hop's launch torque
     ground = {k: float(v) for k, v in (terrain or {}).items()}
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target_x]), **ground})
     policy.reset(1)
@@ -72,8 +78,11 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
             torques.append(_launch_torque(float(action[0, 0]), venv))
         obs, _, term, trunc, info = venv.step(action)
         if not hops:
-            torques.append(float(venv.S[0, core.S_TORQUE]) if not (term[0] or trunc[0])
-                           else _applied(action[0, 0], params))
+            torques.append(
+                float(venv.S[0, core.S_TORQUE])
+                if not (term[0] or trunc[0])
+                else _applied(action[0, 0], params)
+            )
         if term[0] or trunc[0]:
             success = bool(info["final_info"]["is_success"][0])
             ttrtp = float(info["final_info"]["ttrtp"][0]) if success else None
@@ -87,15 +96,27 @@ def record_episode(policy, target_x: float, env_kwargs: dict | None = None,
     else:
         controller = np.array(torques)
         t_end = min(max(t_end, dt), len(torques) * dt)
-    roll = simulate(controller, t_end=t_end, control_dt=dt, target_x=target_x,
-                    integrator=venv.config.integrator, impact_law=venv.config.impact_law,
-                    params=params, sample_dt=min(sample_dt, dt),
-                    seed=seed if params.roughness > 0.0 and seed >= 0 else None)
+    roll = simulate(
+        controller,
+        t_end=t_end,
+        control_dt=dt,
+        target_x=target_x,
+        integrator=venv.config.integrator,
+        impact_law=venv.config.impact_law,
+        params=params,
+        sample_dt=min(sample_dt, dt),
+        seed=seed if params.roughness > 0.0 and seed >= 0 else None,
+    )
     # the replay stops at the TTRTP itself, where its own judge may not yet have closed the
     # 5 s window: the env's judge, which ran the episode, gives the TTRTP
-    return Recording(getattr(policy, "name", "policy"), target_x,
-                     ttrtp if ttrtp is not None else roll.ttrtp, roll.broken,
-                     dt, roll)
+    return Recording(
+        getattr(policy, "name", "policy"),
+        target_x,
+        ttrtp if ttrtp is not None else roll.ttrtp,
+        roll.broken,
+        dt,
+        roll,
+    )
 
 
 class _HopReplay(ScriptedHopper):
@@ -103,8 +124,7 @@ class _HopReplay(ScriptedHopper):
     attitude hold and settling, with the recorded launch torques instead of its plans."""
 
     def __init__(self, torques, params, control_dt, config):
-        super().__init__(params=params, control_dt=control_dt, kp=config.hold_kp,
-                         kd=config.hold_kd)
+        super().__init__(params=params, control_dt=control_dt, kp=config.hold_kp, kd=config.hold_kd)
         self.queue = list(torques)
 
     def plan(self, x0, xt, t0, remaining):
@@ -123,9 +143,11 @@ def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20)
     try:
         import imageio.v2 as imageio
     except ImportError as exc:
-        raise ImportError("writing a video needs imageio, in the render extra: "
-                          "pip install 'hoprover[render]'") from exc
+        raise ImportError(
+            "writing a video needs imageio, in the render extra: pip install 'hoprover[render]'"
+        ) from exc
     from hoprover_env.envs.rendering import Renderer
+
     roll = rec.rollout
     idx = np.unique(np.linspace(0, len(roll.t) - 1, min(max_frames, len(roll.t))).astype(int))
     renderer = Renderer(mode="rgb_array")
@@ -133,16 +155,26 @@ def write_video(rec: Recording, path: str, max_frames: int = 300, fps: int = 20)
     for i in range(len(roll.t)):
         trace.append((roll.x[i], roll.y[i]))
         if i in shown:
-            frames.append(renderer.draw((roll.x[i], roll.y[i], roll.theta[i]), roll.params,
-                                        rec.target_x, list(trace), roll.t[i], roll.state[i],
-                                        roll.torque[i]))
+            frames.append(
+                renderer.draw(
+                    (roll.x[i], roll.y[i], roll.theta[i]),
+                    roll.params,
+                    rec.target_x,
+                    list(trace),
+                    roll.t[i],
+                    roll.state[i],
+                    roll.torque[i],
+                )
+            )
     if path.lower().endswith(".gif"):
         imageio.mimsave(path, frames, duration=1000 // fps, loop=0)
         return
     try:
         import imageio_ffmpeg  # noqa: F401
     except ImportError:
-        raise RuntimeError(f"writing {path} needs imageio-ffmpeg (pip install "
-                           "imageio-ffmpeg, or pip install -e '.[render]'); a .gif needs "
-                           "nothing more") from None
+        raise RuntimeError(
+            f"writing {path} needs imageio-ffmpeg (pip install "
+            "imageio-ffmpeg, or pip install -e '.[render]'); a .gif needs "
+            "nothing more"
+        ) from None
     imageio.mimsave(path, frames, fps=fps)

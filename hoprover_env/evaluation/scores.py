@@ -16,6 +16,7 @@ episodes): with several runs (training seeds) the bootstrap resamples runs withi
 episode (rliable's stratified bootstrap); with one run it resamples the episodes.
 rliable is the `scores` extra (``pip install 'hoprover[scores]'``).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -45,13 +46,20 @@ def episode_regrets(ttrtp, reference) -> np.ndarray:
 def _metrics(scores: np.ndarray) -> np.ndarray:
     """The four METRICS of a score matrix (any shape)."""
     from rliable import metrics
+
     s = np.asarray(scores, dtype=float)
     # a failure's regret is infinite; the bootstrap's percentiles interpolate between
     # resamples, and inf - inf is NaN, so failures count as FAILED_REGRET here and any
     # median that large is reported as inf (`_infinite`)
     regret = np.where(s > 0, 1.0 / np.where(s > 0, s, 1.0), FAILED_REGRET)
-    return np.array([np.mean(s > 0), np.median(regret), np.mean(s),
-                     metrics.aggregate_iqm(s.reshape(s.shape[0], -1))])
+    return np.array(
+        [
+            np.mean(s > 0),
+            np.median(regret),
+            np.mean(s),
+            metrics.aggregate_iqm(s.reshape(s.shape[0], -1)),
+        ]
+    )
 
 
 def _infinite(values) -> np.ndarray:
@@ -83,9 +91,14 @@ class Summary:
     @classmethod
     def from_row(cls, row: dict) -> Summary:
         """The summary a `row()` was made from (read back from a results file)."""
-        return cls(row["agent"], row["runs"], row["episodes"],
-                   {m: row[m] for m in METRICS}, {m: row[m + "_low"] for m in METRICS},
-                   {m: row[m + "_high"] for m in METRICS})
+        return cls(
+            row["agent"],
+            row["runs"],
+            row["episodes"],
+            {m: row[m] for m in METRICS},
+            {m: row[m + "_low"] for m in METRICS},
+            {m: row[m + "_high"] for m in METRICS},
+        )
 
 
 def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
@@ -93,9 +106,8 @@ def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
     with 95 % stratified bootstrap intervals (rliable, `reps` resamples, seeded)."""
     try:
         from rliable import library as rly
-    except ImportError as err:                       # pragma: no cover - the extra
-        raise ImportError("score intervals need rliable: pip install 'hoprover[scores]'") \
-            from err
+    except ImportError as err:  # pragma: no cover - the extra
+        raise ImportError("score intervals need rliable: pip install 'hoprover[scores]'") from err
     s = np.asarray(scores, dtype=float)
     if s.ndim == 1:
         s = s[None]
@@ -114,21 +126,33 @@ def summarize(name: str, scores, reps: int = 2000, seed: int = 0) -> Summary:
     finally:
         np.random.set_state(saved)
     lo, hi = intervals[name]
-    return Summary(name, s.shape[0], s.shape[1], point, dict(zip(METRICS, _infinite(lo))),
-                   dict(zip(METRICS, _infinite(hi))))
+    return Summary(
+        name,
+        s.shape[0],
+        s.shape[1],
+        point,
+        dict(zip(METRICS, _infinite(lo))),
+        dict(zip(METRICS, _infinite(hi))),
+    )
 
 
 def format_table(summaries: list[Summary]) -> str:
     """A markdown table: success, median regret, mean and IQM score with intervals."""
+
     def iv(s, m, fmt):
         p, lo, hi = s.point[m], s.low[m], s.high[m]
         if m == "success":
             return f"{100 * p:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
         return f"{p:{fmt}} [{lo:{fmt}}, {hi:{fmt}}]"
-    lines = ["| agent | runs | episodes | success | median regret | mean score | IQM score |",
-             "|---|---|---|---|---|---|---|"]
+
+    lines = [
+        "| agent | runs | episodes | success | median regret | mean score | IQM score |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for s in summaries:
-        lines.append(f"| {s.name} | {s.runs} | {s.episodes} | {iv(s, 'success', '')} | "
-                     f"{iv(s, 'median_regret', '.3f')} | {iv(s, 'mean_score', '.3f')} | "
-                     f"{iv(s, 'iqm_score', '.3f')} |")
+        lines.append(
+            f"| {s.name} | {s.runs} | {s.episodes} | {iv(s, 'success', '')} | "
+            f"{iv(s, 'median_regret', '.3f')} | {iv(s, 'mean_score', '.3f')} | "
+            f"{iv(s, 'iqm_score', '.3f')} |"
+        )
     return "\n".join(lines)

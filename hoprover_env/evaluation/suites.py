@@ -57,6 +57,7 @@ Each suite file carries its version, a SHA-256 checksum of its episodes and refe
 (`Suite.checksum`, the one scores cite) and one of its start conditions
 (``start_sha256``), both checked on load: a file that was changed by hand fails to load.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -83,17 +84,22 @@ def suite_of(env_id: str) -> str:
         raise ValueError(f"unknown hoprover env id {env_id!r}; valid: {sorted(ENVS)}")
     name = ENVS[env_id].suite
     if name is None:
-        raise ValueError(f"{env_id!r} is scored on no test suite: its Registration names "
-                         f"none (suite=None); registered ids with one: "
-                         f"{sorted(suite_ids())}")
+        raise ValueError(
+            f"{env_id!r} is scored on no test suite: its Registration names "
+            f"none (suite=None); registered ids with one: "
+            f"{sorted(suite_ids())}"
+        )
     return name
 
 
 def suite_ids(name: str | None = None) -> list[str]:
     """The registered ids scored on the suite `name` (None: on any suite), in
     registration order, read from the registry when called."""
-    return [env_id for env_id, spec in ENVS.items()
-            if spec.suite is not None and (name is None or spec.suite == name)]
+    return [
+        env_id
+        for env_id, spec in ENVS.items()
+        if spec.suite is not None and (name is None or spec.suite == name)
+    ]
 
 
 def task_of(name: str) -> str:
@@ -105,14 +111,14 @@ def task_of(name: str) -> str:
             return env_id
     raise ValueError(f"no registered torque-level id is scored on the suite {name!r}")
 
+
 # the seed each suite's episodes are drawn from (never used for training or validation)
 SUITE_SEEDS = {"level": 1_000_001, "terrain": 1_000_002}
 SIZES = {"level": 200, "terrain": 200}
 CONTEST_TARGET = 0.5
-FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt",
-          "reference_ttrtp")
-FORMAT = 2                   # suite files with start conditions (format 1: none)
-START = "start"              # the prefix of a start condition's array: start/<id>/<option>
+FIELDS = ("target_x", "slope", "roughness", "terrain_seed", "control_dt", "reference_ttrtp")
+FORMAT = 2  # suite files with start conditions (format 1: none)
+START = "start"  # the prefix of a start condition's array: start/<id>/<option>
 
 
 @dataclasses.dataclass(frozen=True)
@@ -123,11 +129,11 @@ class Episode:
     target_x: float
     slope: float
     roughness: float
-    terrain_seed: int                 # -1 on smooth ground
+    terrain_seed: int  # -1 on smooth ground
     control_dt: float
     reference_ttrtp: float
     reference_schedule: np.ndarray
-    reference_source: str             # which search or agent found the reference
+    reference_source: str  # which search or agent found the reference
     # the frozen start conditions, per registered id: {env_id: {reset option: value}}
     start: dict = dataclasses.field(default_factory=dict)
 
@@ -145,8 +151,7 @@ class Episode:
         """The env reset options that start this episode: its target and ground, and
         with `env_id` that id's frozen start conditions (none for an id the suite holds
         none for)."""
-        opts = {"target_x": self.target_x, "slope": self.slope,
-                "roughness": self.roughness}
+        opts = {"target_x": self.target_x, "slope": self.slope, "roughness": self.roughness}
         if self.seed is not None:
             opts["terrain_seed"] = self.seed
         if env_id is not None:
@@ -157,9 +162,15 @@ class Episode:
         """The reference plan through `simulate` (a Rollout whose ttrtp is the
         reference's)."""
         from hoprover_env.sim.simulate import simulate
-        return simulate(self.reference_schedule, t_end=EPISODE_TIME,
-                        control_dt=self.control_dt, target_x=self.target_x,
-                        params=self.params, seed=self.seed)
+
+        return simulate(
+            self.reference_schedule,
+            t_end=EPISODE_TIME,
+            control_dt=self.control_dt,
+            target_x=self.target_x,
+            params=self.params,
+            seed=self.seed,
+        )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -209,8 +220,10 @@ class Suite:
         names = sorted({k for e in self.episodes for k in e.start.get(env_id, {})})
         for k in names:
             if not all(k in e.start.get(env_id, {}) for e in self.episodes):
-                raise ValueError(f"{self.name}-v{self.version}: the start condition {k!r} "
-                                 f"of {env_id} is missing for some episodes")
+                raise ValueError(
+                    f"{self.name}-v{self.version}: the start condition {k!r} "
+                    f"of {env_id} is missing for some episodes"
+                )
             out[k] = np.array([e.start[env_id][k] for e in self.episodes])
         return out
 
@@ -222,8 +235,10 @@ class Suite:
         """The frozen start conditions as `save` takes them: {env_id: {reset option: one
         value per episode}} (what a new version of the same episodes carries over)."""
         terrain = set(self.terrain())
-        return {env_id: {k: v for k, v in self.conditions(env_id).items() if k not in terrain}
-                for env_id in self.start_ids()}
+        return {
+            env_id: {k: v for k, v in self.conditions(env_id).items() if k not in terrain}
+            for env_id in self.start_ids()
+        }
 
 
 def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> dict:
@@ -231,9 +246,13 @@ def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> d
     FIELDS[:5]. `seed` and `n` draw `n` other episodes the same way (fresh ones, for a
     check on episodes nothing was chosen on: research/yardstick/fresh_targets.py)."""
     if name == "contest":
-        return {"target_x": np.array([CONTEST_TARGET]), "slope": np.zeros(1),
-                "roughness": np.zeros(1), "terrain_seed": np.full(1, NO_TERRAIN_SEED),
-                "control_dt": np.full(1, CONTROL_DT)}
+        return {
+            "target_x": np.array([CONTEST_TARGET]),
+            "slope": np.zeros(1),
+            "roughness": np.zeros(1),
+            "terrain_seed": np.full(1, NO_TERRAIN_SEED),
+            "control_dt": np.full(1, CONTROL_DT),
+        }
     rng = np.random.default_rng(SUITE_SEEDS[name] if seed is None else seed)
     n = SIZES[name] if n is None else n
     targets = rng.uniform(-1.0, 1.0, n)
@@ -248,8 +267,13 @@ def draw_episodes(name: str, seed: int | None = None, n: int | None = None) -> d
     else:
         slopes, rough = np.zeros(n), np.zeros(n)
         seeds = np.full(n, NO_TERRAIN_SEED, dtype=np.int64)
-    return {"target_x": targets, "slope": slopes, "roughness": rough,
-            "terrain_seed": seeds, "control_dt": np.full(n, CONTROL_DT)}
+    return {
+        "target_x": targets,
+        "slope": slopes,
+        "roughness": rough,
+        "terrain_seed": seeds,
+        "control_dt": np.full(n, CONTROL_DT),
+    }
 
 
 def checksum(columns: dict, schedules: list) -> str:
@@ -293,28 +317,52 @@ def versions(name: str) -> list[int]:
     return sorted(found)
 
 
-def save(name: str, version: int, columns: dict, schedules: list, sources: list,
-         meta: dict, directory: Path | None = None, start: dict | None = None) -> Path:
+def save(
+    name: str,
+    version: int,
+    columns: dict,
+    schedules: list,
+    sources: list,
+    meta: dict,
+    directory: Path | None = None,
+    start: dict | None = None,
+) -> Path:
     """Write a suite version (atomically: a temporary file, then a rename). `start`: the
     episodes' start conditions, {env_id: {reset option: one value per episode}}."""
     directory = Path(directory or DATA_DIR)
     directory.mkdir(parents=True, exist_ok=True)
     lengths = np.array([len(s) for s in schedules], dtype=np.int64)
-    flat = np.concatenate([np.asarray(s, dtype=np.float64) for s in schedules]) \
-        if schedules else np.zeros(0)
+    flat = (
+        np.concatenate([np.asarray(s, dtype=np.float64) for s in schedules])
+        if schedules
+        else np.zeros(0)
+    )
     digest = checksum(columns, schedules)
-    start = {env_id: {k: np.asarray(v) for k, v in opts.items()}
-             for env_id, opts in (start or {}).items()}
-    meta = {**meta, "name": name, "version": version, "sha256": digest, "format": FORMAT,
-            START: {env_id: sorted(opts) for env_id, opts in start.items()},
-            "start_sha256": start_checksum(start)}
-    arrays = {f"{START}/{env_id}/{k}": v for env_id, opts in start.items()
-              for k, v in opts.items()}
+    start = {
+        env_id: {k: np.asarray(v) for k, v in opts.items()}
+        for env_id, opts in (start or {}).items()
+    }
+    meta = {
+        **meta,
+        "name": name,
+        "version": version,
+        "sha256": digest,
+        "format": FORMAT,
+        START: {env_id: sorted(opts) for env_id, opts in start.items()},
+        "start_sha256": start_checksum(start),
+    }
+    arrays = {f"{START}/{env_id}/{k}": v for env_id, opts in start.items() for k, v in opts.items()}
     path = directory / f"{name}-v{version}.npz"
     tmp = path.with_suffix(".tmp.npz")
-    np.savez_compressed(tmp, **{f: columns[f] for f in FIELDS}, schedule_flat=flat,
-                        schedule_len=lengths, source=np.array(sources),
-                        meta=np.array(json.dumps(meta, sort_keys=True)), **arrays)
+    np.savez_compressed(
+        tmp,
+        **{f: columns[f] for f in FIELDS},
+        schedule_flat=flat,
+        schedule_len=lengths,
+        source=np.array(sources),
+        meta=np.array(json.dumps(meta, sort_keys=True)),
+        **arrays,
+    )
     tmp.replace(path)
     return path
 
@@ -330,8 +378,9 @@ def load(env_id: str, version: int | None = None) -> Suite:
     if version is None:
         version = have[-1]
     if version not in have:
-        raise ValueError(f"unknown version {version!r} of the {name!r} suite of {env_id!r}; "
-                         f"versions: {have}")
+        raise ValueError(
+            f"unknown version {version!r} of the {name!r} suite of {env_id!r}; versions: {have}"
+        )
     return _read(path_of(name, version), name, version)
 
 
@@ -342,40 +391,63 @@ def _read(path: Path, name: str, version: int) -> Suite:
         schedules = np.split(z["schedule_flat"], cut)
         sources = [str(s) for s in z["source"]]
         meta = json.loads(str(z["meta"]))
-        start = {env_id: {k: z[f"{START}/{env_id}/{k}"] for k in keys}
-                 for env_id, keys in meta.get(START, {}).items()}
-        stray = [f for f in z.files if f.startswith(START + "/")
-                 and f.split("/", 2)[2] not in meta.get(START, {}).get(f.split("/")[1], ())]
+        start = {
+            env_id: {k: z[f"{START}/{env_id}/{k}"] for k in keys}
+            for env_id, keys in meta.get(START, {}).items()
+        }
+        stray = [
+            f
+            for f in z.files
+            if f.startswith(START + "/")
+            and f.split("/", 2)[2] not in meta.get(START, {}).get(f.split("/")[1], ())
+        ]
     digest = checksum(columns, schedules)
     if digest != meta.get("sha256"):
-        raise ValueError(f"{path}: checksum mismatch (the file says {meta.get('sha256')}, "
-                         f"its episodes hash to {digest}); the suite was modified")
-    if meta.get("format", 1) >= 2 and (stray or start_checksum(start)
-                                       != meta.get("start_sha256")):
-        raise ValueError(f"{path}: checksum mismatch of the start conditions (the file "
-                         f"says {meta.get('start_sha256')}, they hash to "
-                         f"{start_checksum(start)}); the suite was modified")
+        raise ValueError(
+            f"{path}: checksum mismatch (the file says {meta.get('sha256')}, "
+            f"its episodes hash to {digest}); the suite was modified"
+        )
+    if meta.get("format", 1) >= 2 and (stray or start_checksum(start) != meta.get("start_sha256")):
+        raise ValueError(
+            f"{path}: checksum mismatch of the start conditions (the file "
+            f"says {meta.get('start_sha256')}, they hash to "
+            f"{start_checksum(start)}); the suite was modified"
+        )
     n = len(columns["target_x"])
     for env_id, opts in start.items():
         for k, v in opts.items():
             if len(v) != n:
-                raise ValueError(f"{path}: the start condition {env_id}/{k} has {len(v)} "
-                                 f"values for {n} episodes")
+                raise ValueError(
+                    f"{path}: the start condition {env_id}/{k} has {len(v)} values for {n} episodes"
+                )
     episodes = tuple(
-        Episode(index=i, target_x=float(columns["target_x"][i]),
-                slope=float(columns["slope"][i]), roughness=float(columns["roughness"][i]),
-                terrain_seed=int(columns["terrain_seed"][i]),
-                control_dt=float(columns["control_dt"][i]),
-                reference_ttrtp=float(columns["reference_ttrtp"][i]),
-                reference_schedule=schedules[i], reference_source=sources[i],
-                start={env_id: {k: v[i].item() for k, v in opts.items()}
-                       for env_id, opts in start.items()})
-        for i in range(n))
+        Episode(
+            index=i,
+            target_x=float(columns["target_x"][i]),
+            slope=float(columns["slope"][i]),
+            roughness=float(columns["roughness"][i]),
+            terrain_seed=int(columns["terrain_seed"][i]),
+            control_dt=float(columns["control_dt"][i]),
+            reference_ttrtp=float(columns["reference_ttrtp"][i]),
+            reference_schedule=schedules[i],
+            reference_source=sources[i],
+            start={
+                env_id: {k: v[i].item() for k, v in opts.items()} for env_id, opts in start.items()
+            },
+        )
+        for i in range(n)
+    )
     return Suite(name=name, version=version, checksum=digest, episodes=episodes, meta=meta)
 
 
-def run(policy, suite: Suite, batch: int = 256, progress=None,
-        env_kwargs: dict | None = None, workers: int | None = None) -> list[dict]:
+def run(
+    policy,
+    suite: Suite,
+    batch: int = 256,
+    progress=None,
+    env_kwargs: dict | None = None,
+    workers: int | None = None,
+) -> list[dict]:
     """Episodes of `suite` with `policy` (an ``act(obs, venv)`` policy), judged by the
     contest judge: `judged` rows (one dict per episode). `env_kwargs` are further env
     arguments (say a mission task's noise_scale); the suite's episode time stays, and so
@@ -387,16 +459,28 @@ def run(policy, suite: Suite, batch: int = 256, progress=None,
     return judged(run_results(policy, suite, batch, progress, env_kwargs, workers), suite)
 
 
-def run_results(policy, suite: Suite, batch: int = 256, progress=None,
-                env_kwargs: dict | None = None, workers: int | None = None) -> list:
+def run_results(
+    policy,
+    suite: Suite,
+    batch: int = 256,
+    progress=None,
+    env_kwargs: dict | None = None,
+    workers: int | None = None,
+) -> list:
     """`run`'s episodes, unjudged: run_episodes' EpisodeResults, in order."""
     from hoprover_env.evaluation.episodes import policy_env_id, run_episodes
+
     env_id = policy_env_id(policy)
     check_frozen(env_id, {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})})
-    return run_episodes(policy, suite.targets,
-                        env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
-                        batch=batch, progress=progress, terrain=suite.conditions(env_id),
-                        workers=workers)
+    return run_episodes(
+        policy,
+        suite.targets,
+        env_kwargs={**(env_kwargs or {}), "episode_time": EPISODE_TIME},
+        batch=batch,
+        progress=progress,
+        terrain=suite.conditions(env_id),
+        workers=workers,
+    )
 
 
 def check_frozen(env_id: str, env_kwargs: dict) -> None:
@@ -405,15 +489,18 @@ def check_frozen(env_id: str, env_kwargs: dict) -> None:
     if "randomize" not in env_kwargs:
         return
     from hoprover_env.sim.randomize import check_randomize
+
     own = default_config(env_id).randomize
     try:
         given = check_randomize(env_kwargs["randomize"])
     except ValueError:
         given = env_kwargs["randomize"]
     if given != own:
-        raise ValueError(f"a test suite fixes each episode's rover and ground: "
-                         f"randomize={env_kwargs['randomize']!r} would redraw them; "
-                         f"leave randomize at {env_id}'s own ({own or None!r})")
+        raise ValueError(
+            f"a test suite fixes each episode's rover and ground: "
+            f"randomize={env_kwargs['randomize']!r} would redraw them; "
+            f"leave randomize at {env_id}'s own ({own or None!r})"
+        )
 
 
 def judged(results, suite: Suite) -> list[dict]:
@@ -422,17 +509,25 @@ def judged(results, suite: Suite) -> list[dict]:
     `regret` (ttrtp / reference, inf on failure) and `score` (reference / ttrtp, 0 on
     failure) added."""
     from hoprover_env.evaluation.scores import episode_regrets, episode_scores
+
     if len(results) != len(suite):
-        raise ValueError(f"{len(results)} results for the {len(suite)} episodes of "
-                         f"{suite.name}-v{suite.version}")
+        raise ValueError(
+            f"{len(results)} results for the {len(suite)} episodes of {suite.name}-v{suite.version}"
+        )
     ttrtp = [r.ttrtp if r.success else None for r in results]
     scores = episode_scores(ttrtp, suite.reference_ttrtp)
     regrets = episode_regrets(ttrtp, suite.reference_ttrtp)
     out = []
     for r, ep, sc, g in zip(results, suite.episodes, scores, regrets):
         row = r.as_dict()
-        row.update(suite=f"{suite.name}-v{suite.version}", slope=ep.slope,
-                   roughness=ep.roughness, terrain_seed=ep.terrain_seed,
-                   reference_ttrtp=ep.reference_ttrtp, regret=float(g), score=float(sc))
+        row.update(
+            suite=f"{suite.name}-v{suite.version}",
+            slope=ep.slope,
+            roughness=ep.roughness,
+            terrain_seed=ep.terrain_seed,
+            reference_ttrtp=ep.reference_ttrtp,
+            regret=float(g),
+            score=float(sc),
+        )
         out.append(row)
     return out

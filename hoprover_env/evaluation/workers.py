@@ -12,6 +12,7 @@ hoprover and nothing of the caller's but what the pickled calls name, on the cal
 stdin and stdout (its prints go to stderr). One thread per worker in the calling
 process waits on its pipe (without the GIL); they are joined before `run` returns.
 """
+
 from __future__ import annotations
 
 import os
@@ -66,13 +67,19 @@ def run(calls, workers: int, setup=None):
     stop = threading.Event()
     procs: list = []
     lock = threading.Lock()
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
-        p for p in (_PACKAGE_PARENT, os.environ.get("PYTHONPATH")) if p))
+    env = dict(
+        os.environ,
+        PYTHONPATH=os.pathsep.join(p for p in (_PACKAGE_PARENT, os.environ.get("PYTHONPATH")) if p),
+    )
 
     def drive():
         try:
-            proc = subprocess.Popen([sys.executable, "-m", "hoprover_env.evaluation.workers"],
-                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env)
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "hoprover_env.evaluation.workers"],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                env=env,
+            )
         except OSError as exc:
             done.put((None, ("died", f"could not start a worker process: {exc}")))
             return
@@ -87,13 +94,21 @@ def run(calls, workers: int, setup=None):
                     break
                 _send(proc.stdin, call)
                 done.put((k, _recv(proc.stdout)))
-            _send(proc.stdin, None)                # no more: the worker exits
+            _send(proc.stdin, None)  # no more: the worker exits
             proc.stdin.close()
             proc.wait()
         except (EOFError, OSError):
             if not stop.is_set():
-                done.put((None, ("died", f"a worker process exited (code {proc.poll()}) "
-                                         "before returning its result")))
+                done.put(
+                    (
+                        None,
+                        (
+                            "died",
+                            f"a worker process exited (code {proc.poll()}) "
+                            "before returning its result",
+                        ),
+                    )
+                )
         finally:
             if proc.poll() is None and stop.is_set():
                 proc.kill()
@@ -117,7 +132,7 @@ def run(calls, workers: int, setup=None):
     finally:
         stop.set()
         with lock:
-            for proc in procs:             # those still in a call stop now
+            for proc in procs:  # those still in a call stop now
                 if proc.poll() is None:
                     proc.kill()
         for t in threads:
@@ -127,8 +142,8 @@ def run(calls, workers: int, setup=None):
 def _serve() -> None:
     """The worker: the caller's sys.path and setup, then calls until told to stop."""
     stdin = sys.stdin.buffer
-    out = os.fdopen(os.dup(1), "wb")           # the results' channel, kept apart ...
-    os.dup2(2, 1)                              # ... from anything printed (to stderr)
+    out = os.fdopen(os.dup(1), "wb")  # the results' channel, kept apart ...
+    os.dup2(2, 1)  # ... from anything printed (to stderr)
     path, setup = _recv(stdin)
     sys.path[:] = path + [p for p in sys.path if p not in path]
     if setup is not None:
@@ -144,14 +159,21 @@ def _serve() -> None:
         result: tuple[Any, ...]
         try:
             result = ("ok", fn(*args))
-        except BaseException as exc:           # noqa: BLE001 - handed back to the caller
+        except BaseException as exc:  # noqa: BLE001 - handed back to the caller
             result = ("error", exc, traceback.format_exc())
         try:
             _send(out, result)
-        except Exception as exc:               # noqa: BLE001 - something would not pickle
-            _send(out, ("error", RuntimeError(f"a worker's result could not be sent back: "
-                                              f"{type(exc).__name__}: {exc}"),
-                        traceback.format_exc()))
+        except Exception as exc:  # noqa: BLE001 - something would not pickle
+            _send(
+                out,
+                (
+                    "error",
+                    RuntimeError(
+                        f"a worker's result could not be sent back: {type(exc).__name__}: {exc}"
+                    ),
+                    traceback.format_exc(),
+                ),
+            )
 
 
 if __name__ == "__main__":

@@ -35,6 +35,7 @@ release move one of them, everything falls back to plain ``numba.njit(cache=True
 a warning: correct results, a slower cold start (tests/core/test_compile.py hides them).
 `run_threaded` restores the OpenMP settings numba's OpenMP layer changes.
 """
+
 from __future__ import annotations
 
 import functools
@@ -58,15 +59,18 @@ from numba import types as nt
 
 F64, I64, BOOL, NONE = nt.float64, nt.int64, nt.boolean, nt.none
 VEC, VEC32, MAT = nt.float64[::1], nt.float32[::1], nt.float64[:, ::1]
-F64x2, F64x4, F64x5, I64x2 = (nt.UniTuple(F64, 2), nt.UniTuple(F64, 4),
-                              nt.UniTuple(F64, 5), nt.UniTuple(I64, 2))
+F64x2, F64x4, F64x5, I64x2 = (
+    nt.UniTuple(F64, 2),
+    nt.UniTuple(F64, 4),
+    nt.UniTuple(F64, 5),
+    nt.UniTuple(I64, 2),
+)
 OPTIONS = dict(cache=True, error_model="numpy", _nrt=False)
 
 _PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 # the files whose code a cached kernel may embed (a change to any drops every cache): this
 # layer's own, and those hoprover_env/_kernel_sources.py adds before any kernel is built
-KERNEL_SOURCES = sorted(glob.glob(os.path.join(os.path.dirname(os.path.abspath(__file__)),
-                                               "*.py")))
+KERNEL_SOURCES = sorted(glob.glob(os.path.join(os.path.dirname(os.path.abspath(__file__)), "*.py")))
 
 
 def add_kernel_sources(paths) -> None:
@@ -82,17 +86,22 @@ def _numba_internals():
     """The numba internals used here, or None (with one warning) if any has moved."""
     try:
         from numba.core.registry import CPUDispatcher
+
         for name in ("get_call_template", "compile", "disable_compile"):
             if not hasattr(CPUDispatcher, name):
                 raise AttributeError(f"CPUDispatcher.{name}")
         from numba.core.caching import FunctionCache
+
         if not hasattr(FunctionCache, "cache_path"):
             raise AttributeError("FunctionCache.cache_path")
     except (ImportError, AttributeError) as exc:
-        warnings.warn(f"hoprover_env: this numba ({exc} is missing) is not one hoprover's "
-                      "compile layer knows; falling back to plain numba.njit(cache=True): "
-                      "results are the same, the first run compiles more slowly",
-                      RuntimeWarning, stacklevel=3)
+        warnings.warn(
+            f"hoprover_env: this numba ({exc} is missing) is not one hoprover's "
+            "compile layer knows; falling back to plain numba.njit(cache=True): "
+            "results are the same, the first run compiles more slowly",
+            RuntimeWarning,
+            stacklevel=3,
+        )
         return None
     return CPUDispatcher
 
@@ -104,9 +113,11 @@ class _JitOnly:
 
     def __call__(self, *args, **kwargs):
         f = self.py_func
-        raise TypeError(f"{f.__module__}.{f.__qualname__} is compiled for calls from jitted "
-                        "code only (kernel(inner=True)): call it from a jitted function, or "
-                        "declare it without inner=True to call it from Python")
+        raise TypeError(
+            f"{f.__module__}.{f.__qualname__} is compiled for calls from jitted "
+            "code only (kernel(inner=True)): call it from a jitted function, or "
+            "declare it without inner=True to call it from Python"
+        )
 
 
 class _Declared:
@@ -119,7 +130,7 @@ class _Declared:
         self.disable_compile()
         self.__class__ = self.compiled_class
 
-    def get_call_template(self, args, kws):       # a jitted caller is being typed
+    def get_call_template(self, args, kws):  # a jitted caller is being typed
         self.compile_declared()
         return self.get_call_template(args, kws)
 
@@ -127,7 +138,7 @@ class _Declared:
         self.compile_declared()
         return self(*args, **kwargs)
 
-    def __reduce__(self):       # pickled by reference (Ray, multiprocessing), as functions
+    def __reduce__(self):  # pickled by reference (Ray, multiprocessing), as functions
         f = self.py_func
         return _module_attribute, (f.__module__, f.__qualname__)
 
@@ -139,12 +150,10 @@ def _module_attribute(module: str, name: str):
 @functools.cache
 def _subclass(*mixins):
     base = _numba_internals()
-    return type("".join(m.__name__.strip("_") for m in mixins) + "Dispatcher",
-                (*mixins, base), {})
+    return type("".join(m.__name__.strip("_") for m in mixins) + "Dispatcher", (*mixins, base), {})
 
 
-def kernel(signature=None, *, inner: bool = False, inline: bool = False,
-           parallel: bool = False):
+def kernel(signature=None, *, inner: bool = False, inline: bool = False, parallel: bool = False):
     """Compile a function with numba (see the module docstring); usable bare."""
     if inspect.isfunction(signature):
         return kernel()(signature)
@@ -159,8 +168,9 @@ def kernel(signature=None, *, inner: bool = False, inline: bool = False,
         dispatcher = njit(**options)(func)
         drop_stale_cache(dispatcher)
         # what rebind() needs to compile a copy the same way
-        dispatcher.kernel_options = dict(signature=signature, inner=inner, inline=inline,
-                                         parallel=parallel)
+        dispatcher.kernel_options = dict(
+            signature=signature, inner=inner, inline=inline, parallel=parallel
+        )
         if plain:
             return dispatcher
         if signature is not None:
@@ -170,6 +180,7 @@ def kernel(signature=None, *, inner: bool = False, inline: bool = False,
         elif inner:
             dispatcher.__class__ = _subclass(_JitOnly)
         return dispatcher
+
     return wrap
 
 
@@ -178,8 +189,7 @@ def bind_globals(func, name: str, module: str | None = None, **names):
     `name` (of `module`, if given: where it can be found by name, as pickling a kernel
     by reference does). numba resolves globals when it compiles and caches a function
     under its qualified name, so each binding is compiled and cached on its own."""
-    new = types.FunctionType(func.__code__, {**func.__globals__, **names}, name,
-                             func.__defaults__)
+    new = types.FunctionType(func.__code__, {**func.__globals__, **names}, name, func.__defaults__)
     new.__qualname__ = name
     new.__doc__ = func.__doc__
     new.__module__ = module or func.__module__
@@ -215,7 +225,7 @@ def bind(func, name: str, options: dict | None = None, **names):
     return dispatcher
 
 
-DIGEST_LENGTH = 16          # hex digits of `source_digest`
+DIGEST_LENGTH = 16  # hex digits of `source_digest`
 
 
 def source_digest(*objects) -> str:
@@ -234,7 +244,7 @@ def _file_hash(path: str) -> bytes:
     try:
         with open(path, "rb") as fh:
             return hashlib.sha256(fh.read()).digest()
-    except OSError:             # no file (code made by exec): numba cannot cache it anyway
+    except OSError:  # no file (code made by exec): numba cannot cache it anyway
         return b"-"
 
 
@@ -278,7 +288,7 @@ def _source_files(objects) -> set:
         for cell in func.__closure__ or ():
             try:
                 reached.append(cell.cell_contents)
-            except ValueError:          # an empty cell
+            except ValueError:  # an empty cell
                 pass
         todo.extend(obj for obj in reached if _is_kernel(obj))
     return files
@@ -292,8 +302,9 @@ def _drop_other_versions(dispatcher, name: str, digest: str) -> None:
     if path is None:
         return
     stem = os.path.splitext(os.path.basename(dispatcher.py_func.__code__.co_filename))[0]
-    pattern = re.compile(re.escape(f"{stem}.{name}_") + f"([0-9a-f]{{{DIGEST_LENGTH}}})-"
-                         + r".*\.nb[ic]$")
+    pattern = re.compile(
+        re.escape(f"{stem}.{name}_") + f"([0-9a-f]{{{DIGEST_LENGTH}}})-" + r".*\.nb[ic]$"
+    )
     try:
         entries = os.listdir(path)
     except OSError:
@@ -347,7 +358,7 @@ def _checked(cache_dir: str, stem: str) -> None:
         os.makedirs(cache_dir, exist_ok=True)
         with open(marker, "w") as fh:
             fh.write(_fingerprint())
-    except OSError:             # a read-only install: its cache was built for its sources
+    except OSError:  # a read-only install: its cache was built for its sources
         pass
 
 
@@ -361,15 +372,15 @@ def drop_stale_cache(dispatcher) -> None:
 
 
 # ---------------------------------------------------------------- the two-process compile
-ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"     # "0": no helper
-_HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"     # set in the helper's environment
-HELPER_TIMEOUT = 120.0                        # s; a helper taking longer is killed
+ENV_SWITCH = "HOPROVER_PARALLEL_COMPILE"  # "0": no helper
+_HELPER_FLAG = "_HOPROVER_COMPILE_HELPER"  # set in the helper's environment
+HELPER_TIMEOUT = 120.0  # s; a helper taking longer is killed
 # The end of a phase (built for the ground), the largest piece (about 45 % of the work),
 # is the main process's; then both processes take the next function not yet taken from
 # QUEUE, then an env's extra functions, and last QUEUE_END: largest first, so that the two
 # finish together (BENCHMARKS.md, "Cold start"). The kernels themselves are given by the
 # layer that defines them (`register_warm`, called by core/smooth.py at import).
-AFTER_PHASE: dict = {}                        # {rough: kernel}
+AFTER_PHASE: dict = {}  # {rough: kernel}
 QUEUE: tuple = ()
 QUEUE_END: tuple = ()
 _prepared = False
@@ -400,14 +411,14 @@ def _cached(dispatcher) -> bool:
         return True
     try:
         return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:           # noqa: BLE001 - caching off, or another numba layout:
-        return True             # then a helper could not share its work; do not start it
+    except Exception:  # noqa: BLE001 - caching off, or another numba layout:
+        return True  # then a helper could not share its work; do not start it
 
 
 def _cores() -> int:
     try:
         return len(os.sched_getaffinity(0))
-    except AttributeError:      # macOS, Windows
+    except AttributeError:  # macOS, Windows
         return os.cpu_count() or 1
 
 
@@ -429,7 +440,7 @@ def _claim(dispatcher):
                 os.remove(path)
             except OSError:
                 return None
-        except OSError:             # a read-only cache directory, say
+        except OSError:  # a read-only cache directory, say
             return None
     return None
 
@@ -452,15 +463,14 @@ def prepare(extra=(), rough: bool = True) -> None:
     if all(_cached(d) for d in functions):
         return
     print(MESSAGE, file=sys.stderr, flush=True)
-    if _numba_internals() is None or os.environ.get(ENV_SWITCH, "1").strip() == "0" \
-            or _cores() < 2:
+    if _numba_internals() is None or os.environ.get(ENV_SWITCH, "1").strip() == "0" or _cores() < 2:
         return
     lock = _claim(functions[0])
     if lock is None:
         return
     try:
         taken = tempfile.mkdtemp(prefix="hoprover-compile-")
-    except OSError:             # no writable temporary directory: compile here alone
+    except OSError:  # no writable temporary directory: compile here alone
         taken = None
     try:
         if taken is None:
@@ -475,7 +485,7 @@ def prepare(extra=(), rough: bool = True) -> None:
             compile_queue(queue)
             helper.wait(timeout=max(0.0, started + HELPER_TIMEOUT - time.monotonic()))
         except subprocess.TimeoutExpired:
-            pass                # what the helper did not finish compiles here on first use
+            pass  # what the helper did not finish compiles here on first use
         finally:
             if helper.poll() is None:
                 helper.kill()
@@ -513,20 +523,30 @@ def _start_helper(queue):
     path = os.pathsep.join(p for p in (parent, os.environ.get("PYTHONPATH")) if p)
     try:
         return subprocess.Popen(
-            [sys.executable, "-c", "import sys, hoprover_env; from hoprover_env.jit import "
-             "compiler as c; c.compile_queue(sys.argv[1:])", *queue],
+            [
+                sys.executable,
+                "-c",
+                "import sys, hoprover_env; from hoprover_env.jit import "
+                "compiler as c; c.compile_queue(sys.argv[1:])",
+                *queue,
+            ],
             env=dict(os.environ, PYTHONPATH=path, **{_HELPER_FLAG: "1"}),
-            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
     except OSError:
         return None
 
 
 # ---------------------------------------------------------------- the compile notice
-MESSAGE = ("hoprover_env: compiling the simulator with numba, once after installing or "
-           "editing it (usually 5-15 s; cached afterwards) ...")
+MESSAGE = (
+    "hoprover_env: compiling the simulator with numba, once after installing or "
+    "editing it (usually 5-15 s; cached afterwards) ..."
+)
 
 
-_OPENMP = []        # [runtime or None], once known (_openmp)
+_OPENMP = []  # [runtime or None], once known (_openmp)
 
 
 def _openmp():
@@ -538,6 +558,7 @@ def _openmp():
     if _OPENMP:
         return _OPENMP[0]
     import ctypes
+
     try:
         lib = ctypes.CDLL("libgomp.so.1", mode=getattr(os, "RTLD_NOLOAD", 4))
         for name in ("omp_get_max_threads", "omp_get_max_active_levels"):
@@ -547,7 +568,8 @@ def _openmp():
     except (OSError, AttributeError):
         try:
             from numba.np.ufunc import parallel
-            if parallel._is_initialized:        # numba's threads run without OpenMP
+
+            if parallel._is_initialized:  # numba's threads run without OpenMP
                 _OPENMP.append(None)
         except (ImportError, AttributeError):
             pass
@@ -584,7 +606,7 @@ def run_threaded(fn, *args):
     finally:
         if lib is None and not _OPENMP:
             lib = _openmp()
-            if lib is not None:     # loaded by this call (numba's threads started)
+            if lib is not None:  # loaded by this call (numba's threads started)
                 before = (_default_threads(lib), lib.omp_get_max_active_levels())
         if lib is not None:
             now = _openmp_settings(lib)

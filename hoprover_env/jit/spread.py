@@ -10,13 +10,14 @@ loops therefore read row ``order[j]`` at iteration j, with `order` from `spread_
 a fixed permutation, so that each row is still computed by the same code on its own
 data (every output bit for bit what it was, whichever thread runs it).
 """
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-BLOCK = 8        # rows kept together: neighbours' outputs share cache lines
+BLOCK = 8  # rows kept together: neighbours' outputs share cache lines
 # 1 / golden ratio: the stride whose multiples mod 1 are the most evenly spread
 _STRIDE = (math.sqrt(5.0) - 1.0) / 2.0
 
@@ -34,7 +35,7 @@ def spread_order(n: int, block: int = BLOCK) -> np.ndarray:
         raise ValueError(f"spread_order needs n >= 0 and block >= 1, got {n}, {block}")
     nb = -(-n // block)
     a = max(1, round(nb * _STRIDE))
-    while math.gcd(a, nb) > 1:         # prime to nb: j -> j * a mod nb is a bijection
+    while math.gcd(a, nb) > 1:  # prime to nb: j -> j * a mod nb is a bijection
         a += 1
     first = (np.arange(nb, dtype=np.int64) * a) % nb * block
     order = (first[:, None] + np.arange(block, dtype=np.int64)[None, :]).ravel()

@@ -38,6 +38,7 @@ record         keep every sample and event (default). False keeps only the per-r
 Bad input raises ValueError (or TypeError) naming the argument and, for per-run input,
 the run index.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -69,8 +70,8 @@ from hoprover_env.sim.simulate import (
 )
 from hoprover_env.util.validate import check_seed, positive_real, real_array, run_rows, seed_array
 
-MAX_STEPS = 10**9                 # control intervals x samples per run
-MAX_RECORD_BYTES = 4 * 10**9      # sample arrays of a recorded batch
+MAX_STEPS = 10**9  # control intervals x samples per run
+MAX_RECORD_BYTES = 4 * 10**9  # sample arrays of a recorded batch
 
 
 @dataclasses.dataclass
@@ -78,22 +79,22 @@ class BatchRollout(SampledStates):
     """N runs. Sample arrays have shape (N, M), M the longest run's sample count; a run
     that broke early is padded with NaN (and '' in `state`) after its n_samples[i]."""
 
-    targets: np.ndarray          # (N,)
-    params: Sequence             # N RoverParams (a list, or RunParams when drawn)
-    ttrtp: np.ndarray            # (N,) NaN where the target was not reached
-    broken: np.ndarray           # (N,) bool
-    n_events: np.ndarray         # (N,) events (transitions, impacts, band crossings)
-    n_impacts: np.ndarray        # (N,)
-    final: np.ndarray            # (N, 7) x, y, theta, vx, vy, omega, t at the end
-    n_samples: np.ndarray        # (N,) samples recorded per run (0 without record)
+    targets: np.ndarray  # (N,)
+    params: Sequence  # N RoverParams (a list, or RunParams when drawn)
+    ttrtp: np.ndarray  # (N,) NaN where the target was not reached
+    broken: np.ndarray  # (N,) bool
+    n_events: np.ndarray  # (N,) events (transitions, impacts, band crossings)
+    n_impacts: np.ndarray  # (N,)
+    final: np.ndarray  # (N, 7) x, y, theta, vx, vy, omega, t at the end
+    n_samples: np.ndarray  # (N,) samples recorded per run (0 without record)
     torque: np.ndarray
     torque_cmd: np.ndarray
-    event_log: np.ndarray        # (N, L, 5): t, kind, mode before, mode after, value
-    n_logged: np.ndarray         # (N,) rows of event_log used per run
+    event_log: np.ndarray  # (N, L, 5): t, kind, mode before, mode after, value
+    n_logged: np.ndarray  # (N,) rows of event_log used per run
     _run: dict = dataclasses.field(repr=False, default_factory=dict)
-    seed: int | np.ndarray | None = None   # key of the rough-terrain draws: one seed, run
+    seed: int | np.ndarray | None = None  # key of the rough-terrain draws: one seed, run
     #                    i with rover index i; or (N,) seeds, each run rover 0 (None: smooth)
-    rovers: np.ndarray | None = None       # (N,) rover index of each run's key
+    rovers: np.ndarray | None = None  # (N,) rover index of each run's key
 
     @property
     def success(self) -> np.ndarray:
@@ -116,19 +117,31 @@ class BatchRollout(SampledStates):
         seed = (int(seeds[i]) if np.ndim(seeds) else seeds) if rough else None
         rover = int(r["rovers"][i]) if rough else 0
         initial = r["initial"]
-        replay = dict(controller=r["schedules"][i].copy() if r["controller"] is None
-                      else r["controller"], **r["kwargs"], target_x=float(self.targets[i]),
-                      params=self.params[i],
-                      initial_state=None if initial is None
-                      else tuple(map(float, initial[i if len(initial) > 1 else 0])),
-                      seed=seed, rover=rover,
-                      controller_args=r["cargs"][i].copy() if r["cargs"].shape[1] else None)
+        replay = dict(
+            controller=r["schedules"][i].copy() if r["controller"] is None else r["controller"],
+            **r["kwargs"],
+            target_x=float(self.targets[i]),
+            params=self.params[i],
+            initial_state=None
+            if initial is None
+            else tuple(map(float, initial[i if len(initial) > 1 else 0])),
+            seed=seed,
+            rover=rover,
+            controller_args=r["cargs"][i].copy() if r["cargs"].shape[1] else None,
+        )
         if not r["record"]:
             return simulate(**replay)
         buf = r["buffers"]
-        roll = rollout.build_rollout(buf.rows[i], buf.cmds[i], buf.applied[i], buf.log[i],
-                                     buf.prog[i], r["S"][i], self.params[i],
-                                     self.targets[i])
+        roll = rollout.build_rollout(
+            buf.rows[i],
+            buf.cmds[i],
+            buf.applied[i],
+            buf.log[i],
+            buf.prog[i],
+            r["S"][i],
+            self.params[i],
+            self.targets[i],
+        )
         roll.seed, roll.rover, roll.replay_args = seed, rover, replay
         return roll
 
@@ -143,20 +156,24 @@ def _controller(controller, n):
         ctrl = rollout.control_function(controller)
         sched = np.zeros((n, 0))
     elif callable(controller):
-        raise TypeError("simulate_batch runs a torque schedule array (N, K) or a "
-                        "numba-compiled controller; loop over simulate() for a Python "
-                        "controller")
+        raise TypeError(
+            "simulate_batch runs a torque schedule array (N, K) or a "
+            "numba-compiled controller; loop over simulate() for a Python "
+            "controller"
+        )
     else:
         sched = real_array("torque schedules", controller)
         if sched.ndim != 2:
-            raise ValueError(f"torque schedules must have shape (N, K), one row per run, got "
-                             f"shape {sched.shape}")
+            raise ValueError(
+                f"torque schedules must have shape (N, K), one row per run, got shape {sched.shape}"
+            )
         if sched.shape[0] != n:
             raise ValueError(f"torque schedules have {sched.shape[0]} rows for {n} targets")
         if not np.isfinite(sched).all():
             i, k = np.argwhere(~np.isfinite(sched))[0]
-            raise ValueError(f"run {i}: torque schedule element {k} is {sched[i, k]!r}; "
-                             "torques must be finite")
+            raise ValueError(
+                f"run {i}: torque schedule element {k} is {sched[i, k]!r}; torques must be finite"
+            )
         ctrl = None
     return use_ctrl, source, ctrl, sched
 
@@ -167,12 +184,14 @@ def _controller_args(controller_args, use_ctrl, n):
         cargs = np.zeros((n, 0))
     else:
         if not use_ctrl:
-            raise ValueError("controller_args are passed to a compiled controller; a torque "
-                             "schedule takes none")
+            raise ValueError(
+                "controller_args are passed to a compiled controller; a torque schedule takes none"
+            )
         cargs = real_array("controller_args", controller_args)
         if cargs.ndim != 2 or cargs.shape[0] != n:
-            raise ValueError(f"controller_args must have shape (N, M) with N = {n}, got "
-                             f"{cargs.shape}")
+            raise ValueError(
+                f"controller_args must have shape (N, M) with N = {n}, got {cargs.shape}"
+            )
         if not np.isfinite(cargs).all():
             i, k = np.argwhere(~np.isfinite(cargs))[0]
             raise ValueError(f"run {i}: controller_args element {k} is not finite")
@@ -206,8 +225,11 @@ class RunParams(Sequence):
     def __eq__(self, other):
         if isinstance(other, RunParams) and len(other) == len(self):
             return bool(np.array_equal(self.rows, other.rows))
-        return isinstance(other, Sequence) and len(other) == len(self) \
+        return (
+            isinstance(other, Sequence)
+            and len(other) == len(self)
             and all(a == b for a, b in zip(self, other))
+        )
 
     def __repr__(self) -> str:
         return f"RunParams({len(self)} runs)"
@@ -220,15 +242,18 @@ def _run_params(params, randomize, seed, n):
     per run, each distinct object's as_array taken once."""
     if randomize is not None:
         if params is not None and not isinstance(params, (RoverParams, Mapping)):
-            raise ValueError("randomize draws each run's parameters from one base: give "
-                             "params as one RoverParams (or None), not a sequence")
+            raise ValueError(
+                "randomize draws each run's parameters from one base: give "
+                "params as one RoverParams (or None), not a sequence"
+            )
         if isinstance(params, Mapping):
             params = RoverParams(**params)
         base = params if params is not None else RoverParams()
         randomize = check_randomize(randomize)
         if randomize:
-            rng = rng_for_seeds(seed) if isinstance(seed, np.ndarray) \
-                else np.random.default_rng(seed)
+            rng = (
+                rng_for_seeds(seed) if isinstance(seed, np.ndarray) else np.random.default_rng(seed)
+            )
             rows = kernel_rows(draw_fields(base, randomize, rng, n))
             return RunParams(rows), rows
         params = base
@@ -239,35 +264,51 @@ def _run_params(params, randomize, seed, n):
         rows[:] = params.as_array()
         return [params] * n, rows
     if isinstance(params, (str, bytes, Mapping)) or not isinstance(params, Sequence):
-        raise TypeError(f"params must be None, a RoverParams or a sequence of {n} of them, "
-                        f"got {type(params).__name__}")
+        raise TypeError(
+            f"params must be None, a RoverParams or a sequence of {n} of them, "
+            f"got {type(params).__name__}"
+        )
     if len(params) != n:
         raise ValueError(f"params has {len(params)} entries for {n} runs")
     out = list(params)
     if not all(issubclass(t, RoverParams) for t in set(map(type, out))):
-        for i, p in enumerate(out):     # dicts to build, or something else to refuse
+        for i, p in enumerate(out):  # dicts to build, or something else to refuse
             if isinstance(p, Mapping):
                 try:
                     out[i] = p = RoverParams(**p)
                 except (TypeError, ValueError) as err:
                     raise ValueError(f"run {i}: {err}") from None
             if not isinstance(p, RoverParams):
-                raise TypeError(f"run {i}: params must be a RoverParams or a dict of its "
-                                f"fields, got {type(p).__name__}")
+                raise TypeError(
+                    f"run {i}: params must be a RoverParams or a dict of its "
+                    f"fields, got {type(p).__name__}"
+                )
     return out, as_arrays(out)
 
 
-def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float = 0.1,
-                   integrator: str = "event", impact_law: str = "contest", params=None,
-                   randomize: Mapping[str, float] | None = None, seed=None,
-                   initial_states=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
-                   sample_dt: float | None = None, controller_args=None,
-                   record: bool = True) -> BatchRollout:
+def simulate_batch(
+    controller,
+    targets,
+    t_end: float = 600.0,
+    control_dt: float = 0.1,
+    integrator: str = "event",
+    impact_law: str = "contest",
+    params=None,
+    randomize: Mapping[str, float] | None = None,
+    seed=None,
+    initial_states=None,
+    euler_dt: float = 1e-3,
+    rtol: float = DEFAULT_RTOL,
+    sample_dt: float | None = None,
+    controller_args=None,
+    record: bool = True,
+) -> BatchRollout:
     """N runs in one threaded kernel call; see the module docstring."""
     targets = real_array("targets", targets)
     if targets.ndim != 1 or targets.size == 0:
-        raise ValueError(f"targets must be a non-empty 1-D array (one per run), got shape "
-                         f"{targets.shape}")
+        raise ValueError(
+            f"targets must be a non-empty 1-D array (one per run), got shape {targets.shape}"
+        )
     n = targets.size
     bad = np.flatnonzero(~np.isfinite(targets))
     if bad.size:
@@ -283,11 +324,11 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     cargs = _controller_args(controller_args, use_ctrl, n)
 
     per_run = isinstance(seed, (np.ndarray, list, tuple))
-    if per_run:                  # run i keyed (seeds[i], rover 0)
+    if per_run:  # run i keyed (seeds[i], rover 0)
         key = seed_array(seed, n)
         plist, P = _run_params(params, randomize, key, n)
         rovers = np.zeros(n, dtype=np.int64)
-    else:                        # run i keyed (seed, rover i)
+    else:  # run i keyed (seed, rover i)
         seed = check_seed(seed)
         plist, P = _run_params(params, randomize, seed, n)
         key = seed = check_seed(seed, bool((P[:, P_ROUGH] > 0.0).any()))
@@ -300,34 +341,94 @@ def simulate_batch(controller, targets, t_end: float = 600.0, control_dt: float 
     # the control grid of simulate()
     n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
     if n_ctrl * sub > MAX_STEPS:
-        raise ValueError(f"t_end / control_dt (x control_dt / sample_dt) gives {n_ctrl * sub:.3g} "
-                         f"kernel calls per run; at most {MAX_STEPS:.0e}")
+        raise ValueError(
+            f"t_end / control_dt (x control_dt / sample_dt) gives {n_ctrl * sub:.3g} "
+            f"kernel calls per run; at most {MAX_STEPS:.0e}"
+        )
     if record and n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 > MAX_RECORD_BYTES:
-        raise ValueError(f"recording {n} runs of {n_ctrl * sub + 1} samples needs "
-                         f"{n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 / 1e9:.1f} GB; pass "
-                         "record=False (summaries only; rollout(i) re-runs run i)")
+        raise ValueError(
+            f"recording {n} runs of {n_ctrl * sub + 1} samples needs "
+            f"{n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 / 1e9:.1f} GB; pass "
+            "record=False (summaries only; rollout(i) re-runs run i)"
+        )
     run_many = rollout.kernel_many(rollout.loop_kind(opts, P))
     if not use_ctrl:
         ctrl = rollout.no_control
     buf = rollout.Buffers(n, n_ctrl * sub + 1, 64, record)
     threads = numba.config.NUMBA_NUM_THREADS
     evbuf, w, backup, cbuf = rollout.scratch(threads, cargs.shape[1])
-    _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control_dt, t_end,
-                  n_ctrl, sub, record, evbuf, w, backup, cbuf)
-    result = _result(buf, S, targets, plist, record, dict(
-        record=record, buffers=buf, S=S, controller=None if not use_ctrl else controller,
-        schedules=None if use_ctrl else sched, initial=initial, cargs=cargs,
-        seeds=key, rovers=rovers,
-        kwargs=dict(t_end=t_end, control_dt=control_dt, integrator=integrator,
-                    impact_law=impact_law, euler_dt=euler_dt, rtol=rtol,
-                    sample_dt=sample_dt)))
+    _run_threaded(
+        run_many,
+        buf,
+        S,
+        P,
+        opts,
+        sched,
+        ctrl,
+        source,
+        cargs,
+        control_dt,
+        t_end,
+        n_ctrl,
+        sub,
+        record,
+        evbuf,
+        w,
+        backup,
+        cbuf,
+    )
+    result = _result(
+        buf,
+        S,
+        targets,
+        plist,
+        record,
+        dict(
+            record=record,
+            buffers=buf,
+            S=S,
+            controller=None if not use_ctrl else controller,
+            schedules=None if use_ctrl else sched,
+            initial=initial,
+            cargs=cargs,
+            seeds=key,
+            rovers=rovers,
+            kwargs=dict(
+                t_end=t_end,
+                control_dt=control_dt,
+                integrator=integrator,
+                impact_law=impact_law,
+                euler_dt=euler_dt,
+                rtol=rtol,
+                sample_dt=sample_dt,
+            ),
+        ),
+    )
     result.seed = (key.copy() if per_run else seed) if rough else None
     result.rovers = rovers
     return result
 
 
-def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control_dt, t_end,
-                  n_ctrl, sub, record, evbuf, w, backup, cbuf) -> None:
+def _run_threaded(
+    run_many,
+    buf,
+    S,
+    P,
+    opts,
+    sched,
+    ctrl,
+    source,
+    cargs,
+    control_dt,
+    t_end,
+    n_ctrl,
+    sub,
+    record,
+    evbuf,
+    w,
+    backup,
+    cbuf,
+) -> None:
     """Every run to its end on numba's threads, growing the event log and calling again
     for the runs that ran out of room in it; a run that failed raises (check_status)."""
     n = S.shape[0]
@@ -341,14 +442,36 @@ def _run_threaded(run_many, buf, S, P, opts, sched, ctrl, source, cargs, control
     while True:
         chunk = numba.set_parallel_chunksize(1)
         try:
-            run_threaded(run_many, S, P, opts, sched, ctrl, source, cargs, control_dt,
-                         t_end, n_ctrl, sub, record, buf.rows, buf.cmds, buf.applied,
-                         buf.log, buf.prog, active, evbuf, w, backup, cbuf, order)
+            run_threaded(
+                run_many,
+                S,
+                P,
+                opts,
+                sched,
+                ctrl,
+                source,
+                cargs,
+                control_dt,
+                t_end,
+                n_ctrl,
+                sub,
+                record,
+                buf.rows,
+                buf.cmds,
+                buf.applied,
+                buf.log,
+                buf.prog,
+                active,
+                evbuf,
+                w,
+                backup,
+                cbuf,
+                order,
+            )
         finally:
             numba.set_parallel_chunksize(chunk)
         status = buf.prog[:, rollout.G_STATUS]
-        for i in np.flatnonzero(active & (status != rollout.ST_DONE)
-                                & (status != rollout.ST_ROOM)):
+        for i in np.flatnonzero(active & (status != rollout.ST_DONE) & (status != rollout.ST_ROOM)):
             rollout.check_status(buf.prog[i], S[i], f"run {i}: ")
         active = status == rollout.ST_ROOM
         if not active.any():
@@ -365,7 +488,7 @@ def _result(buf, S, targets, plist, record, run) -> BatchRollout:
     rows = buf.rows if record else np.zeros((n, 0, rollout.ROW_COLS))
     pad = np.arange(rows.shape[1])[None, :] >= n_samples[:, None]
 
-    if record:              # unused rows become padding, in place (no copies)
+    if record:  # unused rows become padding, in place (no copies)
         buf.rows[pad] = np.nan
         buf.cmds[pad] = np.nan
         buf.applied[pad] = np.nan
@@ -378,11 +501,26 @@ def _result(buf, S, targets, plist, record, run) -> BatchRollout:
 
     modes = np.where(pad, 7, rows[:, :, core.S_MODE]).astype(np.int64)
     return BatchRollout(
-        targets=targets, params=plist, ttrtp=S[:, core.S_TTRTP].copy(),
-        broken=S[:, core.S_BROKEN] != 0.0, n_events=S[:, core.S_NEVENTS].astype(np.int64),
-        n_impacts=S[:, core.S_NIMPACT].astype(np.int64), final=S[:, :core.S_T + 1].copy(),
-        n_samples=n_samples, t=column(core.S_T), x=column(core.S_X), y=column(core.S_Y),
-        theta=column(core.S_TH), vx=column(core.S_VX), vy=column(core.S_VY),
-        omega=column(core.S_W), sigma=column(core.S_SIGMA), state=_PAD_LETTERS[modes],
-        torque=torque(buf.applied), torque_cmd=torque(buf.cmds), event_log=buf.log,
-        n_logged=buf.prog[:, rollout.G_LOG].astype(np.int64), _run=run)
+        targets=targets,
+        params=plist,
+        ttrtp=S[:, core.S_TTRTP].copy(),
+        broken=S[:, core.S_BROKEN] != 0.0,
+        n_events=S[:, core.S_NEVENTS].astype(np.int64),
+        n_impacts=S[:, core.S_NIMPACT].astype(np.int64),
+        final=S[:, : core.S_T + 1].copy(),
+        n_samples=n_samples,
+        t=column(core.S_T),
+        x=column(core.S_X),
+        y=column(core.S_Y),
+        theta=column(core.S_TH),
+        vx=column(core.S_VX),
+        vy=column(core.S_VY),
+        omega=column(core.S_W),
+        sigma=column(core.S_SIGMA),
+        state=_PAD_LETTERS[modes],
+        torque=torque(buf.applied),
+        torque_cmd=torque(buf.cmds),
+        event_log=buf.log,
+        n_logged=buf.prog[:, rollout.G_LOG].astype(np.int64),
+        _run=run,
+    )

@@ -6,6 +6,7 @@ hopper (hoprover_env/agents/scripted.py), the compiled contest controllers
 their torques agree to the bit. Compiled with `kernel` (hoprover_env/jit/compiler.py) and
 callable from Python and from jitted code alike.
 """
+
 import math
 
 from hoprover_env.jit.compiler import kernel

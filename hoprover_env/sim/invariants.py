@@ -13,6 +13,7 @@ states by the same code:
   `dissipative` law must never produce).
 The independent scipy solution of launches and flights is hoprover_env/sim/reference.py.
 """
+
 from __future__ import annotations
 
 import math
@@ -24,15 +25,14 @@ from hoprover_env.core import MODE_A, MODE_B, MODE_C, MODE_D, MODE_F, MODE_G
 from hoprover_env.core.params import P_H
 from hoprover_env.jit.compiler import kernel
 
-PENETRATION_TOL = 1e-9      # m: a bottom corner lower than -this is under the ground
-KINEMATIC_TOL = 1e-9        # default tolerance of the kinematic rules
-ENERGY_TOL = 1e-12          # relative: the kernel's own threshold for "gained energy"
+PENETRATION_TOL = 1e-9  # m: a bottom corner lower than -this is under the ground
+KINEMATIC_TOL = 1e-9  # default tolerance of the kinematic rules
+ENERGY_TOL = 1e-12  # relative: the kernel's own threshold for "gained energy"
 
 # Violation kinds: bits of the masks `check_state` returns (and of the stress
 # benchmark's counters, which add the kinds only a driver can see).
 V_NAN, V_PEN_EVENT, V_PEN_SAMPLE, V_KINEMATICS, V_ENERGY, V_TIME, V_BUDGET = range(7)
-VIOLATION_NAMES = ("nan", "pen_event", "pen_sample", "kinematics", "energy", "time",
-                   "budget")
+VIOLATION_NAMES = ("nan", "pen_event", "pen_sample", "kinematics", "energy", "time", "budget")
 N_VIOLATION_KINDS = len(VIOLATION_NAMES)
 # Details (bits after the kinds): of `kinematics`, a single-contact state whose only
 # fault is the sign of theta (tilted toward the free corner, which is then under the
@@ -42,15 +42,28 @@ WRONG_TILT_ONLY = N_VIOLATION_KINDS
 KINEMATICS_OTHER = N_VIOLATION_KINDS + 1
 PEN_AT_BREAK = N_VIOLATION_KINDS + 2
 N_RECORDS = N_VIOLATION_KINDS + 3
-RECORD_NAMES = VIOLATION_NAMES + ("kinematics: wrong tilt only", "kinematics: other",
-                                  "pen_event: at a break")
+RECORD_NAMES = VIOLATION_NAMES + (
+    "kinematics: wrong tilt only",
+    "kinematics: other",
+    "pen_event: at a break",
+)
 
 # How far the checked states strayed from their constraints (slots of a `drift` vector
 # that `check_state` updates): counts of single-contact (B-E) and F/G states, the lowest
 # bottom corner, the contact corner's |y| and |vy|, a pivot's |vx|, and F/G's distance
 # from upright rest.
-(D_SAMPLES_SINGLE, D_SAMPLES_DOUBLE, D_MIN_HEIGHT, D_CORNER_Y, D_CORNER_VY, D_PIVOT_VX,
- D_FG_Y, D_FG_TH, D_FG_VY, D_FG_W) = range(10)
+(
+    D_SAMPLES_SINGLE,
+    D_SAMPLES_DOUBLE,
+    D_MIN_HEIGHT,
+    D_CORNER_Y,
+    D_CORNER_VY,
+    D_PIVOT_VX,
+    D_FG_Y,
+    D_FG_TH,
+    D_FG_VY,
+    D_FG_W,
+) = range(10)
 N_DRIFT = 10
 
 
@@ -112,7 +125,7 @@ def check_state(S, P, tol, drift):
         drift[D_FG_TH] = max(drift[D_FG_TH], abs(wth))
         drift[D_FG_VY] = max(drift[D_FG_VY], abs(S[core.S_VY]))
         drift[D_FG_W] = max(drift[D_FG_W], abs(w))
-        ok = (wth == 0.0 and y == P[P_H] and S[core.S_VY] == 0.0 and w == 0.0)
+        ok = wth == 0.0 and y == P[P_H] and S[core.S_VY] == 0.0 and w == 0.0
         if mode == MODE_F:
             ok = ok and S[core.S_VX] == 0.0
         else:
@@ -145,8 +158,7 @@ def check_state(S, P, tol, drift):
 def rollout_states(roll):
     """Kernel state vectors (c.m. state, time, mode) of a Rollout's samples."""
     s = np.zeros((len(roll.t), core.N_STATE))
-    s[:, :core.S_T + 1] = np.c_[roll.x, roll.y, roll.theta, roll.vx, roll.vy, roll.omega,
-                                roll.t]
+    s[:, : core.S_T + 1] = np.c_[roll.x, roll.y, roll.theta, roll.vx, roll.vy, roll.omega, roll.t]
     s[:, core.S_MODE] = [core.MODE_LETTERS.index(st) for st in roll.state]
     return s
 
@@ -160,5 +172,8 @@ def kinematic_violations(roll, tol: float = KINEMATIC_TOL) -> list:
     drift = new_drift()
     flags = (1 << V_KINEMATICS) | (1 << V_NAN)
     last = len(roll.t) - 1
-    return [(i, roll.t[i], roll.state[i]) for i, s in enumerate(rollout_states(roll))
-            if not (roll.broken and i == last) and check_state(s, p, tol, drift) & flags]
+    return [
+        (i, roll.t[i], roll.state[i])
+        for i, s in enumerate(rollout_states(roll))
+        if not (roll.broken and i == last) and check_state(s, p, tol, drift) & flags
+    ]

@@ -13,19 +13,20 @@ tipping torque and follows B (pivot on A) / C (slide on A) until lift-off.
 `flight(state, T)` follows the flight (x'' = -gs, y'' = -gc, theta'' = T / I) to the
 first time a corner reaches the ground.
 """
+
 import math
 
 import numpy as np
 
-RTOL, ATOL = 1e-13, 1e-16      # scipy DOP853's tolerances (scipy: a test dependency)
+RTOL, ATOL = 1e-13, 1e-16  # scipy DOP853's tolerances (scipy: a test dependency)
 
 
 class Ref:
     """The reference solver (module docstring); parameters as RoverParams' fields."""
 
     RTOL, ATOL = RTOL, ATOL
-    def __init__(self, m=1.0, I=0.0017, r=0.05, h=0.05, g=9.8e-5, mus=0.6, mud=0.5,
-                 slope=0.0):
+
+    def __init__(self, m=1.0, I=0.0017, r=0.05, h=0.05, g=9.8e-5, mus=0.6, mud=0.5, slope=0.0):
         self.m, self.I, self.r, self.h, self.g, self.mus, self.mud = m, I, r, h, g, mus, mud
         self.gs, self.gc = g * math.sin(slope), g * math.cos(slope)
         self.l = math.hypot(r, h)
@@ -59,9 +60,11 @@ class Ref:
     def launch(self, T, t_max=200.0):
         """Follow F -> B/C -> ... -> lift-off. Returns (t, state6, modes)."""
         from scipy.integrate import solve_ivp
+
         m, r = self.m, self.r
-        assert T > m * (self.gc * r + self.gs * self.h), \
+        assert T > m * (self.gc * r + self.gs * self.h), (
             "below the tipping torque the rover stays in F"
+        )
         t, th, w, x, vx = 0.0, 0.0, 0.0, 0.0, 0.0
         modes = ["F", "B"]
         sigma = 0.0
@@ -85,8 +88,15 @@ class Ref:
 
                 for e in (liftoff, slip):
                     e.terminal, e.direction = True, -1
-                sol = solve_ivp(rhs, (t, t_max), [th, w], method="DOP853", rtol=RTOL,
-                                atol=ATOL, events=(liftoff, slip))
+                sol = solve_ivp(
+                    rhs,
+                    (t, t_max),
+                    [th, w],
+                    method="DOP853",
+                    rtol=RTOL,
+                    atol=ATOL,
+                    events=(liftoff, slip),
+                )
                 th, w = sol.y[0, -1], sol.y[1, -1]
                 t = sol.t[-1]
                 x = xa - self.l * math.cos(th + self.alpha)
@@ -115,8 +125,15 @@ class Ref:
                 slide_liftoff.terminal, slide_liftoff.direction = True, -1
                 stick.terminal, stick.direction = True, -1
                 # the slide starts from rest: integrate a hair before arming 'stick'
-                sol = solve_ivp(slide_rhs, (t, t_max), [th, w, x, vx], method="DOP853",
-                                rtol=RTOL, atol=ATOL, events=(slide_liftoff, stick))
+                sol = solve_ivp(
+                    slide_rhs,
+                    (t, t_max),
+                    [th, w, x, vx],
+                    method="DOP853",
+                    rtol=RTOL,
+                    atol=ATOL,
+                    events=(slide_liftoff, stick),
+                )
                 th, w, x, vx = sol.y[:, -1]
                 t = sol.t[-1]
                 if sol.t_events[0].size:
@@ -136,10 +153,13 @@ class Ref:
         """Heights (y) and x positions of A, B, top-right, top-left of a state."""
         x, y, th = st[0], st[1], st[2]
         out = []
-        for bx, by in ((self.r, -self.h), (-self.r, -self.h), (self.r, self.h),
-                       (-self.r, self.h)):
-            out.append((x + bx * math.cos(th) + by * math.sin(th),
-                        y - bx * math.sin(th) + by * math.cos(th)))
+        for bx, by in ((self.r, -self.h), (-self.r, -self.h), (self.r, self.h), (-self.r, self.h)):
+            out.append(
+                (
+                    x + bx * math.cos(th) + by * math.sin(th),
+                    y - bx * math.sin(th) + by * math.cos(th),
+                )
+            )
         return out
 
     def flight(self, st, T, t0, t_max=2000.0):
@@ -148,6 +168,7 @@ class Ref:
         as at a lift-off, counts once it has risen 1e-9 m). Returns (t, state, corner)."""
         from scipy.integrate import solve_ivp
         from scipy.optimize import brentq
+
         gs, gc, beta = self.gs, self.gc, T / self.I
 
         def rhs(_t, y):
@@ -158,6 +179,7 @@ class Ref:
 
             def ev(_t, y):
                 return self.corners(y)[k][1] - (1e-9 if start < 1e-9 else 0.0)
+
             ev.terminal, ev.direction = False, -1
             return ev
 
@@ -165,9 +187,17 @@ class Ref:
         # events are only seen as sign changes between steps, and DOP853 takes huge steps
         # on this polynomial motion: limit them to 1/50 turn at the fastest spin
         spin = abs(st[5]) + abs(beta) * (t_max - t0) + 1e-3
-        sol = solve_ivp(rhs, (t0, t_max), list(st), method="DOP853", rtol=RTOL,
-                        atol=ATOL, events=evs, dense_output=True,
-                        max_step=min(1.0, 2 * math.pi / 50 / spin))
+        sol = solve_ivp(
+            rhs,
+            (t0, t_max),
+            list(st),
+            method="DOP853",
+            rtol=RTOL,
+            atol=ATOL,
+            events=evs,
+            dense_output=True,
+            max_step=min(1.0, 2 * math.pi / 50 / spin),
+        )
         hits = []
         for k in range(4):
             start = self.corners(st)[k][1]
@@ -175,7 +205,7 @@ class Ref:
                 if start < 1e-9:
                     # a corner starting on the ground: its touchdown is where it returns
                     # to the ground, found from the 1e-9 m crossing on the way down
-                    f = lambda tt, k=k: self.corners(sol.sol(tt))[k][1]   # noqa: E731
+                    f = lambda tt, k=k: self.corners(sol.sol(tt))[k][1]  # noqa: E731
                     a, b = t, t + 1.0
                     while f(b) > 0.0:
                         b += 1.0

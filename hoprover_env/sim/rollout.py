@@ -39,6 +39,7 @@ log grows on demand: when the events of one advance do not fit, the run restores
 state it had before that advance and returns; the caller enlarges the log and calls
 again, and the run continues where it stopped (same arithmetic, so the same result).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -57,16 +58,16 @@ from hoprover_env.core.params import P_ROUGH, P_TMAX, P_TMIN, RoverParams
 from hoprover_env.jit.compiler import bind_globals, compile_now, kernel
 from hoprover_env.util.validate import check_torque
 
-ROW_COLS = core.S_SIGMA + 1          # x, y, theta, vx, vy, omega, t, mode, sigma
-EV_CAP = core.MAX_EVENTS + 64        # events one advance may log (as RoverSim keeps)
+ROW_COLS = core.S_SIGMA + 1  # x, y, theta, vx, vy, omega, t, mode, sigma
+EV_CAP = core.MAX_EVENTS + 64  # events one advance may log (as RoverSim keeps)
 
 # prog: where a run stands (float64 so one vector carries the held command too)
-G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD, G_CMD_K = range(7)   # G_CMD_K: G_CMD's instant
+G_K, G_J, G_ROWS, G_LOG, G_STATUS, G_CMD, G_CMD_K = range(7)  # G_CMD_K: G_CMD's instant
 N_PROG = 7
 ST_RUNNING, ST_DONE, ST_ROOM, ST_BUDGET, ST_BAD_TORQUE, ST_NEED_COMMAND = range(6)
 # who decides the torque at a control instant
 CTRL_SCHEDULE, CTRL_COMPILED, CTRL_PYTHON = 0, 1, 2
-POS_T = 4                             # scratch: pos 0:2, vel 2:4, posT 4:6, args 6:
+POS_T = 4  # scratch: pos 0:2, vel 2:4, posT 4:6, args 6:
 
 _V = nt.float64[::1]
 _M = nt.float64[:, ::1]
@@ -124,8 +125,29 @@ def _no_control(pos, vel, the, omg, posT, t, smt, state_code):
     return 0.0
 
 
-def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, record,
-         rows, cmds, applied, log, prog, evbuf, W, backup, cbuf):
+def _run(
+    S,
+    P,
+    O,
+    sched,
+    ctrl,
+    source,
+    cargs,
+    control_dt,
+    t_end,
+    n_ctrl,
+    sub,
+    record,
+    rows,
+    cmds,
+    applied,
+    log,
+    prog,
+    evbuf,
+    W,
+    backup,
+    cbuf,
+):
     """One run from prog[G_K], prog[G_J] on, with the torque from `source` (CTRL_*); see
     the module docstring."""
     k = int(prog[G_K])
@@ -146,9 +168,16 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                 return
             if source == CTRL_COMPILED:
                 _contest_arguments(S, cargs, cbuf)
-                cmd = ctrl(cbuf[0:2], cbuf[2:4], S[core.S_TH], S[core.S_W],
-                           cbuf[POS_T:POS_T + 2 + n_args], S[core.S_T], t_end,
-                           int(S[core.S_MODE]))
+                cmd = ctrl(
+                    cbuf[0:2],
+                    cbuf[2:4],
+                    S[core.S_TH],
+                    S[core.S_W],
+                    cbuf[POS_T : POS_T + 2 + n_args],
+                    S[core.S_T],
+                    t_end,
+                    int(S[core.S_MODE]),
+                )
                 if not math.isfinite(cmd):
                     prog[G_CMD] = cmd
                     prog[G_STATUS] = ST_BAD_TORQUE
@@ -172,8 +201,11 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                 backup[c] = S[c]
             S[core.S_STOP_ON] = -1.0
             n = advance(S, P, O, cmd, t_stop, evbuf, W)
-            if S[core.S_ERROR] == core.ERR_BUDGET or S[core.S_ERROR] == core.ERR_STEP \
-                    or S[core.S_ERROR] == core.ERR_WORK:
+            if (
+                S[core.S_ERROR] == core.ERR_BUDGET
+                or S[core.S_ERROR] == core.ERR_STEP
+                or S[core.S_ERROR] == core.ERR_WORK
+            ):
                 prog[G_STATUS] = ST_BUDGET
                 return
             m = n if n < evbuf.shape[0] else evbuf.shape[0]
@@ -183,8 +215,9 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
                         S[c] = backup[c]
                     _save_progress(prog, k, j, nr, nl, ST_ROOM)
                     return
-                nr, nl = _record_advance(rows, cmds, applied, log, nr, nl, backup, cmd, app,
-                                         evbuf, m)
+                nr, nl = _record_advance(
+                    rows, cmds, applied, log, nr, nl, backup, cmd, app, evbuf, m
+                )
             j += 1
             if S[core.S_BROKEN] != 0.0:
                 break
@@ -201,9 +234,31 @@ def _run(S, P, O, sched, ctrl, source, cargs, control_dt, t_end, n_ctrl, sub, re
     _save_progress(prog, k, j, nr, nl, ST_DONE)
 
 
-def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n_ctrlb,
-              subb, recordb, rowsb, cmdsb, appliedb, logb, progb, activeb, evbufb, Wb,
-              backupb, cbufb, orderb):
+def _run_many(
+    Sb,
+    Pb,
+    Ob,
+    schedb,
+    ctrlb,
+    sourceb,
+    cargsb,
+    control_dtb,
+    t_endb,
+    n_ctrlb,
+    subb,
+    recordb,
+    rowsb,
+    cmdsb,
+    appliedb,
+    logb,
+    progb,
+    activeb,
+    evbufb,
+    Wb,
+    backupb,
+    cbufb,
+    orderb,
+):
     """`_run` over the rows where `active` is set, spread over numba's threads; each
     thread uses its own scratch rows (evbuf, W, backup, cbuf)[thread id]. Iteration j
     runs row order[j] (a permutation, jit.spread.spread_order): numba gives each thread
@@ -215,15 +270,59 @@ def _run_many(Sb, Pb, Ob, schedb, ctrlb, sourceb, cargsb, control_dtb, t_endb, n
         i = orderb[j]
         if activeb[i]:
             tid = get_thread_id()
-            run_loop(Sb[i], Pb[i], Ob, schedb[i], ctrlb, sourceb, cargsb[i], control_dtb,
-                     t_endb, n_ctrlb, subb, recordb, rowsb[i], cmdsb[i], appliedb[i], logb[i],
-                     progb[i], evbufb[tid], Wb[tid], backupb[tid], cbufb[tid])
+            run_loop(
+                Sb[i],
+                Pb[i],
+                Ob,
+                schedb[i],
+                ctrlb,
+                sourceb,
+                cargsb[i],
+                control_dtb,
+                t_endb,
+                n_ctrlb,
+                subb,
+                recordb,
+                rowsb[i],
+                cmdsb[i],
+                appliedb[i],
+                logb[i],
+                progb[i],
+                evbufb[tid],
+                Wb[tid],
+                backupb[tid],
+                cbufb[tid],
+            )
 
 
-_RUN_SIG = nt.void(_V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M,
-                   _V, _M, _V, _V, _V)
-_RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B, _T3, _M,
-                        _M, _T3, _M, nt.boolean[::1], _T3, _M, _M, _M, nt.int64[::1])
+_RUN_SIG = nt.void(
+    _V, _V, _V, _V, CONTROL_TYPE, _I, _V, _F, _F, _I, _I, _B, _M, _V, _V, _M, _V, _M, _V, _V, _V
+)
+_RUN_MANY_SIG = nt.void(
+    _M,
+    _M,
+    _V,
+    _M,
+    CONTROL_TYPE,
+    _I,
+    _M,
+    _F,
+    _F,
+    _I,
+    _I,
+    _B,
+    _T3,
+    _M,
+    _M,
+    _T3,
+    _M,
+    nt.boolean[::1],
+    _T3,
+    _M,
+    _M,
+    _M,
+    nt.int64[::1],
+)
 # Explicit signatures make the controller a function pointer (one compiled loop for every
 # controller); they would also compile at import, so the loops are built on first use:
 # most sessions (the environments) never need them.
@@ -236,13 +335,15 @@ _RUN_MANY_SIG = nt.void(_M, _M, _V, _M, CONTROL_TYPE, _I, _M, _F, _F, _I, _I, _B
 # event run on rough ground the general event integrator, an Euler run `core.advance`.
 # Each kind is `_run` (and `_run_many` over it) with `advance` (`run_loop`) bound to its
 # integrator, compiled and cached under its own name, `_run_<kind>` (`_run_many_<kind>`).
-ADVANCE = {"event_smooth": smooth.advance_event_smooth,
-           "event": integrator.advance_event,
-           "euler": core.advance}
-advance = core.advance          # what `_run` calls; each kind binds its own
-run_loop = None                 # what `_run_many` calls; each kind binds its own `_run`
-run_one: dict = {}              # kind -> the one-run loop, compiled on first use
-run_many: dict = {}             # kind -> the threaded N-run loop, compiled on first use
+ADVANCE = {
+    "event_smooth": smooth.advance_event_smooth,
+    "event": integrator.advance_event,
+    "euler": core.advance,
+}
+advance = core.advance  # what `_run` calls; each kind binds its own
+run_loop = None  # what `_run_many` calls; each kind binds its own `_run`
+run_one: dict = {}  # kind -> the one-run loop, compiled on first use
+run_many: dict = {}  # kind -> the threaded N-run loop, compiled on first use
 no_control = None
 
 
@@ -261,7 +362,7 @@ class _FixedAddress(WrapperAddressProtocol):
     the dispatcher for it on every call (about 20 us, a few % of a whole run)."""
 
     def __init__(self, dispatcher):
-        self.dispatcher = dispatcher           # keeps the code alive
+        self.dispatcher = dispatcher  # keeps the code alive
         cres = dispatcher.get_compile_result(CONTROL_SIG)
         self.address = cres.library.get_pointer_to_function(cres.fndesc.llvm_cfunc_wrapper_name)
 
@@ -277,9 +378,13 @@ def _fixed_address(dispatcher):
     address up per call) should a numba release move the internals that needs."""
     try:
         return _FixedAddress(dispatcher)
-    except AttributeError as exc:     # an internal moved: the slower, public path
-        warnings.warn(f"hoprover_env: numba's compile result has no {exc}; whole runs "
-                      "pass their controller the slower way", RuntimeWarning, stacklevel=2)
+    except AttributeError as exc:  # an internal moved: the slower, public path
+        warnings.warn(
+            f"hoprover_env: numba's compile result has no {exc}; whole runs "
+            "pass their controller the slower way",
+            RuntimeWarning,
+            stacklevel=2,
+        )
         return dispatcher
 
 
@@ -288,7 +393,7 @@ def _compiled(func, signature, parallel=False):
     nothing else compiles later."""
     dispatcher = kernel(signature, parallel=parallel)(func)
     compile_now(dispatcher)
-    if not dispatcher.overloads:     # kernel's plain-numba fallback keeps no signature
+    if not dispatcher.overloads:  # kernel's plain-numba fallback keeps no signature
         dispatcher.compile(signature)
     dispatcher.disable_compile()
     return dispatcher
@@ -308,7 +413,7 @@ def kernel_one(kind: str = "euler"):
     compiled (or loaded from numba's cache) on first use."""
     if kind not in run_one:
         control_stub()
-        name = f"_run_{kind}"       # stored under it: a kernel pickles by reference
+        name = f"_run_{kind}"  # stored under it: a kernel pickles by reference
         loop = _compiled(bind_globals(_run, name, __name__, advance=ADVANCE[kind]), _RUN_SIG)
         run_one[kind] = globals()[name] = loop
     return run_one[kind]
@@ -318,8 +423,11 @@ def kernel_many(kind: str = "euler"):
     """The threaded N-run loop of `kind` (it calls the one-run loop), built on first use."""
     if kind not in run_many:
         name = f"_run_many_{kind}"
-        loop = _compiled(bind_globals(_run_many, name, __name__, run_loop=kernel_one(kind)),
-                         _RUN_MANY_SIG, parallel=True)
+        loop = _compiled(
+            bind_globals(_run_many, name, __name__, run_loop=kernel_one(kind)),
+            _RUN_MANY_SIG,
+            parallel=True,
+        )
         run_many[kind] = globals()[name] = loop
     return run_many[kind]
 
@@ -334,13 +442,14 @@ def control_function(controller):
     cannot take it)."""
     try:
         controller.compile(CONTROL_SIG)
-    except Exception as exc:          # noqa: BLE001 - numba raises several error types
+    except Exception as exc:  # noqa: BLE001 - numba raises several error types
         raise TypeError(
             "a compiled controller must accept the contest signature (pos, vel, the, omg, "
             "posT, t, smt, state_code) with float64 arrays pos, vel, posT, floats the, "
             "omg, t, smt and an integer state_code 0..6, and return a float; compiling "
             f"{getattr(controller, '__name__', controller)!r} for it failed: "
-            f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+            f"{str(exc).splitlines()[0] if str(exc) else type(exc).__name__}"
+        ) from None
     return controller
 
 
@@ -353,14 +462,18 @@ def budget_error(t: float, code: float = core.ERR_BUDGET) -> Exception:
             f"the control interval ending after t = {t:.9g} s needs more than "
             f"{core.MAX_WORK:.0e} integration steps (control_dt / t_stop too long for "
             "the torque: held for that long it spins the rover at up to millions of "
-            "rad/s); shorten control_dt / t_stop or lower the torque (torque_max)")
+            "rad/s); shorten control_dt / t_stop or lower the torque (torque_max)"
+        )
     if code == core.ERR_STEP:
         return RuntimeError(
             f"the integrator could not continue at t = {t:.9g} s (step-size underflow, a "
             "non-finite state or an iteration bound): the motion is too stiff to integrate, "
-            "e.g. parameters close to the Painleve limit of a slide; please report this state")
-    return RuntimeError(f"event budget of one control interval exhausted at t = {t:.9g} s "
-                        f"(more than {core.MAX_EVENTS} events); please report this state")
+            "e.g. parameters close to the Painleve limit of a slide; please report this state"
+        )
+    return RuntimeError(
+        f"event budget of one control interval exhausted at t = {t:.9g} s "
+        f"(more than {core.MAX_EVENTS} events); please report this state"
+    )
 
 
 STATE_LETTERS = np.array(list(core.MODE_LETTERS))
@@ -376,7 +489,7 @@ class Buffers:
         self.applied = np.zeros((n, rows))
         self.log = np.zeros((n, log_rows if record else 0, core.EV_COLS))
         self.prog = np.zeros((n, N_PROG))
-        self.prog[:, G_CMD_K] = -1.0         # no command decided yet
+        self.prog[:, G_CMD_K] = -1.0  # no command decided yet
 
     def grow_log(self) -> None:
         """Double the event log (at least EV_CAP more rows)."""
@@ -388,8 +501,12 @@ class Buffers:
 
 def scratch(threads: int, n_args: int):
     """Per-thread scratch: event buffer, kernel workspace, state backup, controller I/O."""
-    return (np.zeros((threads, EV_CAP, core.EV_COLS)), np.zeros((threads, core.N_WORK)),
-            np.zeros((threads, core.N_STATE)), np.zeros((threads, POS_T + 2 + n_args)))
+    return (
+        np.zeros((threads, EV_CAP, core.EV_COLS)),
+        np.zeros((threads, core.N_WORK)),
+        np.zeros((threads, core.N_STATE)),
+        np.zeros((threads, POS_T + 2 + n_args)),
+    )
 
 
 def check_status(prog: np.ndarray, S: np.ndarray, where: str = "") -> None:
@@ -428,18 +545,18 @@ class Rollout(SampledStates):
     """A simulated run. Arrays are sampled at t = 0, at every control instant (the state
     the controller saw, before its new torque acts) and at the end of the run."""
 
-    torque: np.ndarray           # applied torque from each sample on (clipped)
-    torque_cmd: np.ndarray       # what the controller asked for
-    events: list                 # (time, kind, state before, state after)
+    torque: np.ndarray  # applied torque from each sample on (clipped)
+    torque_cmd: np.ndarray  # what the controller asked for
+    events: list  # (time, kind, state before, state after)
     ttrtp: float | None
     broken: bool
     target_x: float
     params: RoverParams
-    impact_energy_ratios: np.ndarray   # KE after / KE before, one per impact
+    impact_energy_ratios: np.ndarray  # KE after / KE before, one per impact
     n_events: int
-    min_corner_height: float     # lowest bottom-corner height after any event or interval
-    seed: int | None = None      # key of the rough-terrain draws (None: smooth ground)
-    rover: int = 0               # the run's rover index, the other half of that key
+    min_corner_height: float  # lowest bottom-corner height after any event or interval
+    seed: int | None = None  # key of the rough-terrain draws (None: smooth ground)
+    rover: int = 0  # the run's rover index, the other half of that key
     # what replays this run: simulate(**rollout.replay_args) gives it again, bit for bit
     replay_args: dict = dataclasses.field(default_factory=dict, repr=False, compare=False)
 
@@ -455,8 +572,7 @@ class Rollout(SampledStates):
         by = -self.params.half_height
         c, s = np.cos(self.theta), np.sin(self.theta)
         dx, dy = bx * c + by * s, -bx * s + by * c
-        return (self.x + dx, self.y + dy,
-                self.vx + self.omega * dy, self.vy - self.omega * dx)
+        return (self.x + dx, self.y + dy, self.vx + self.omega * dy, self.vy - self.omega * dx)
 
     def contact_forces(self):
         """(fAx, fAy, fBx, fBy) arrays at the samples, under the torque then applied.
@@ -471,8 +587,7 @@ class Rollout(SampledStates):
         no_log = np.zeros((0, core.EV_COLS))
         for i in range(len(self.t)):
             s[:] = 0.0
-            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i],
-                     self.omega[i])
+            s[:6] = (self.x[i], self.y[i], self.theta[i], self.vx[i], self.vy[i], self.omega[i])
             s[core.S_T] = self.t[i]
             s[core.S_MODE] = core.MODE_LETTERS.index(self.state[i])
             s[core.S_TORQUE] = self.torque[i]
@@ -491,24 +606,53 @@ def build_rollout(rows, cmds, applied, log, prog, S, params, target_x):
     kinds = ev[:, 1].astype(np.int64).tolist()
     names = core.EVENT_NAMES
     letters = core.MODE_LETTERS
-    events = [(t, names[kd], letters[b], letters[af]) for t, kd, b, af in
-              zip(ev[:, 0].tolist(), kinds, ev[:, 2].astype(np.int64).tolist(),
-                  ev[:, 3].astype(np.int64).tolist())]
+    events = [
+        (t, names[kd], letters[b], letters[af])
+        for t, kd, b, af in zip(
+            ev[:, 0].tolist(),
+            kinds,
+            ev[:, 2].astype(np.int64).tolist(),
+            ev[:, 3].astype(np.int64).tolist(),
+        )
+    ]
     ttrtp = S[core.S_TTRTP]
     return Rollout(
-        t=a[:, core.S_T], x=a[:, core.S_X], y=a[:, core.S_Y], theta=a[:, core.S_TH],
-        vx=a[:, core.S_VX], vy=a[:, core.S_VY], omega=a[:, core.S_W],
+        t=a[:, core.S_T],
+        x=a[:, core.S_X],
+        y=a[:, core.S_Y],
+        theta=a[:, core.S_TH],
+        vx=a[:, core.S_VX],
+        vy=a[:, core.S_VY],
+        omega=a[:, core.S_W],
         state=STATE_LETTERS[a[:, core.S_MODE].astype(np.int64)],
-        torque=applied[:nr].copy(), torque_cmd=cmds[:nr].copy(), events=events,
+        torque=applied[:nr].copy(),
+        torque_cmd=cmds[:nr].copy(),
+        events=events,
         ttrtp=None if math.isnan(ttrtp) else float(ttrtp),
-        broken=bool(S[core.S_BROKEN]), target_x=float(target_x), params=params,
+        broken=bool(S[core.S_BROKEN]),
+        target_x=float(target_x),
+        params=params,
         impact_energy_ratios=ev[ev[:, 1] == core.EV_IMPACT, 4],
-        n_events=int(S[core.S_NEVENTS]), sigma=a[:, core.S_SIGMA],
-        min_corner_height=float(S[core.S_MIN_HEIGHT]))
+        n_events=int(S[core.S_NEVENTS]),
+        sigma=a[:, core.S_SIGMA],
+        min_corner_height=float(S[core.S_MIN_HEIGHT]),
+    )
 
 
-def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, target_x,
-                params, controller_args=None):
+def run_rollout(
+    S,
+    P,
+    O,
+    schedule,
+    controller,
+    control_dt,
+    t_end,
+    n_ctrl,
+    sub,
+    target_x,
+    params,
+    controller_args=None,
+):
     """`simulate`'s run: a torque schedule (1-D float64, checked finite), a compiled
     controller, or a Python controller (called here at every control instant with the
     contest's arguments), through the one compiled loop. Returns the `Rollout`."""
@@ -526,20 +670,50 @@ def run_rollout(S, P, O, schedule, controller, control_dt, t_end, n_ctrl, sub, t
     evbuf, w, backup, cbuf = scratch(1, len(no_args))
     pos_t = np.array([float(target_x), 0.0])
     while True:
-        run(S, P, O, sched, ctrl, source, no_args, float(control_dt), float(t_end), n_ctrl,
-            sub, True, buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, evbuf[0],
-            w[0], backup[0], cbuf[0])
+        run(
+            S,
+            P,
+            O,
+            sched,
+            ctrl,
+            source,
+            no_args,
+            float(control_dt),
+            float(t_end),
+            n_ctrl,
+            sub,
+            True,
+            buf.rows[0],
+            buf.cmds[0],
+            buf.applied[0],
+            buf.log[0],
+            prog,
+            evbuf[0],
+            w[0],
+            backup[0],
+            cbuf[0],
+        )
         status = prog[G_STATUS]
         if status == ST_ROOM:
             buf.grow_log()
         elif status == ST_NEED_COMMAND:
-            prog[G_CMD] = check_torque(controller(
-                S[0:2].copy(), S[3:5].copy(), float(S[core.S_TH]), float(S[core.S_W]),
-                pos_t.copy(), float(S[core.S_T]), float(t_end),
-                core.MODE_LETTERS[int(S[core.S_MODE])]), "the controller's torque")
+            prog[G_CMD] = check_torque(
+                controller(
+                    S[0:2].copy(),
+                    S[3:5].copy(),
+                    float(S[core.S_TH]),
+                    float(S[core.S_W]),
+                    pos_t.copy(),
+                    float(S[core.S_T]),
+                    float(t_end),
+                    core.MODE_LETTERS[int(S[core.S_MODE])],
+                ),
+                "the controller's torque",
+            )
             prog[G_CMD_K] = prog[G_K]
         else:
             break
     check_status(prog, S)
-    return build_rollout(buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, S,
-                         params, target_x)
+    return build_rollout(
+        buf.rows[0], buf.cmds[0], buf.applied[0], buf.log[0], prog, S, params, target_x
+    )

@@ -17,6 +17,7 @@ integer code 0..6 for A..G), in one kernel call; a plain Python callable at the 
 one Python call per control instant. All give the same `Rollout` for the same torques,
 bit for bit. For many runs at once see `hoprover_env.simulate_batch`.
 """
+
 from __future__ import annotations
 
 import math
@@ -39,8 +40,16 @@ from hoprover_env.util.validate import (
     real_array,
 )
 
-__all__ = ["simulate", "RoverSim", "Rollout", "make_options", "make_state", "make_states",
-           "control_grid", "DEFAULT_RTOL"]
+__all__ = [
+    "simulate",
+    "RoverSim",
+    "Rollout",
+    "make_options",
+    "make_state",
+    "make_states",
+    "control_grid",
+    "DEFAULT_RTOL",
+]
 
 INTEGRATORS = {"event": core.INTEGRATOR_EVENT, "euler": core.INTEGRATOR_EULER}
 IMPACT_LAWS = {"contest": core.LAW_CONTEST, "dissipative": core.LAW_DISSIPATIVE}
@@ -49,15 +58,17 @@ DEFAULT_RTOL = 1e-11
 _INIT_ERRORS = {
     core.INIT_PENETRATION: "a bottom corner is below the ground",
     core.INIT_TOP_DOWN: "a top corner is on or below the ground (the rover starts broken)",
-    core.INIT_MOVING_DOWN: "a corner on the ground is moving down into it (an impact, "
-                           "not a state)",
-    core.INIT_NOT_FLAT: "both bottom corners are on the ground but the rover is "
-                        "rotating or tilted",
+    core.INIT_MOVING_DOWN: "a corner on the ground is moving down into it (an impact, not a state)",
+    core.INIT_NOT_FLAT: "both bottom corners are on the ground but the rover is rotating or tilted",
 }
 
 
-def make_options(integrator: str = "event", impact_law: str = "contest",
-                 rtol: float = DEFAULT_RTOL, euler_dt: float = 1e-3) -> np.ndarray:
+def make_options(
+    integrator: str = "event",
+    impact_law: str = "contest",
+    rtol: float = DEFAULT_RTOL,
+    euler_dt: float = 1e-3,
+) -> np.ndarray:
     """The kernel's option vector, with the names checked."""
     if not isinstance(integrator, str) or integrator not in INTEGRATORS:
         raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
@@ -75,8 +86,9 @@ def make_options(integrator: str = "event", impact_law: str = "contest",
     return o
 
 
-def make_state(params: RoverParams, target_x: float, initial_state=None, seed=None,
-               rover: int = 0) -> np.ndarray:
+def make_state(
+    params: RoverParams, target_x: float, initial_state=None, seed=None, rover: int = 0
+) -> np.ndarray:
     """A kernel state vector at t = 0: the upright rest of docs/MODEL.md section 9, or
     `initial_state` = (x, y, theta, vx, vy, omega) if consistent with a contact state.
     `seed` and `rover` key the rough-terrain draws (see validate.check_seed)."""
@@ -89,19 +101,29 @@ def make_state(params: RoverParams, target_x: float, initial_state=None, seed=No
         st = np.asarray(initial_state, dtype=np.float64)
     except (TypeError, ValueError):
         st = None
-    if st is None or st.shape != (6,) or not np.all(np.isfinite(st)) \
-            or np.asarray(initial_state).dtype.kind not in "iuf":
-        raise ValueError("initial_state must be 6 finite numbers (x, y, theta, vx, "
-                         f"vy, omega), got {initial_state!r}")
+    if (
+        st is None
+        or st.shape != (6,)
+        or not np.all(np.isfinite(st))
+        or np.asarray(initial_state).dtype.kind not in "iuf"
+    ):
+        raise ValueError(
+            "initial_state must be 6 finite numbers (x, y, theta, vx, "
+            f"vy, omega), got {initial_state!r}"
+        )
     if np.max(np.abs(st)) > MAX_MAGNITUDE or abs(target_x) > MAX_MAGNITUDE:
-        raise ValueError(f"initial_state {tuple(map(float, st))} / target_x {target_x!r}: "
-                         f"components beyond {MAX_MAGNITUDE:g} (SI) overflow the kernel's "
-                         "arithmetic")
+        raise ValueError(
+            f"initial_state {tuple(map(float, st))} / target_x {target_x!r}: "
+            f"components beyond {MAX_MAGNITUDE:g} (SI) overflow the kernel's "
+            "arithmetic"
+        )
     s = np.zeros(core.N_STATE)
     code = core.init_state(s, params.as_array(), *st, float(target_x))
     if code != core.INIT_OK:
-        raise ValueError(f"initial_state {tuple(st)} is not consistent with a contact "
-                         f"state: {_INIT_ERRORS[code]}")
+        raise ValueError(
+            f"initial_state {tuple(st)} is not consistent with a contact "
+            f"state: {_INIT_ERRORS[code]}"
+        )
     seed = check_seed(seed, params.roughness > 0.0)
     if seed is not None:
         s[core.S_SEED_LO] = seed & 0xFFFFFFFF
@@ -124,8 +146,13 @@ def _init_states(S, P, X, xt, codes):
             codes[i] = core.init_state(S[i], p, x[0], x[1], x[2], x[3], x[4], x[5], xt[i])
 
 
-def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None = None,
-                seeds=None, rovers: np.ndarray | None = None) -> np.ndarray:
+def make_states(
+    P: np.ndarray,
+    targets: np.ndarray,
+    initial: np.ndarray | None = None,
+    seeds=None,
+    rovers: np.ndarray | None = None,
+) -> np.ndarray:
     """Kernel state vectors at t = 0 of n runs: row i equals make_state(parameters of row
     i, targets[i], initial[i], seeds[i], rovers[i]) bit for bit, built in one compiled
     loop with the checks on whole arrays.
@@ -145,14 +172,18 @@ def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None =
     X = np.zeros((0, 6)) if initial is None else np.ascontiguousarray(initial, np.float64)
     rovers = np.zeros(n, np.int64) if rovers is None else np.asarray(rovers, np.int64)
     if seeds is None and (P[:, P_ROUGH] > 0.0).any():
-        raise ValueError("make_states: runs on rough ground need seeds (the key of their "
-                         "terrain draws)")
+        raise ValueError(
+            "make_states: runs on rough ground need seeds (the key of their terrain draws)"
+        )
     with np.errstate(invalid="ignore"):
-        bad = ~np.isfinite(targets) | (np.abs(targets) > MAX_MAGNITUDE) \
-            | (rovers < 0) | (rovers >= 2**53)
+        bad = (
+            ~np.isfinite(targets)
+            | (np.abs(targets) > MAX_MAGNITUDE)
+            | (rovers < 0)
+            | (rovers >= 2**53)
+        )
         if X.shape[0]:
-            xbad = np.asarray(~np.isfinite(X).all(axis=1)
-                              | (np.abs(X) > MAX_MAGNITUDE).any(axis=1))
+            xbad = np.asarray(~np.isfinite(X).all(axis=1) | (np.abs(X) > MAX_MAGNITUDE).any(axis=1))
             bad |= xbad if X.shape[0] == n else xbad[0]
     S = np.zeros((n, core.N_STATE))
     codes = np.zeros(n, np.int64)
@@ -163,12 +194,16 @@ def make_states(P: np.ndarray, targets: np.ndarray, initial: np.ndarray | None =
         seed = None if seeds is None else int(seeds if np.ndim(seeds) == 0 else seeds[i])
         row = None if initial is None else X[i if X.shape[0] == n else 0]
         try:
-            make_state(from_fields(P[i if P.shape[0] == n else 0]), float(targets[i]), row,
-                       seed, int(rovers[i]))
+            make_state(
+                from_fields(P[i if P.shape[0] == n else 0]),
+                float(targets[i]),
+                row,
+                seed,
+                int(rovers[i]),
+            )
         except ValueError as err:
             raise ValueError(f"run {i}: {err}") from None
-        raise ValueError(f"run {i}: not a valid start (target_x {targets[i]!r}, rover "
-                         f"{rovers[i]})")
+        raise ValueError(f"run {i}: not a valid start (target_x {targets[i]!r}, rover {rovers[i]})")
     if seeds is not None:
         if np.ndim(seeds) == 0:
             S[:, core.S_SEED_LO] = int(seeds) & 0xFFFFFFFF
@@ -189,10 +224,18 @@ class RoverSim:
     >>> sim.advance(3e-4, 10.0, stop_on="liftoff")   # -> events; sim.t is the lift-off time
     """
 
-    def __init__(self, params: RoverParams | None = None, target_x: float = 0.5,
-                 initial_state=None, integrator: str = "event",
-                 impact_law: str = "contest", rtol: float = DEFAULT_RTOL,
-                 euler_dt: float = 1e-3, seed=None, rover: int = 0):
+    def __init__(
+        self,
+        params: RoverParams | None = None,
+        target_x: float = 0.5,
+        initial_state=None,
+        integrator: str = "event",
+        impact_law: str = "contest",
+        rtol: float = DEFAULT_RTOL,
+        euler_dt: float = 1e-3,
+        seed=None,
+        rover: int = 0,
+    ):
         self.params = RoverParams() if params is None else params
         if not isinstance(self.params, RoverParams):
             raise TypeError(f"params must be a RoverParams, got {type(params).__name__}")
@@ -201,7 +244,7 @@ class RoverSim:
         rough = self.params.roughness > 0.0
         seed = check_seed(seed, rough)
         self.s = make_state(self.params, target_x, initial_state, seed, rover)
-        self.seed = seed if rough else None     # the key of the draws, for replays
+        self.seed = seed if rough else None  # the key of the draws, for replays
         self._ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
         self._w = np.zeros(core.N_WORK)
 
@@ -222,8 +265,9 @@ class RoverSim:
         if t_stop < self.t:
             raise ValueError(f"t_stop ({t_stop!r}) is before the current time {self.t!r}")
         if stop_on is not None and stop_on not in core.EVENT_NAMES:
-            raise ValueError(f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; "
-                             f"got {stop_on!r}")
+            raise ValueError(
+                f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; got {stop_on!r}"
+            )
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
         # the integrator this sim's options and ground need, no more (rollout.loop_kind)
         if self.o[core.O_INTEGRATOR] == core.INTEGRATOR_EULER:
@@ -234,9 +278,16 @@ class RoverSim:
         if self.s[core.S_ERROR] in (core.ERR_BUDGET, core.ERR_STEP, core.ERR_WORK):
             raise budget_error(self.t, float(self.s[core.S_ERROR]))
         ev = self._ev
-        return [(float(ev[i, 0]), core.EVENT_NAMES[int(ev[i, 1])],
-                 core.MODE_LETTERS[int(ev[i, 2])], core.MODE_LETTERS[int(ev[i, 3])],
-                 float(ev[i, 4])) for i in range(min(n, ev.shape[0]))]
+        return [
+            (
+                float(ev[i, 0]),
+                core.EVENT_NAMES[int(ev[i, 1])],
+                core.MODE_LETTERS[int(ev[i, 2])],
+                core.MODE_LETTERS[int(ev[i, 3])],
+                float(ev[i, 4]),
+            )
+            for i in range(min(n, ev.shape[0]))
+        ]
 
     @property
     def t(self) -> float:
@@ -274,8 +325,8 @@ class RoverSim:
         return core.contact_forces(self.s, self.p)
 
 
-MAX_SAMPLES = 10**7     # samples one call may produce: ~1 GB of output arrays, minutes of CPU
-MAX_EULER_STEPS = 10**10    # fixed Euler steps one simulate() call may take (hours of CPU)
+MAX_SAMPLES = 10**7  # samples one call may produce: ~1 GB of output arrays, minutes of CPU
+MAX_EULER_STEPS = 10**10  # fixed Euler steps one simulate() call may take (hours of CPU)
 
 
 def control_grid(t_end: float, control_dt: float, sample_dt: float | None) -> tuple[int, int]:
@@ -290,7 +341,8 @@ def control_grid(t_end: float, control_dt: float, sample_dt: float | None) -> tu
             f"t_end / control_dt = {ratio:.3g} control intervals"
             + ("" if sample_dt is None else f" x {sub_ratio:.3g} samples each")
             + f" is more than one call may produce (at most {MAX_SAMPLES:.0e} samples): shorten "
-            "t_end, lengthen control_dt or sample_dt, or split the run with RoverSim")
+            "t_end, lengthen control_dt or sample_dt, or split the run with RoverSim"
+        )
     n_ctrl = max(1, int(math.ceil(ratio - 1e-9)))
     if n_ctrl * control_dt < t_end:
         n_ctrl += 1
@@ -298,12 +350,22 @@ def control_grid(t_end: float, control_dt: float, sample_dt: float | None) -> tu
     return n_ctrl, sub
 
 
-def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float = 600.0,
-             control_dt: float = 0.1, target_x: float = 0.5, integrator: str = "event",
-             impact_law: str = "contest", params: RoverParams | None = None,
-             initial_state=None, euler_dt: float = 1e-3, rtol: float = DEFAULT_RTOL,
-             sample_dt: float | None = None, seed=None, rover: int = 0,
-             controller_args=None) -> Rollout:
+def simulate(
+    controller: Sequence[float] | np.ndarray | Callable,
+    t_end: float = 600.0,
+    control_dt: float = 0.1,
+    target_x: float = 0.5,
+    integrator: str = "event",
+    impact_law: str = "contest",
+    params: RoverParams | None = None,
+    initial_state=None,
+    euler_dt: float = 1e-3,
+    rtol: float = DEFAULT_RTOL,
+    sample_dt: float | None = None,
+    seed=None,
+    rover: int = 0,
+    controller_args=None,
+) -> Rollout:
     """Simulate one run to `t_end` (or until the rover breaks).
 
     Parameters mirror the contest: `control_dt` is the control period, `target_x` the
@@ -330,49 +392,81 @@ def simulate(controller: Sequence[float] | np.ndarray | Callable, t_end: float =
     control_dt = positive_real("control_dt", control_dt)
     if sample_dt is not None:
         sample_dt = positive_real("sample_dt", sample_dt)
-    sim = RoverSim(params, target_x, initial_state, integrator, impact_law, rtol, euler_dt,
-                   seed, rover)
+    sim = RoverSim(
+        params, target_x, initial_state, integrator, impact_law, rtol, euler_dt, seed, rover
+    )
     s = sim.s
     if callable(controller):
         schedule = None
     else:
         try:
             raw = np.asarray(controller)
-        except ValueError:          # ragged nesting: [0.0, [1.0]]
+        except ValueError:  # ragged nesting: [0.0, [1.0]]
             raw = np.asarray(None)
         if raw.dtype.kind not in "iuf":
             # strings ('1e-4'), booleans and complex numbers are not converted silently
-            raise ValueError("a torque schedule must be a 1-D sequence of real numbers (or a "
-                             f"controller), got {controller!r}")
+            raise ValueError(
+                "a torque schedule must be a 1-D sequence of real numbers (or a "
+                f"controller), got {controller!r}"
+            )
         schedule = raw.astype(np.float64)
         if schedule.ndim != 1:
             raise ValueError(f"a torque schedule must be 1-D, got shape {schedule.shape}")
         bad = np.flatnonzero(~np.isfinite(schedule))
         if bad.size:
-            raise ValueError(f"torque schedule element {bad[0]} is {float(schedule[bad[0]])!r}; "
-                             "torques must be finite")
+            raise ValueError(
+                f"torque schedule element {bad[0]} is {float(schedule[bad[0]])!r}; "
+                "torques must be finite"
+            )
     if controller_args is not None:
         if not is_compiled(controller):
-            raise ValueError("controller_args are passed to a numba-compiled controller; "
-                             "a schedule or a Python controller takes none")
+            raise ValueError(
+                "controller_args are passed to a numba-compiled controller; "
+                "a schedule or a Python controller takes none"
+            )
         controller_args = real_array("controller_args", controller_args)
         if controller_args.ndim != 1 or not np.all(np.isfinite(controller_args)):
-            raise ValueError(f"controller_args must be a 1-D array of finite numbers, got "
-                             f"shape {controller_args.shape}")
+            raise ValueError(
+                f"controller_args must be a 1-D array of finite numbers, got "
+                f"shape {controller_args.shape}"
+            )
     n_ctrl, sub = control_grid(t_end, control_dt, sample_dt)
     if integrator == "euler" and t_end / euler_dt > MAX_EULER_STEPS:
-        raise ValueError(f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
-                         f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
-                         "or the event integrator")
-    roll = run_rollout(s, sim.p, sim.o, schedule, controller, control_dt, t_end, n_ctrl, sub,
-                       target_x, params, controller_args)
+        raise ValueError(
+            f"t_end / euler_dt = {t_end / euler_dt:.3g} Euler steps is more than "
+            f"one call may take ({MAX_EULER_STEPS:.0e}): use a larger euler_dt "
+            "or the event integrator"
+        )
+    roll = run_rollout(
+        s,
+        sim.p,
+        sim.o,
+        schedule,
+        controller,
+        control_dt,
+        t_end,
+        n_ctrl,
+        sub,
+        target_x,
+        params,
+        controller_args,
+    )
     roll.seed = sim.seed
     roll.rover = int(rover)
     roll.replay_args = dict(
-        controller=controller if schedule is None else schedule.copy(), t_end=t_end,
-        control_dt=control_dt, target_x=target_x, integrator=integrator,
-        impact_law=impact_law, params=params,
+        controller=controller if schedule is None else schedule.copy(),
+        t_end=t_end,
+        control_dt=control_dt,
+        target_x=target_x,
+        integrator=integrator,
+        impact_law=impact_law,
+        params=params,
         initial_state=None if initial_state is None else tuple(map(float, initial_state)),
-        euler_dt=euler_dt, rtol=rtol, sample_dt=sample_dt, seed=sim.seed, rover=int(rover),
-        controller_args=None if controller_args is None else controller_args.copy())
+        euler_dt=euler_dt,
+        rtol=rtol,
+        sample_dt=sample_dt,
+        seed=sim.seed,
+        rover=int(rover),
+        controller_args=None if controller_args is None else controller_args.copy(),
+    )
     return roll

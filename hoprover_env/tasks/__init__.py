@@ -29,6 +29,7 @@ gymnasium registers its ids when hoprover_env is imported. A module outside the 
 registers itself instead (``hoprover_env.register_task(__name__)``, its last line).
 docs/ARCHITECTURE.md walks through one.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -51,6 +52,7 @@ class Registration:
     hoprover_env.evaluation.suites: "level", "terrain" or "contest"; None, the default:
     none, and scoring it on a suite is refused) and whether one action is a whole hop
     (`hops`) rather than a torque held over a control period."""
+
     id: str
     kwargs: dict = dataclasses.field(default_factory=dict)
     suite: str | None = None
@@ -61,11 +63,15 @@ def task_module(name: str):
     """The task module `name` (a dotted path), checked for what a task module defines:
     TASK (a TaskSpec) and REGISTER (Registrations). TypeError names what is missing."""
     from hoprover_env.tasks.common import TaskSpec
+
     module = importlib.import_module(name)
     if not isinstance(getattr(module, "TASK", None), TaskSpec):
         raise TypeError(f"task module {name} defines no TASK = TaskSpec(...)")
     register = getattr(module, "REGISTER", None)
-    if not (isinstance(register, tuple) and register
-            and all(isinstance(r, Registration) for r in register)):
+    if not (
+        isinstance(register, tuple)
+        and register
+        and all(isinstance(r, Registration) for r in register)
+    ):
         raise TypeError(f"task module {name} defines no REGISTER = (Registration(...), ...)")
     return module

@@ -19,6 +19,7 @@ written after it by the compiled step (`build`). ``ADVANCE`` and any other name 
 callee when it compiles), so that one source serves every integrator and a default env
 compiles no Euler code.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -41,7 +42,7 @@ from hoprover_env.tasks.options import StartOption
 if TYPE_CHECKING:
     from hoprover_env.tasks.config import EnvConfig
 
-TTRTP_NOT_REACHED = -1.0     # info["ttrtp"] before the target is reached
+TTRTP_NOT_REACHED = -1.0  # info["ttrtp"] before the target is reached
 
 INTEGRATORS = {"event": core.advance_event, "euler": core.advance}
 # on smooth ground (roughness 0) the event integrator without rough-terrain code
@@ -104,6 +105,7 @@ class TaskSpec:
                         cache (module-level: it finds them by module and name)
     ==================  ==============================================================
     """
+
     name: str
     config: type[EnvConfig]
     step: Callable
@@ -124,8 +126,9 @@ class TaskSpec:
 
     def __post_init__(self):
         if self.start_options and self.reset_memory is None:
-            raise ValueError(f"task {self.name!r}: start_options fix what reset_memory "
-                             f"draws; it has none")
+            raise ValueError(
+                f"task {self.name!r}: start_options fix what reset_memory draws; it has none"
+            )
 
     def kernels(self, integrator: str, rough: bool = True) -> TaskKernels:
         """The compiled step and batch loops for `integrator` ("event" or "euler"),
@@ -168,8 +171,9 @@ class TaskSpec:
         ``f(S, P, E, M, obs, rows)``, built once per task."""
         cache = _BUILT.setdefault(id(self), {})
         if "observe_rows" not in cache:
-            cache["observe_rows"] = bind(observe_rows, f"{self.name}_observe_rows",
-                                         _OBSERVE=self.observe)
+            cache["observe_rows"] = bind(
+                observe_rows, f"{self.name}_observe_rows", _OBSERVE=self.observe
+            )
         return cache["observe_rows"]
 
 
@@ -192,8 +196,9 @@ def first_bad_action(actions, active):
 def episode_ended(S, had_ttrtp):
     """The judge's TTRTP was reached in this step, or the rover broke (or the kernel
     stopped on an error, which ends the episode as broken)."""
-    return ((not had_ttrtp) and not math.isnan(S[S_TTRTP])) or S[S_BROKEN] != 0.0 \
-        or S[S_ERROR] != 0.0
+    return (
+        ((not had_ttrtp) and not math.isnan(S[S_TTRTP])) or S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0
+    )
 
 
 @kernel(nt.Tuple((F64, BOOL, F64, F64))(VEC, VEC, VEC, VEC), inner=True)
@@ -204,14 +209,16 @@ def open_step(S, P, RW, RM):
     return phi0, not math.isnan(S[S_TTRTP]), S[S_T], S[S_NEVENTS]
 
 
-@kernel(nt.Tuple((F64, BOOL, BOOL, BOOL, nt.int64))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64,
-                                                    F64), inner=True)
+@kernel(
+    nt.Tuple((F64, BOOL, BOOL, BOOL, nt.int64))(VEC, VEC, VEC, VEC, VEC, F64, BOOL, F64, F64),
+    inner=True,
+)
 def close_step(S, P, E, RW, RM, phi0, had_ttrtp, t0, nev0):
     """Reward and outcome of a step opened at (phi0, had_ttrtp, t0, nev0): (reward,
     terminated, truncated, success, events located). Success or a break terminate, the
     episode's clock truncates."""
     success = (not had_ttrtp) and not math.isnan(S[S_TTRTP])
-    broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0      # episode_ended's two parts
+    broken = S[S_BROKEN] != 0.0 or S[S_ERROR] != 0.0  # episode_ended's two parts
     terminated = success or broken
     truncated = (not terminated) and S[S_T] >= E[E_T_TOTAL]
     r = reward.pay(S, P, RW, RM, phi0, success, broken, S[S_T] - t0)
@@ -258,8 +265,10 @@ def note_info_rows(S, rows, ttrtp, reached, mode, broken):
         note_info(S[rows[j]], rows[j], ttrtp, reached, mode, broken)
 
 
-@kernel(nt.void(I64, VEC, BOOL_COL, BOOL_COL, I64_COL, I64, BOOL_COL, VEC, BOOL_COL,
-                I64_COL, BOOL_COL), inner=True)
+@kernel(
+    nt.void(I64, VEC, BOOL_COL, BOOL_COL, I64_COL, I64, BOOL_COL, VEC, BOOL_COL, I64_COL, BOOL_COL),
+    inner=True,
+)
 def close_row(i, S, term, trunc, steps, max_steps, ended, ttrtp, reached, mode, broken):
     """After rover i's step: its episode's step count, the truncation at max_steps steps
     (0: no limit; a terminated episode is not truncated), whether its episode ended, and
@@ -282,8 +291,32 @@ def idle_row(i, rew, term, trunc, nev, ended):
     ended[i] = False
 
 
-def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, succ, nev,
-                 ev, W, steps, max_steps, ended, ttrtp, reached, mode, broken):
+def batch_serial(
+    S,
+    P,
+    O,
+    E,
+    RW,
+    RM,
+    M,
+    actions,
+    active,
+    obs,
+    rew,
+    term,
+    trunc,
+    succ,
+    nev,
+    ev,
+    W,
+    steps,
+    max_steps,
+    ended,
+    ttrtp,
+    reached,
+    mode,
+    broken,
+):
     """The step over the rows where `active` is set, one after the other, each followed
     by close_row (the other rows: idle_row). Returns the index of a non-finite action
     (nothing stepped or written) or -1."""
@@ -294,18 +327,42 @@ def batch_serial(S, P, O, E, RW, RM, M, actions, active, obs, rew, term, trunc, 
     for i in range(S.shape[0]):
         if active[i]:
             rew[i], term[i], trunc[i], succ[i], nev[i] = _STEP(
-                S[i], P[i], O, E, RW, RM[i], M[i], actions[i], ev, w)
+                S[i], P[i], O, E, RW, RM[i], M[i], actions[i], ev, w
+            )
             _OBSERVE(S[i], P[i], E, M[i], obs[i])
-            close_row(i, S[i], term, trunc, steps, max_steps, ended, ttrtp, reached, mode,
-                      broken)
+            close_row(i, S[i], term, trunc, steps, max_steps, ended, ttrtp, reached, mode, broken)
         else:
             idle_row(i, rew, term, trunc, nev, ended)
     return -1
 
 
-def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, termb,
-                   truncb, succb, nevb, evb, Wb, stepsb, max_stepsb, endedb, ttrtpb,
-                   reachedb, modeb, brokenb, orderb):
+def batch_threaded(
+    Sb,
+    Pb,
+    Ob,
+    Eb,
+    RWb,
+    RMb,
+    Mb,
+    actionsb,
+    activeb,
+    obsb,
+    rewb,
+    termb,
+    truncb,
+    succb,
+    nevb,
+    evb,
+    Wb,
+    stepsb,
+    max_stepsb,
+    endedb,
+    ttrtpb,
+    reachedb,
+    modeb,
+    brokenb,
+    orderb,
+):
     """batch_serial spread over numba's threads; each thread uses its own workspace row
     W[thread id]. Iteration j steps row order[j] (a permutation,
     jit.spread.spread_order): numba gives each thread one contiguous range of
@@ -319,11 +376,22 @@ def batch_threaded(Sb, Pb, Ob, Eb, RWb, RMb, Mb, actionsb, activeb, obsb, rewb, 
         i = orderb[j]
         if activeb[i]:
             rewb[i], termb[i], truncb[i], succb[i], nevb[i] = _STEP(
-                Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], Mb[i], actionsb[i], evb,
-                Wb[get_thread_id()])
+                Sb[i], Pb[i], Ob, Eb, RWb, RMb[i], Mb[i], actionsb[i], evb, Wb[get_thread_id()]
+            )
             _OBSERVE(Sb[i], Pb[i], Eb, Mb[i], obsb[i])
-            close_row(i, Sb[i], termb, truncb, stepsb, max_stepsb, endedb, ttrtpb,
-                      reachedb, modeb, brokenb)
+            close_row(
+                i,
+                Sb[i],
+                termb,
+                truncb,
+                stepsb,
+                max_stepsb,
+                endedb,
+                ttrtpb,
+                reachedb,
+                modeb,
+                brokenb,
+            )
         else:
             idle_row(i, rewb, termb, truncb, nevb, endedb)
     return -1
@@ -339,18 +407,18 @@ def build(task: TaskSpec, integrator: str, rough: bool = True) -> TaskKernels:
     step template with ADVANCE (and its other holes) bound, followed by its observe,
     alone and in the two batch loops."""
     if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got "
-                         f"{integrator!r}")
+        raise ValueError(f"integrator must be one of {sorted(INTEGRATORS)}, got {integrator!r}")
     name = f"{task.name}_{integrator}" + ("" if rough else "_smooth")
     advance = INTEGRATORS[integrator] if rough else SMOOTH_INTEGRATORS[integrator]
     # inlined into its three callers: numba then optimises one module per caller instead
     # of emitting the step's own library too (a shorter cold compile, the same bits)
-    inner = bind(task.step, f"{name}_inner", dict(inner=True, inline=True), ADVANCE=advance,
-                 **task.holes)
+    inner = bind(
+        task.step, f"{name}_inner", dict(inner=True, inline=True), ADVANCE=advance, **task.holes
+    )
     bound = dict(_STEP=inner, _OBSERVE=task.observe)
     # each named for what it embeds (jit.compiler.bind): an edited task compiles afresh
     return TaskKernels(
         step=bind(step_and_observe, f"{name}_step", **bound),
         batch=bind(batch_serial, f"{name}_batch", **bound),
-        batch_threaded=bind(batch_threaded, f"{name}_batch_threaded", dict(parallel=True),
-                            **bound))
+        batch_threaded=bind(batch_threaded, f"{name}_batch_threaded", dict(parallel=True), **bound),
+    )

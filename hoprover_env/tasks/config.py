@@ -7,6 +7,7 @@ over rovers, with the ground a config says: `terrain_columns`), so that sub-env 
 vector env seeded with s replays a single env seeded with s + i bit for bit; the reset
 options that fix what the draws would decide are tasks/options.py's.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -40,8 +41,13 @@ from hoprover_env.util.validate import finite_real, is_real, positive_real
 # HopRoverRL-v0 and HopRoverTerrainRL-v0 have them as defaults, so that a front-end that
 # passes no env arguments to its evaluation env (RL Baselines3 Zoo) evaluates on what it
 # trains on; hyperparams/*.yml and configs/*.yaml are tuned on them.
-RL_SETTINGS = {"control_dt": 2.0, "shaping": "landing", "attitude_weight": 1.0,
-               "gamma": 0.995, "time_cost": 0.01}
+RL_SETTINGS = {
+    "control_dt": 2.0,
+    "shaping": "landing",
+    "attitude_weight": 1.0,
+    "gamma": 0.995,
+    "time_cost": 0.01,
+}
 
 
 class _FlatReward(type):
@@ -111,8 +117,10 @@ class EnvConfig(metaclass=_FlatReward):
         if cls.reward_options is not None:
             for name in REWARD_OPTIONS:
                 if name not in cls.reward_options:
-                    out[name] = (f"a reward option its reward does not read; it reads "
-                                 f"{list(cls.reward_options) or 'none'}")
+                    out[name] = (
+                        f"a reward option its reward does not read; it reads "
+                        f"{list(cls.reward_options) or 'none'}"
+                    )
         return out
 
     @classmethod
@@ -123,8 +131,7 @@ class EnvConfig(metaclass=_FlatReward):
 
     def __post_init__(self):
         if not isinstance(self.reward, RewardConfig):
-            raise ValueError(f"reward must be a RewardConfig, got "
-                             f"{type(self.reward).__name__}")
+            raise ValueError(f"reward must be a RewardConfig, got {type(self.reward).__name__}")
         defaults = self.reward_config()
         for name, why in self.unused_options().items():
             if name in REWARD_OPTIONS:
@@ -133,8 +140,9 @@ class EnvConfig(metaclass=_FlatReward):
                 value = getattr(self, name)
                 default = type(self).__dataclass_fields__[name].default
             if value != default:
-                raise ValueError(f"{type(self).__name__} does not use {name} ({why}); "
-                                 f"leave it at {default!r}")
+                raise ValueError(
+                    f"{type(self).__name__} does not use {name} ({why}); leave it at {default!r}"
+                )
 
         def positive(name):
             object.__setattr__(self, name, positive_real(name, getattr(self, name)))
@@ -142,13 +150,19 @@ class EnvConfig(metaclass=_FlatReward):
         positive("control_dt")
         positive("episode_time")
         if self.control_dt > self.episode_time:
-            raise ValueError(f"control_dt ({self.control_dt}) exceeds episode_time "
-                             f"({self.episode_time})")
+            raise ValueError(
+                f"control_dt ({self.control_dt}) exceeds episode_time ({self.episode_time})"
+            )
         rng = self.target_range
-        if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
-                and all(is_real(v) and math.isfinite(v) for v in rng) and rng[0] <= rng[1]):
-            raise ValueError(f"target_range must be (low, high) with low <= high, got "
-                             f"{self.target_range!r}")
+        if not (
+            isinstance(rng, (tuple, list, np.ndarray))
+            and len(rng) == 2
+            and all(is_real(v) and math.isfinite(v) for v in rng)
+            and rng[0] <= rng[1]
+        ):
+            raise ValueError(
+                f"target_range must be (low, high) with low <= high, got {self.target_range!r}"
+            )
         object.__setattr__(self, "target_range", (float(rng[0]), float(rng[1])))
         if self.target_x is not None:
             object.__setattr__(self, "target_x", finite_real("target_x", self.target_x))
@@ -156,19 +170,21 @@ class EnvConfig(metaclass=_FlatReward):
         if isinstance(self.params, Mapping):
             object.__setattr__(self, "params", RoverParams(**self.params))
         if not isinstance(self.params, RoverParams):
-            raise ValueError(f"params must be a RoverParams or a dict of its fields, got "
-                             f"{type(self.params).__name__}")
+            raise ValueError(
+                f"params must be a RoverParams or a dict of its fields, got "
+                f"{type(self.params).__name__}"
+            )
         object.__setattr__(self, "randomize", check_randomize(self.randomize))
         if self.action_map not in ACTION_MAPS:
-            raise ValueError(f"action_map must be one of {sorted(ACTION_MAPS)}, got "
-                             f"{self.action_map!r}")
+            raise ValueError(
+                f"action_map must be one of {sorted(ACTION_MAPS)}, got {self.action_map!r}"
+            )
         if not (is_real(self.action_scale) and 0.0 < self.action_scale <= 1.0):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
         if not (is_real(self.flight_start) and 0.0 <= self.flight_start <= 1.0):
-            raise ValueError(f"flight_start must be a share in [0, 1], got "
-                             f"{self.flight_start!r}")
+            raise ValueError(f"flight_start must be a share in [0, 1], got {self.flight_start!r}")
 
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> EnvConfig:
@@ -177,15 +193,19 @@ class EnvConfig(metaclass=_FlatReward):
         refused = cls.unused_options()
         unused = [k for k in kwargs if k in refused]
         if unused:
-            raise TypeError(f"{owner or cls.__name__}() got the argument {unused[0]!r}, which "
-                            f"this task does not use ({refused[unused[0]]})")
+            raise TypeError(
+                f"{owner or cls.__name__}() got the argument {unused[0]!r}, which "
+                f"this task does not use ({refused[unused[0]]})"
+            )
         bad = [k for k in kwargs if k not in names]
         if bad:
             # Python's own wording: TorchRL's GymEnv probes with frameskip=1 and drops it
             # only on "unexpected keyword argument 'frameskip'"
             also = f" (and {bad[1:]})" if len(bad) > 1 else ""
-            raise TypeError(f"{owner or cls.__name__}() got an unexpected keyword argument "
-                            f"{bad[0]!r}{also}; valid environment arguments: {sorted(names)}")
+            raise TypeError(
+                f"{owner or cls.__name__}() got an unexpected keyword argument "
+                f"{bad[0]!r}{also}; valid environment arguments: {sorted(names)}"
+            )
         return cls(**kwargs)
 
     def reward_vector(self) -> np.ndarray:
@@ -240,13 +260,19 @@ class EnvConfig(metaclass=_FlatReward):
 
 # Each task's config lives in its task module; these names are kept here for code
 # written when they lived in this module (hoprover_env.env_config).
-_IN_TASK_MODULES = {"HopEnvConfig": "hop", "TerrainEnvConfig": "terrain",
-                    "MissionEnvConfig": "mission", "MISSION_GROUND": "mission"}
+_IN_TASK_MODULES = {
+    "HopEnvConfig": "hop",
+    "TerrainEnvConfig": "terrain",
+    "MissionEnvConfig": "mission",
+    "MISSION_GROUND": "mission",
+}
 
 
 def __getattr__(name):
     if name in _IN_TASK_MODULES:
         import importlib
-        return getattr(importlib.import_module(
-            f"hoprover_env.tasks.{_IN_TASK_MODULES[name]}"), name)
+
+        return getattr(
+            importlib.import_module(f"hoprover_env.tasks.{_IN_TASK_MODULES[name]}"), name
+        )
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

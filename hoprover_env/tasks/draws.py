@@ -22,6 +22,7 @@ Reset options (tasks/options.py, checked there) replace the outcome of a draw, n
 draw itself: a frozen episode (a test suite's) is given as options, so that an env
 started with them plays exactly that episode, whatever its seed.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -56,24 +57,26 @@ from hoprover_env.sim.simulate import make_state
 
 STREAM_EPISODE, STREAM_RANDOMIZE, STREAM_START = 0, 1, 2
 W_TARGET, W_SLOPE, W_TERRAIN_SEED, W_TASK = 0, 1, 2, 3
-KEY_TAG = 0x6570697364726177           # "episdraw": keys apart from the terrain's
-MAX_ATTEMPTS = 100                     # randomisation draws per row before giving up
+KEY_TAG = 0x6570697364726177  # "episdraw": keys apart from the terrain's
+MAX_ATTEMPTS = 100  # randomisation draws per row before giving up
 _U64 = np.uint64
 _MASK64 = (1 << 64) - 1
-_COLUMN = FIELD_INDEX                  # a field's column in a parameter row (P_* order)
+_COLUMN = FIELD_INDEX  # a field's column in a parameter row (P_* order)
 _NO_SEED = -1
 
 
-@kernel(nt.void(nt.uint64[::1], nt.uint64[::1], nt.int64[::1], nt.uint64, nt.uint64,
-                nt.uint64[:, ::1]))
+@kernel(
+    nt.void(nt.uint64[::1], nt.uint64[::1], nt.int64[::1], nt.uint64, nt.uint64, nt.uint64[:, ::1])
+)
 def philox_words(keys_lo, keys_hi, episodes, stream, attempt, out):
     """out[i, j]: word j of rover i's draws, Philox4x64-10 under the key (keys_lo[i],
     keys_hi[i]) at the counter (episodes[i], j // 4, stream, attempt), word j % 4."""
     n, k = out.shape
     for i in range(n):
         for b in range((k + 3) // 4):
-            w = philox4x64(np.uint64(episodes[i]), np.uint64(b), stream, attempt,
-                           keys_lo[i], keys_hi[i])
+            w = philox4x64(
+                np.uint64(episodes[i]), np.uint64(b), stream, attempt, keys_lo[i], keys_hi[i]
+            )
             for j in range(4):
                 c = 4 * b + j
                 if c < k:
@@ -93,14 +96,16 @@ def start_rows(S, P, X, targets, codes):
             codes[i] = core.init_state(S[i], p, 0.0, p[P_H], 0.0, 0.0, 0.0, 0.0, targets[i])
         else:
             x = X[i]
-            codes[i] = core.init_state(S[i], p, x[0], x[1], x[2], x[3], x[4], x[5],
-                                       targets[i])
+            codes[i] = core.init_state(S[i], p, x[0], x[1], x[2], x[3], x[4], x[5], targets[i])
 
 
 def split_seed(seed) -> tuple[int, int]:
     """The Philox key of a rover's seed (an integer in [0, 2^128))."""
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
-            or not 0 <= int(seed) < 2**128:
+    if (
+        isinstance(seed, (bool, np.bool_))
+        or not isinstance(seed, (int, np.integer))
+        or not 0 <= int(seed) < 2**128
+    ):
         raise ValueError(f"seed must be an integer in [0, 2**128), got {seed!r}")
     seed = int(seed)
     return seed & _MASK64, (seed >> 64) ^ KEY_TAG
@@ -116,7 +121,7 @@ def words(keys_lo, keys_hi, episodes, stream: int, k: int, attempt: int = 0) -> 
 
 def uniforms(w: np.ndarray) -> np.ndarray:
     """Words as doubles in [0, 1) (53 bits)."""
-    return (w >> _U64(11)).astype(np.float64) * 2.0 ** -53
+    return (w >> _U64(11)).astype(np.float64) * 2.0**-53
 
 
 def invalid_rows(P: np.ndarray) -> np.ndarray:
@@ -125,7 +130,7 @@ def invalid_rows(P: np.ndarray) -> np.ndarray:
     return invalid_field_rows(P[:, :N_FIELDS])
 
 
-row_params = from_fields       # the RoverParams of a parameter row (validated)
+row_params = from_fields  # the RoverParams of a parameter row (validated)
 
 
 def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
@@ -138,8 +143,16 @@ def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
     base, cols, rel, lo, hi = _constants(cfg)[1:]
     pending = np.arange(len(P))
     for attempt in range(MAX_ATTEMPTS):
-        u = uniforms(words(keys_lo[pending], keys_hi[pending], episodes[pending],
-                           STREAM_RANDOMIZE, len(cols), attempt))
+        u = uniforms(
+            words(
+                keys_lo[pending],
+                keys_hi[pending],
+                episodes[pending],
+                STREAM_RANDOMIZE,
+                len(cols),
+                attempt,
+            )
+        )
         rows = P[pending]
         rows[:, cols] = np.clip(base[cols] * ((1.0 - rel) + 2.0 * rel * u), lo, hi)
         rows[:, P_MUD] = np.minimum(rows[:, P_MUD], rows[:, P_MUS])
@@ -148,8 +161,10 @@ def randomize_rows(cfg, P, keys_lo, keys_hi, episodes) -> None:
         pending = pending[bad]
         if not pending.size:
             return
-    raise ValueError(f"randomize: {MAX_ATTEMPTS} draws in a row gave invalid parameters; "
-                     f"narrow the ranges {dict(cfg.randomize)}")
+    raise ValueError(
+        f"randomize: {MAX_ATTEMPTS} draws in a row gave invalid parameters; "
+        f"narrow the ranges {dict(cfg.randomize)}"
+    )
 
 
 def _constants(cfg) -> tuple:
@@ -159,10 +174,14 @@ def _constants(cfg) -> tuple:
     if got is None:
         rand = cfg.randomize
         base = cfg.params.as_array()
-        got = (base, base, np.array([_COLUMN[key] for key in rand], dtype=np.int64),
-               np.array(list(rand.values()), dtype=np.float64),
-               np.array([RANDOMIZABLE[key][0] for key in rand], dtype=np.float64),
-               np.array([RANDOMIZABLE[key][1] for key in rand], dtype=np.float64))
+        got = (
+            base,
+            base,
+            np.array([_COLUMN[key] for key in rand], dtype=np.int64),
+            np.array(list(rand.values()), dtype=np.float64),
+            np.array([RANDOMIZABLE[key][0] for key in rand], dtype=np.float64),
+            np.array([RANDOMIZABLE[key][1] for key in rand], dtype=np.float64),
+        )
         object.__setattr__(cfg, "_draw_constants", got)
     return got
 
@@ -173,6 +192,7 @@ class Episodes:
     N_PARAMS), initial states S (n, N_STATE), terrain seeds (n,) int64 (-1 on smooth
     ground), the task's uniforms U (n, TaskSpec.reset_draws) and the task's start options
     given (`fixed`: name -> (n,) values, TaskSpec.start_options)."""
+
     targets: np.ndarray
     P: np.ndarray
     S: np.ndarray
@@ -184,9 +204,9 @@ class Episodes:
 # The flight starts of `flight_start` (a training option; evaluation always starts at
 # rest): a c.m. over the target range, clear of the ground in any attitude, moving as a
 # hop of up to a few metres does, in any attitude and spinning at up to FLIGHT_SPIN.
-FLIGHT_CLEARANCE = (0.01, 0.5)    # lowest corner above the ground [m]: its range
-FLIGHT_SPEED = (0.01, 0.005)      # |vx|, |vy| up to [m/s]
-FLIGHT_SPIN = 3.0                 # |omega| up to [rad/s]
+FLIGHT_CLEARANCE = (0.01, 0.5)  # lowest corner above the ground [m]: its range
+FLIGHT_SPEED = (0.01, 0.005)  # |vx|, |vy| up to [m/s]
+FLIGHT_SPIN = 3.0  # |omega| up to [rad/s]
 
 
 def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
@@ -197,14 +217,18 @@ def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
     u = uniforms(words(keys_lo, keys_hi, episodes, STREAM_START, 7))
     lo, hi = cfg.target_range
     half_diagonal = np.hypot(P[:, P_R], P[:, P_H])
-    flying = np.column_stack([
-        lo + (hi - lo) * u[:, 1],
-        half_diagonal + FLIGHT_CLEARANCE[0] + (FLIGHT_CLEARANCE[1] - FLIGHT_CLEARANCE[0])
-        * u[:, 2],
-        math.pi * (2.0 * u[:, 3] - 1.0),
-        FLIGHT_SPEED[0] * (2.0 * u[:, 4] - 1.0),
-        FLIGHT_SPEED[1] * (2.0 * u[:, 5] - 1.0),
-        FLIGHT_SPIN * (2.0 * u[:, 6] - 1.0)])
+    flying = np.column_stack(
+        [
+            lo + (hi - lo) * u[:, 1],
+            half_diagonal
+            + FLIGHT_CLEARANCE[0]
+            + (FLIGHT_CLEARANCE[1] - FLIGHT_CLEARANCE[0]) * u[:, 2],
+            math.pi * (2.0 * u[:, 3] - 1.0),
+            FLIGHT_SPEED[0] * (2.0 * u[:, 4] - 1.0),
+            FLIGHT_SPEED[1] * (2.0 * u[:, 5] - 1.0),
+            FLIGHT_SPIN * (2.0 * u[:, 6] - 1.0),
+        ]
+    )
     rest = np.zeros_like(flying)
     rest[:, 1] = P[:, P_H]
     return np.where((u[:, 0] < cfg.flight_start)[:, None], flying, rest)
@@ -242,20 +266,22 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     if fixed:
         bad = invalid_rows(P)
         if bad.any():
-            row_params(P[int(np.argmax(bad))])          # raises RoverParams' error
+            row_params(P[int(np.argmax(bad))])  # raises RoverParams' error
     # the seed of the bumps
     rough = P[:, P_ROUGH] > 0.0
     seeds = np.where(rough, (w[:, W_TERRAIN_SEED] >> _U64(1)).astype(np.int64), _NO_SEED)
     if "terrain_seed" in options:
         given = options["terrain_seed"]
         if (rough & (given < 0)).any():
-            raise ValueError(f"options['terrain_seed'] must be an integer in [0, 2**63) on "
-                             f"rough ground, got {given[np.flatnonzero(rough & (given < 0))[0]]!r}")
+            raise ValueError(
+                f"options['terrain_seed'] must be an integer in [0, 2**63) on "
+                f"rough ground, got {given[np.flatnonzero(rough & (given < 0))[0]]!r}"
+            )
         seeds = np.where(rough, given, seeds)
     # the initial states
     X = np.zeros((0, 6))
     if "initial_state" in options:
-        X = np.array(options["initial_state"], dtype=np.float64, order="C")   # writable
+        X = np.array(options["initial_state"], dtype=np.float64, order="C")  # writable
     elif cfg.flight_start > 0.0:
         X = flight_rows(cfg, P, keys_lo, keys_hi, episodes)
     bad = np.abs(targets) > MAX_MAGNITUDE
@@ -267,16 +293,21 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     bad |= codes != core.INIT_OK
     if bad.any():
         i = int(np.argmax(bad))
-        make_state(row_params(P[i]), float(targets[i]), X[i] if X.shape[0] else None,
-                   int(seeds[i]) if rough[i] else None)        # raises its ValueError
+        make_state(
+            row_params(P[i]),
+            float(targets[i]),
+            X[i] if X.shape[0] else None,
+            int(seeds[i]) if rough[i] else None,
+        )  # raises its ValueError
         raise ValueError(f"not a valid start (target_x {targets[i]!r})")
     if rough.any():
         s = np.where(rough, seeds, 0).astype(np.uint64)
         S[:, core.S_SEED_LO] = np.where(rough, s & _U64(0xFFFFFFFF), 0)
         S[:, core.S_SEED_HI] = np.where(rough, s >> _U64(32), 0)
     own = {o.name for o in task.start_options}
-    return Episodes(targets, P, S, seeds, u[:, W_TASK:],
-                    {key: v for key, v in options.items() if key in own})
+    return Episodes(
+        targets, P, S, seeds, u[:, W_TASK:], {key: v for key, v in options.items() if key in own}
+    )
 
 
 class ParamsView:

@@ -87,6 +87,7 @@ Its step calls these jitted functions: `common.open_step`, `hop_torque`,
 `core.advance_event`, or `core.advance` for `integrator="euler"`), `reward.charge`,
 `common.episode_ended` and `common.close_step`; then `observation.observe`.
 """
+
 import dataclasses
 import math
 from typing import ClassVar
@@ -129,17 +130,17 @@ class HopEnvConfig(EnvConfig):
     unused: ClassVar[dict] = {
         "action_map": "one action is a hop's launch torque, mapped by hop_torque",
         "action_scale": "one action is a hop's launch torque, mapped by hop_torque",
-        "flight_start": "a hop is launched from rest: every step starts at rest"}
+        "flight_start": "a hop is launched from rest: every step starts at rest",
+    }
 
     # its own slots of E: the built-in controller (tasks/layout.py task_slots)
-    kernel_fields: ClassVar[tuple[str, ...]] = ("hold_kp", "hold_kd", "launch_max",
-                                                "launch_min")
+    kernel_fields: ClassVar[tuple[str, ...]] = ("hold_kp", "hold_kd", "launch_max", "launch_min")
     reward_config: ClassVar[type[reward.RewardConfig]] = HopRewardConfig
 
-    hold_kp: float = 0.15       # attitude hold in flight [1/s^2]
-    hold_kd: float = 0.9        # [1/s]
-    launch_max: float = 60.0    # longest a launch torque is held before giving up [s]
-    launch_min: float = 1.05    # weakest launch, a multiple of the tipping torque m g r
+    hold_kp: float = 0.15  # attitude hold in flight [1/s^2]
+    hold_kd: float = 0.9  # [1/s]
+    launch_max: float = 60.0  # longest a launch torque is held before giving up [s]
+    launch_min: float = 1.05  # weakest launch, a multiple of the tipping torque m g r
 
     def __post_init__(self):
         super().__post_init__()
@@ -148,8 +149,10 @@ class HopEnvConfig(EnvConfig):
             if not (is_real(v) and math.isfinite(v) and v > 0):
                 raise ValueError(f"{name} must be a positive number, got {v!r}")
         if not (is_real(self.launch_min) and 1.0 < self.launch_min < 1e3):
-            raise ValueError(f"launch_min (a multiple of the tipping torque m g r) must lie "
-                             f"in (1, 1000), got {self.launch_min!r}")
+            raise ValueError(
+                f"launch_min (a multiple of the tipping torque m g r) must lie "
+                f"in (1, 1000), got {self.launch_min!r}"
+            )
 
 
 # this task's slots of E, named for its kernels (module-level ints: numba folds them)
@@ -197,18 +200,21 @@ def step(S, P, O, E, RW, RM, M, action, ev, W):
         mode = int(S[S_MODE])
         if mode == MODE_A:
             flown = True
-            cmd = clip(attitude_hold(S[S_TH], S[S_W], P[P_I], E[E_HOLD_KP], E[E_HOLD_KD]),
-                       P[P_TMIN], P[P_TMAX])
+            cmd = clip(
+                attitude_hold(S[S_TH], S[S_W], P[P_I], E[E_HOLD_KP], E[E_HOLD_KD]),
+                P[P_TMIN],
+                P[P_TMAX],
+            )
         elif not flown:
             if S[S_T] - t0 >= E[E_LAUNCH_MAX]:
-                flown = True               # it never lifted off: let it settle
+                flown = True  # it never lifted off: let it settle
                 cmd = 0.0
             else:
                 cmd = torque
         elif mode == MODE_F and S[S_INBAND] != 1.0:
-            break                          # at rest outside the band: the next decision
+            break  # at rest outside the band: the next decision
         else:
-            cmd = 0.0                      # bouncing, sliding, or resting in the band
+            cmd = 0.0  # bouncing, sliding, or resting in the band
         # the grid of control instants is t0 + k dt, as a contest controller's
         k += 1
         t_before = S[S_T]
@@ -217,8 +223,9 @@ def step(S, P, O, E, RW, RM, M, action, ev, W):
         if k >= MAX_SUBSTEPS:
             S[S_ERROR] = ERR_STEP
             break
-    r, terminated, truncated, success, n_events = close_step(S, P, E, RW, RM, phi0,
-                                                             had_ttrtp, t0, nev0)
+    r, terminated, truncated, success, n_events = close_step(
+        S, P, E, RW, RM, phi0, had_ttrtp, t0, nev0
+    )
     # The contest's 600 s belong to this task (the time is observed): running out of time
     # ends it, a terminal state with the potential it has. Declared a truncation instead,
     # learners bootstrap from the value of a rover caught mid-flight by the clock, a state
@@ -229,12 +236,21 @@ def step(S, P, O, E, RW, RM, M, action, ev, W):
     return r, terminated, truncated, success, n_events
 
 
-TASK = TaskSpec(name="hop", config=HopEnvConfig, step=step, observe=observe,
-                obs_low=OBS_LOW, obs_high=OBS_HIGH, action_torque=hop_torque,
-                compile_extra=torque.TASK.compile_extra)
+TASK = TaskSpec(
+    name="hop",
+    config=HopEnvConfig,
+    step=step,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+    action_torque=hop_torque,
+    compile_extra=torque.TASK.compile_extra,
+)
 # configs/ppo_hop.yaml's settings as defaults (tasks/config.py RL_SETTINGS says why ids
 # carry them): a time cost of 0.01 per second makes one long hop beat a safe series of
 # short ones; the discount is per hop.
 HOP_RL_SETTINGS = {"gamma": 0.98, "time_cost": 0.01}
-REGISTER = (Registration("HopRoverHop-v0", suite="level", hops=True),
-            Registration("HopRoverHopRL-v0", HOP_RL_SETTINGS, suite="level", hops=True))
+REGISTER = (
+    Registration("HopRoverHop-v0", suite="level", hops=True),
+    Registration("HopRoverHopRL-v0", HOP_RL_SETTINGS, suite="level", hops=True),
+)

@@ -13,16 +13,17 @@ shared ones, in that order, and its module names them with `task_slots` at impor
 EnvConfig.task_vector writes the vector (its length: N_SHARED plus the task's fields);
 two tasks may use the same slots for different things, since each env has one task.
 """
+
 from __future__ import annotations
 
 import dataclasses
 import types
 
-E_CONTROL_DT = 0     # control period [s] (the hop task: its controller's period)
-E_T_TOTAL = 1        # episode length [s]
-E_ACTION_MAP = 2     # ACTION_LINEAR or ACTION_CUBIC (torque task)
-E_ACTION_SCALE = 3   # fraction of the torque range reached at |a| = 1 (torque task)
-N_SHARED = 4         # the shared slots; a task's own follow
+E_CONTROL_DT = 0  # control period [s] (the hop task: its controller's period)
+E_T_TOTAL = 1  # episode length [s]
+E_ACTION_MAP = 2  # ACTION_LINEAR or ACTION_CUBIC (torque task)
+E_ACTION_SCALE = 3  # fraction of the torque range reached at |a| = 1 (torque task)
+N_SHARED = 4  # the shared slots; a task's own follow
 
 ACTION_LINEAR, ACTION_CUBIC = 0, 1
 ACTION_MAPS = {"linear": ACTION_LINEAR, "cubic": ACTION_CUBIC}
@@ -41,16 +42,23 @@ def task_slots(config: type) -> TaskSlots:
     in declared order. TypeError names a declared name that is not a field of the
     config, or one declared twice."""
     names = tuple(getattr(config, "kernel_fields", ()))
-    fields = {f.name for f in dataclasses.fields(config)} if dataclasses.is_dataclass(
-        config) else set()
+    fields = (
+        {f.name for f in dataclasses.fields(config)} if dataclasses.is_dataclass(config) else set()
+    )
     for name in names:
         if name not in fields:
-            raise TypeError(f"{config.__name__}.kernel_fields names {name!r}, which is not "
-                            f"one of its fields")
+            raise TypeError(
+                f"{config.__name__}.kernel_fields names {name!r}, which is not one of its fields"
+            )
     if {"names", "size"} & set(names):
-        raise TypeError(f"{config.__name__}.kernel_fields may not name a field 'names' or "
-                        f"'size' (TaskSlots keeps its own there)")
+        raise TypeError(
+            f"{config.__name__}.kernel_fields may not name a field 'names' or "
+            f"'size' (TaskSlots keeps its own there)"
+        )
     if len(set(names)) != len(names):
         raise TypeError(f"{config.__name__}.kernel_fields names a field twice: {names}")
-    return TaskSlots(**{name: N_SHARED + k for k, name in enumerate(names)}, names=names,
-                     size=N_SHARED + len(names))
+    return TaskSlots(
+        **{name: N_SHARED + k for k, name in enumerate(names)},
+        names=names,
+        size=N_SHARED + len(names),
+    )

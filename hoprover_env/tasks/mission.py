@@ -121,6 +121,7 @@ Its step is the torque task's template (`torque.step`: `common.open_step`, `ACTU
 bound to `actuate` below, `ADVANCE`, `reward.charge`, `common.close_step`); its observe
 is `observe` below (the sensors, drawn by `core.terrain.truncated_normal`).
 """
+
 import dataclasses
 import math
 from collections.abc import Mapping
@@ -142,10 +143,15 @@ from hoprover_env.util.validate import non_negative_real, positive_real
 # The ground a mission does not know: restitutions and friction drawn per episode
 # (relative half-ranges, EnvConfig.randomize), about the spread of the regolith
 # measurements Hayabusa2's MINERVA-II and MASCOT landings left open.
-MISSION_GROUND = {"restitution_x": 0.2, "restitution_y": 0.5, "mu_static": 0.25,
-                  "mu_dynamic": 0.25}
-_NOISES = ("attitude_noise", "rate_noise", "bias_walk", "fix_noise", "inclinometer_noise",
-           "actuator_error")
+MISSION_GROUND = {"restitution_x": 0.2, "restitution_y": 0.5, "mu_static": 0.25, "mu_dynamic": 0.25}
+_NOISES = (
+    "attitude_noise",
+    "rate_noise",
+    "bias_walk",
+    "fix_noise",
+    "inclinometer_noise",
+    "actuator_error",
+)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -157,39 +163,58 @@ class MissionEnvConfig(TerrainEnvConfig):
     # its own slots of E: its sensors (tasks/layout.py task_slots), the noises scaled
     # by noise_scale (kernel_values)
     kernel_fields: ClassVar[tuple[str, ...]] = (
-        "attitude_noise", "rate_noise", "bias_walk", "fix_noise", "fix_rest",
-        "inclinometer_noise", "history")
+        "attitude_noise",
+        "rate_noise",
+        "bias_walk",
+        "fix_noise",
+        "fix_rest",
+        "inclinometer_noise",
+        "history",
+    )
 
     randomize: Mapping[str, float] | None = dataclasses.field(
-        default_factory=lambda: dict(MISSION_GROUND))
+        default_factory=lambda: dict(MISSION_GROUND)
+    )
     noise_scale: float = 1.0
-    attitude_noise: float = math.radians(0.5)   # attitude sensor noise, 1 sigma [rad]
-    rate_noise: float = 1e-4                    # rate sensor noise [rad/s]
-    bias_walk: float = 1e-3                     # attitude bias random walk [rad/sqrt(s)]
-    fix_noise: float = 0.01                     # position fix noise [m]
-    fix_rest: float = 1.0                       # time at rest before a fix [s]
-    inclinometer_noise: float = 0.02            # inclinometer noise [rad]
+    attitude_noise: float = math.radians(0.5)  # attitude sensor noise, 1 sigma [rad]
+    rate_noise: float = 1e-4  # rate sensor noise [rad/s]
+    bias_walk: float = 1e-3  # attitude bias random walk [rad/sqrt(s)]
+    fix_noise: float = 0.01  # position fix noise [m]
+    fix_rest: float = 1.0  # time at rest before a fix [s]
+    inclinometer_noise: float = 0.02  # inclinometer noise [rad]
     actuator_error: float = 0.05
-    history: int = 1                            # readings in the observation, newest first
+    history: int = 1  # readings in the observation, newest first
 
     def __post_init__(self):
         super().__post_init__()
-        if not (isinstance(self.history, (int, np.integer)) and not isinstance(
-                self.history, bool) and 1 <= self.history <= 64):
-            raise ValueError(f"history (readings per observation) must be an integer in "
-                             f"[1, 64], got {self.history!r}")
+        if not (
+            isinstance(self.history, (int, np.integer))
+            and not isinstance(self.history, bool)
+            and 1 <= self.history <= 64
+        ):
+            raise ValueError(
+                f"history (readings per observation) must be an integer in "
+                f"[1, 64], got {self.history!r}"
+            )
         for name in _NOISES + ("noise_scale",):
             object.__setattr__(self, name, non_negative_real(name, getattr(self, name)))
         object.__setattr__(self, "fix_rest", positive_real("fix_rest", self.fix_rest))
         if self.actuator_error * self.noise_scale >= 1.0:
-            raise ValueError(f"actuator_error x noise_scale must be below 1 (a scale error "
-                             f"of 100 % or more reverses the torque), got "
-                             f"{self.actuator_error} x {self.noise_scale}")
+            raise ValueError(
+                f"actuator_error x noise_scale must be below 1 (a scale error "
+                f"of 100 % or more reverses the torque), got "
+                f"{self.actuator_error} x {self.noise_scale}"
+            )
 
     def kernel_values(self) -> dict[str, float]:
         values = super().kernel_values()
-        for name in ("attitude_noise", "rate_noise", "bias_walk", "fix_noise",
-                     "inclinometer_noise"):
+        for name in (
+            "attitude_noise",
+            "rate_noise",
+            "bias_walk",
+            "fix_noise",
+            "inclinometer_noise",
+        ):
             values[name] = self.noise_scale * values[name]
         return values
 
@@ -206,29 +231,29 @@ E_HISTORY = SLOTS.history
 
 
 # the task memory M of one rover
-M_SEED_LO, M_SEED_HI = 0, 1     # the episode's sensor seed, in two 32-bit halves
-M_COUNT = 2                     # readings taken (the generator's counter)
-M_ACT_SCALE = 3                 # the actuator's scale this episode
-M_BIAS = 4                      # the attitude sensor's bias now [rad]
-M_REST = 5                      # time at rest seen at control instants [s]
-M_FIX_X = 6                     # the last position fix [m]
-M_FIX_T = 7                     # when it was taken [s]
-M_LAST_T = 8                    # the time of the last reading [s]
-M_CMD = 9                       # the torque commanded in the last step [N m]
+M_SEED_LO, M_SEED_HI = 0, 1  # the episode's sensor seed, in two 32-bit halves
+M_COUNT = 2  # readings taken (the generator's counter)
+M_ACT_SCALE = 3  # the actuator's scale this episode
+M_BIAS = 4  # the attitude sensor's bias now [rad]
+M_REST = 5  # time at rest seen at control instants [s]
+M_FIX_X = 6  # the last position fix [m]
+M_FIX_T = 7  # when it was taken [s]
+M_LAST_T = 8  # the time of the last reading [s]
+M_CMD = 9  # the torque commanded in the last step [N m]
 N_M = 10
 # the generator's channels (its key's second word)
 CH_ATT, CH_RATE, CH_BIAS, CH_FIX, CH_INCL = range(5)
 
-OBS_FIX = 0          # (last fix - target) / POS_SCALE
-OBS_FIX_AGE = 1      # (t - time of the last fix) / FIX_AGE_SCALE
-OBS_SIN = 2          # sin of the measured attitude
-OBS_COS = 3          # cos of the measured attitude
-OBS_RATE = 4         # measured rate / RATE_SCALE
-OBS_TIME = 5         # t / episode length
-OBS_TORQUE = 6       # commanded torque / max |T|
-OBS_SLOPE = 7        # inclinometer / SLOPE_SCALE
-OBS_DIM = 8          # one reading; the observation holds `history` of them, newest first
-FIX_AGE_SCALE = 60.0     # s
+OBS_FIX = 0  # (last fix - target) / POS_SCALE
+OBS_FIX_AGE = 1  # (t - time of the last fix) / FIX_AGE_SCALE
+OBS_SIN = 2  # sin of the measured attitude
+OBS_COS = 3  # cos of the measured attitude
+OBS_RATE = 4  # measured rate / RATE_SCALE
+OBS_TIME = 5  # t / episode length
+OBS_TORQUE = 6  # commanded torque / max |T|
+OBS_SLOPE = 7  # inclinometer / SLOPE_SCALE
+OBS_DIM = 8  # one reading; the observation holds `history` of them, newest first
+FIX_AGE_SCALE = 60.0  # s
 OBS_LOW = np.array([-5, 0, -1, -1, -10, 0, -1, -1], dtype=np.float32)
 OBS_HIGH = np.array([5, 10, 1, 1, 10, 1, 1, 1], dtype=np.float32)
 _32 = np.uint64(32)
@@ -293,8 +318,10 @@ def bounds(config) -> tuple:
 # what start draws, as reset options: a frozen episode's (a test suite's) are given so
 START_OPTIONS = (
     StartOption("sensor_seed", "seed", "the key of the episode's sensor noise"),
-    StartOption("actuator_draw", "unit", "u of the actuator's scale 1 + actuator_error "
-                "noise_scale u"))
+    StartOption(
+        "actuator_draw", "unit", "u of the actuator's scale 1 + actuator_error noise_scale u"
+    ),
+)
 
 
 def start(config, U, S, P, M, fixed) -> None:
@@ -307,7 +334,7 @@ def start(config, U, S, P, M, fixed) -> None:
     if "sensor_seed" in fixed:
         seed = np.asarray(fixed["sensor_seed"]).astype(np.uint64)
     else:
-        seed = (U[:, 0] * 2.0 ** 53).astype(np.uint64)
+        seed = (U[:, 0] * 2.0**53).astype(np.uint64)
     u = fixed["actuator_draw"] if "actuator_draw" in fixed else 2.0 * U[:, 1] - 1.0
     M[:, M_SEED_LO] = seed & np.uint64(0xFFFFFFFF)
     M[:, M_SEED_HI] = seed >> np.uint64(32)
@@ -321,13 +348,24 @@ def hidden_info(M) -> dict:
     info's rover_state): its attitude sensor's bias [rad], its actuator's scale and its
     last fix [m], for one rover (numpy scalars) or N (arrays)."""
     cols = {"attitude_bias": M_BIAS, "actuator_scale": M_ACT_SCALE, "last_fix_x": M_FIX_X}
-    return {key: (np.float64(M[col]) if M.ndim == 1 else M[:, col].copy())
-            for key, col in cols.items()}
+    return {
+        key: (np.float64(M[col]) if M.ndim == 1 else M[:, col].copy()) for key, col in cols.items()
+    }
 
 
 TASK = dataclasses.replace(
-    torque.TASK, name="mission", config=MissionEnvConfig, observe=observe,
-    obs_low=OBS_LOW, obs_high=OBS_HIGH, memory=N_M, reset_memory=start,
-    reset_draws=2, start_options=START_OPTIONS,
-    holes={"ACTUATE": actuate}, hidden_info=hidden_info, obs_bounds=bounds)
+    torque.TASK,
+    name="mission",
+    config=MissionEnvConfig,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+    memory=N_M,
+    reset_memory=start,
+    reset_draws=2,
+    start_options=START_OPTIONS,
+    holes={"ACTUATE": actuate},
+    hidden_info=hidden_info,
+    obs_bounds=bounds,
+)
 REGISTER = (Registration("HopRoverMission-v0", suite="terrain"),)

@@ -5,6 +5,7 @@ ballistic landing point).
 Table of slots and scales: hoprover_env/envs/env.py. Every value is clipped to the
 observation space's bounds (OBS_LOW, OBS_HIGH).
 """
+
 import math
 
 import numpy as np
@@ -35,27 +36,28 @@ from hoprover_env.core.params import P_BAND, P_DWELL, P_GC, P_GS, P_H, P_R, P_TM
 from hoprover_env.jit.compiler import NONE, VEC, VEC32, kernel
 from hoprover_env.tasks.layout import E_T_TOTAL
 
-OBS_DX = 0           # (x - x_T) / POS_SCALE
-OBS_HEIGHT = 1       # (y - h) / HEIGHT_SCALE
-OBS_VX = 2           # vx / VEL_SCALE
-OBS_VY = 3           # vy / VEL_SCALE
-OBS_SIN = 4          # sin theta
-OBS_COS = 5          # cos theta
-OBS_RATE = 6         # omega / RATE_SCALE
-OBS_MODE = 7         # 7..13: one-hot contact state A..G
-OBS_TIME = 14        # t / episode length
-OBS_DWELL = 15       # the judge's clock: time in the band / 5 s
-OBS_REF = 16         # (reference point - x_T) / band half-width
-OBS_LANDING = 17     # (ballistic landing x - x_T) / POS_SCALE
-OBS_TORQUE = 18      # applied torque / max |T|
+OBS_DX = 0  # (x - x_T) / POS_SCALE
+OBS_HEIGHT = 1  # (y - h) / HEIGHT_SCALE
+OBS_VX = 2  # vx / VEL_SCALE
+OBS_VY = 3  # vy / VEL_SCALE
+OBS_SIN = 4  # sin theta
+OBS_COS = 5  # cos theta
+OBS_RATE = 6  # omega / RATE_SCALE
+OBS_MODE = 7  # 7..13: one-hot contact state A..G
+OBS_TIME = 14  # t / episode length
+OBS_DWELL = 15  # the judge's clock: time in the band / 5 s
+OBS_REF = 16  # (reference point - x_T) / band half-width
+OBS_LANDING = 17  # (ballistic landing x - x_T) / POS_SCALE
+OBS_TORQUE = 18  # applied torque / max |T|
 OBS_DIM = 19
 
-POS_SCALE = 1.0        # m
-HEIGHT_SCALE = 0.5     # m
-VEL_SCALE = 0.01       # m/s
-RATE_SCALE = 0.3       # rad/s
-OBS_LOW = np.array([-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -1],
-                   dtype=np.float32)
+POS_SCALE = 1.0  # m
+HEIGHT_SCALE = 0.5  # m
+VEL_SCALE = 0.01  # m/s
+RATE_SCALE = 0.3  # rad/s
+OBS_LOW = np.array(
+    [-5, -1, -10, -10, -1, -1, -10] + [0] * 7 + [0, 0, -20, -5, -1], dtype=np.float32
+)
 OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtype=np.float32)
 
 # The mirror x -> -x of level ground: these slots change sign, and corners A and B swap
@@ -64,8 +66,9 @@ OBS_HIGH = np.array([5, 10, 10, 10, 1, 1, 10] + [1] * 7 + [1, 1, 20, 5, 1], dtyp
 MIRROR_SIGN = np.ones(OBS_DIM, dtype=np.float32)
 MIRROR_SIGN[[OBS_DX, OBS_VX, OBS_SIN, OBS_RATE, OBS_REF, OBS_LANDING, OBS_TORQUE]] = -1.0
 MIRROR_ORDER = np.arange(OBS_DIM)
-MIRROR_ORDER[OBS_MODE + MODE_B:OBS_MODE + MODE_E + 1] = OBS_MODE + np.array(
-    [MODE_D, MODE_E, MODE_B, MODE_C])
+MIRROR_ORDER[OBS_MODE + MODE_B : OBS_MODE + MODE_E + 1] = OBS_MODE + np.array(
+    [MODE_D, MODE_E, MODE_B, MODE_C]
+)
 
 
 def mirror(obs):
@@ -75,6 +78,7 @@ def mirror(obs):
     if isinstance(obs, np.ndarray):
         return obs[:, MIRROR_ORDER] * MIRROR_SIGN.astype(obs.dtype)
     import torch
+
     sign = torch.as_tensor(MIRROR_SIGN, dtype=obs.dtype, device=obs.device)
     return obs[:, torch.as_tensor(MIRROR_ORDER)] * sign
 

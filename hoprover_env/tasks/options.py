@@ -23,6 +23,7 @@ A vector env takes each as one value for all the sub-envs reset or one per sub-e
 ``reset_mask`` aside). `check` turns the options into one row per rover, or raises a
 ValueError that names the option.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -34,8 +35,8 @@ from hoprover_env.sim.randomize import RANDOMIZABLE
 
 RESET_OPTIONS = ("target_x", "initial_state", "slope", "roughness", "terrain_seed")
 PARAM_OPTIONS = tuple(sorted(RANDOMIZABLE))
-SEED_LIMIT = 2**63           # seeds (terrain_seed, a task's "seed" options) below this
-NO_SEED = -1                 # terrain_seed: none (smooth ground)
+SEED_LIMIT = 2**63  # seeds (terrain_seed, a task's "seed" options) below this
+NO_SEED = -1  # terrain_seed: none (smooth ground)
 KINDS = ("real", "unit", "seed")
 
 
@@ -44,17 +45,18 @@ class StartOption:
     """A reset option a task declares (TaskSpec.start_options): it fixes one of the task's
     own draws at reset. `kind` says what it takes: "real" a finite number, "unit" a
     number in [-1, 1], "seed" an integer in [0, 2^63); `doc` says what it fixes."""
+
     name: str
     kind: str
     doc: str = ""
 
     def __post_init__(self):
         if self.kind not in KINDS:
-            raise ValueError(f"StartOption {self.name!r}: kind must be one of {KINDS}, got "
-                             f"{self.kind!r}")
+            raise ValueError(
+                f"StartOption {self.name!r}: kind must be one of {KINDS}, got {self.kind!r}"
+            )
         if self.name in RESET_OPTIONS + PARAM_OPTIONS + ("reset_mask",):
-            raise ValueError(f"StartOption {self.name!r}: the name is an env's own reset "
-                             f"option")
+            raise ValueError(f"StartOption {self.name!r}: the name is an env's own reset option")
 
 
 def names(task) -> tuple[str, ...]:
@@ -78,18 +80,20 @@ def _column(name: str, kind: str, value, n: int, per_rover: bool) -> np.ndarray:
     width = (6,) if kind == "state" else ()
     v = np.asarray(value)
     if v.shape != width and not (per_rover and v.shape == (n, *width)):
-        shapes = f"{width or '()'}" + (f" or {(n, *width)} (one per sub-env)" if per_rover
-                                       else "")
+        shapes = f"{width or '()'}" + (f" or {(n, *width)} (one per sub-env)" if per_rover else "")
         raise ValueError(f"options[{name!r}] must have shape {shapes}, got {v.shape}")
     if kind in ("seed", "terrain_seed"):
         low = NO_SEED if kind == "terrain_seed" else 0
         if v.dtype == np.bool_ or v.dtype.kind not in "iu":
-            raise ValueError(f"options[{name!r}] must be integers in [0, 2**63), got "
-                             f"{value!r} (dtype {v.dtype})")
+            raise ValueError(
+                f"options[{name!r}] must be integers in [0, 2**63), got {value!r} (dtype {v.dtype})"
+            )
         bad = (v < low) | (v >= SEED_LIMIT)
         if bad.any():
-            raise ValueError(f"options[{name!r}] must be an integer in [0, 2**63), got "
-                             f"{v.ravel()[np.flatnonzero(bad.ravel())[0]]!r}")
+            raise ValueError(
+                f"options[{name!r}] must be an integer in [0, 2**63), got "
+                f"{v.ravel()[np.flatnonzero(bad.ravel())[0]]!r}"
+            )
         return np.broadcast_to(v.astype(np.int64), (n, *width))
     if v.dtype.kind not in "iuf" or v.dtype == np.bool_:
         raise ValueError(f"options[{name!r}] must be real numbers, got {value!r}")
@@ -99,13 +103,15 @@ def _column(name: str, kind: str, value, n: int, per_rover: bool) -> np.ndarray:
         bad |= np.abs(v) > 1.0
     if bad.any():
         what = "in [-1, 1]" if kind == "unit" else "finite"
-        raise ValueError(f"options[{name!r}] must be {what}, got "
-                         f"{v.ravel()[np.flatnonzero(bad.ravel())[0]]!r}")
+        raise ValueError(
+            f"options[{name!r}] must be {what}, got {v.ravel()[np.flatnonzero(bad.ravel())[0]]!r}"
+        )
     return np.broadcast_to(v, (n, *width))
 
 
-def check(task, options: Mapping | None, n: int = 1, per_rover: bool = False,
-          also: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+def check(
+    task, options: Mapping | None, n: int = 1, per_rover: bool = False, also: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
     """The reset `options` of an env of `task` as n rows each ({} for none): a value for
     all n rovers, or with `per_rover` one per rover. `also` names further options the
     caller took out before (a vector env's reset_mask), for the message. ValueError names
@@ -115,5 +121,7 @@ def check(task, options: Mapping | None, n: int = 1, per_rover: bool = False,
     bad = sorted(set(options) - set(valid))
     if bad:
         raise ValueError(f"unknown reset option(s) {bad}; valid: {sorted(valid + also)}")
-    return {name: _column(name, _kind(task, name), value, n, per_rover)
-            for name, value in options.items()}
+    return {
+        name: _column(name, _kind(task, name), value, n, per_rover)
+        for name, value in options.items()
+    }

@@ -47,6 +47,7 @@ Adding a term: a weight field in RewardConfig (validated in __post_init__) and i
 slot, its potential in `potential_terms` (or its payment in `pay`), an RM slot and a
 name in TERMS -- this module and its test (docs/ARCHITECTURE.md walks through it).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -66,19 +67,39 @@ from hoprover_env.tasks.observation import (
 )
 from hoprover_env.util.validate import is_real, non_negative_real
 
-RW_W_DIST, RW_W_TIME, RW_SUCCESS, RW_BREAK, RW_GAMMA, RW_SHAPING, RW_W_ATT, RW_W_BAND, \
-    RW_DIST_CAP, RW_W_ENERGY, RW_ATT_COST = range(11)
+(
+    RW_W_DIST,
+    RW_W_TIME,
+    RW_SUCCESS,
+    RW_BREAK,
+    RW_GAMMA,
+    RW_SHAPING,
+    RW_W_ATT,
+    RW_W_BAND,
+    RW_DIST_CAP,
+    RW_W_ENERGY,
+    RW_ATT_COST,
+) = range(11)
 N_RW = 11
 SHAPING_CONTACT, SHAPING_LANDING = 0, 1
 SHAPINGS = {"contact": SHAPING_CONTACT, "landing": SHAPING_LANDING}
 
-RM_PHI, RM_PHI_DIST, RM_PHI_ATT, RM_PHI_BAND = range(4)         # potential at the state
-RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY, RM_ENERGY, \
-    RM_ATTITUDE_COST = range(4, 12)
-RM_EFFORT = 12          # accumulated in the current step: integral of |T| / T_limit dt [s]
+RM_PHI, RM_PHI_DIST, RM_PHI_ATT, RM_PHI_BAND = range(4)  # potential at the state
+RM_DISTANCE, RM_ATTITUDE, RM_BAND, RM_TIME, RM_BONUS, RM_PENALTY, RM_ENERGY, RM_ATTITUDE_COST = (
+    range(4, 12)
+)
+RM_EFFORT = 12  # accumulated in the current step: integral of |T| / T_limit dt [s]
 N_RM = 13
-TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty", "energy",
-         "attitude_cost")                                   # RM_DISTANCE on
+TERMS = (
+    "distance",
+    "attitude",
+    "band",
+    "time",
+    "bonus",
+    "penalty",
+    "energy",
+    "attitude_cost",
+)  # RM_DISTANCE on
 
 # The spin term of a(s): quadratic up to u = U_Q (3 rad/s), logarithmic beyond, constant
 # past U_MAX (30 rad/s). A pull that weakens early lets PPO settle for spinning flights:
@@ -86,7 +107,7 @@ TERMS = ("distance", "attitude", "band", "time", "bonus", "penalty", "energy",
 # whole episodes; with a term saturating at 1.3 rad/s, at 30 rad/s.
 U_Q = 50.0
 U_MAX = 5000.0
-ATT_MAX = 2.0 + U_Q * math.log1p(U_MAX / U_Q)   # bound of a(s): (1 - cos theta) <= 2
+ATT_MAX = 2.0 + U_Q * math.log1p(U_MAX / U_Q)  # bound of a(s): (1 - cos theta) <= 2
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,15 +129,22 @@ class RewardConfig:
     attitude_cost: float = 0.0
 
     def __post_init__(self):
-        for name in ("dist_weight", "time_cost", "success_bonus", "break_penalty",
-                     "attitude_weight", "band_weight", "energy_weight", "attitude_cost"):
+        for name in (
+            "dist_weight",
+            "time_cost",
+            "success_bonus",
+            "break_penalty",
+            "attitude_weight",
+            "band_weight",
+            "energy_weight",
+            "attitude_cost",
+        ):
             non_negative_real(name, getattr(self, name))
         if not (is_real(self.gamma) and 0.0 < self.gamma <= 1.0):
             raise ValueError(f"gamma must lie in (0, 1], got {self.gamma!r}")
         if self.shaping not in SHAPINGS:
             raise ValueError(f"shaping must be one of {sorted(SHAPINGS)}, got {self.shaping!r}")
-        if not (is_real(self.dist_cap) and math.isfinite(self.dist_cap)
-                and self.dist_cap > 0):
+        if not (is_real(self.dist_cap) and math.isfinite(self.dist_cap) and self.dist_cap > 0):
             raise ValueError(f"dist_cap must be a positive number [m], got {self.dist_cap!r}")
 
     def reward_vector(self) -> np.ndarray:
@@ -151,9 +179,12 @@ def new_memory(n: int | None = None) -> np.ndarray:
 def terms_info(rm: np.ndarray) -> dict:
     """The last step's reward terms as info entries ``reward_<term>`` (floats, or arrays
     for a 2-D memory)."""
-    return {f"reward_{name}": (rm[..., RM_DISTANCE + i].copy() if rm.ndim > 1
-                               else float(rm[RM_DISTANCE + i]))
-            for i, name in enumerate(TERMS)}
+    return {
+        f"reward_{name}": (
+            rm[..., RM_DISTANCE + i].copy() if rm.ndim > 1 else float(rm[RM_DISTANCE + i])
+        )
+        for i, name in enumerate(TERMS)
+    }
 
 
 @kernel(inner=True)
@@ -200,8 +231,7 @@ def potential(S, P, RW, RM):
 @kernel
 def phi_min(RW):
     """The lowest value the potential can take (every term is bounded)."""
-    return -(RW[RW_W_DIST] * RW[RW_DIST_CAP] / POS_SCALE + RW[RW_W_ATT] * ATT_MAX
-             + RW[RW_W_BAND])
+    return -(RW[RW_W_DIST] * RW[RW_DIST_CAP] / POS_SCALE + RW[RW_W_ATT] * ATT_MAX + RW[RW_W_BAND])
 
 
 @kernel(F64(VEC, VEC, VEC, VEC), inner=True)
@@ -262,7 +292,7 @@ def pay(S, P, RW, RM, phi0, success, broken, elapsed):
         reward -= RW[RW_BREAK]
         RM[RM_PENALTY] = -RW[RW_BREAK]
     RM[RM_ENERGY] = 0.0
-    if RW[RW_W_ENERGY] != 0.0:      # a zero weight leaves the reward's bits untouched
+    if RW[RW_W_ENERGY] != 0.0:  # a zero weight leaves the reward's bits untouched
         RM[RM_ENERGY] = -RW[RW_W_ENERGY] * RM[RM_EFFORT]
         reward += RM[RM_ENERGY]
     RM[RM_ATTITUDE_COST] = 0.0

@@ -66,6 +66,7 @@ Its step is the torque task's (`torque.step`: `common.open_step`,
 `torque.commanded_torque`, `ADVANCE`, `reward.charge`, `common.close_step`); its
 observe is `observe` below, which calls `observation.observe`.
 """
+
 import dataclasses
 import math
 
@@ -93,15 +94,21 @@ class TerrainEnvConfig(EnvConfig):
     def __post_init__(self):
         super().__post_init__()
         rng = self.slope_range
-        if not (isinstance(rng, (tuple, list, np.ndarray)) and len(rng) == 2
-                and all(is_real(v) and abs(v) <= MAX_SLOPE for v in rng) and rng[0] <= rng[1]):
-            raise ValueError(f"slope_range must be (low, high) [rad] with low <= high, both "
-                             f"in [-{MAX_SLOPE}, {MAX_SLOPE}]; got {self.slope_range!r}")
+        if not (
+            isinstance(rng, (tuple, list, np.ndarray))
+            and len(rng) == 2
+            and all(is_real(v) and abs(v) <= MAX_SLOPE for v in rng)
+            and rng[0] <= rng[1]
+        ):
+            raise ValueError(
+                f"slope_range must be (low, high) [rad] with low <= high, both "
+                f"in [-{MAX_SLOPE}, {MAX_SLOPE}]; got {self.slope_range!r}"
+            )
         object.__setattr__(self, "slope_range", (float(rng[0]), float(rng[1])))
-        if not (is_real(self.roughness) and math.isfinite(self.roughness)
-                and self.roughness >= 0):
-            raise ValueError(f"roughness must be a finite number >= 0 [rad], got "
-                             f"{self.roughness!r}")
+        if not (is_real(self.roughness) and math.isfinite(self.roughness) and self.roughness >= 0):
+            raise ValueError(
+                f"roughness must be a finite number >= 0 [rad], got {self.roughness!r}"
+            )
 
     def terrain_columns(self, u: np.ndarray) -> dict:
         lo, hi = self.slope_range
@@ -114,8 +121,8 @@ class TerrainEnvConfig(EnvConfig):
         return self.roughness > 0.0
 
 
-OBS_SLOPE = OBS_DIM            # the slope / SLOPE_SCALE, after the torque task's slots
-SLOPE_SCALE = 0.5              # rad: the largest slope the model accepts
+OBS_SLOPE = OBS_DIM  # the slope / SLOPE_SCALE, after the torque task's slots
+SLOPE_SCALE = 0.5  # rad: the largest slope the model accepts
 OBS_LOW = np.append(FLAT_LOW, np.float32(-1.0))
 OBS_HIGH = np.append(FLAT_HIGH, np.float32(1.0))
 
@@ -127,7 +134,15 @@ def observe(S, P, E, M, obs):
     obs[OBS_SLOPE] = P[P_SLOPE] / SLOPE_SCALE
 
 
-TASK = dataclasses.replace(torque.TASK, name="terrain", config=TerrainEnvConfig,
-                           observe=observe, obs_low=OBS_LOW, obs_high=OBS_HIGH)
-REGISTER = (Registration("HopRoverTerrain-v0", suite="terrain"),
-            Registration("HopRoverTerrainRL-v0", RL_SETTINGS, suite="terrain"))
+TASK = dataclasses.replace(
+    torque.TASK,
+    name="terrain",
+    config=TerrainEnvConfig,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+)
+REGISTER = (
+    Registration("HopRoverTerrain-v0", suite="terrain"),
+    Registration("HopRoverTerrainRL-v0", RL_SETTINGS, suite="terrain"),
+)

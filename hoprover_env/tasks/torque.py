@@ -166,6 +166,7 @@ Its step calls these jitted functions: `common.open_step`, `ACTUATE` (bound to
 `core.advance_event`, or `core.advance` for `integrator="euler"`), `reward.charge` and
 `common.close_step`; then `observation.observe`.
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
+
 import numpy as np
 
 from hoprover_env.core.layout import S_T
@@ -244,10 +245,19 @@ def commanded_torque(action, P, E, M):
 
 
 TASK = TaskSpec(
-    name="torque", config=EnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
-    obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
-    action_torque=action_to_torque, torque_action=torque_to_action,
-    compile_extra=(open_step, close_step, action_to_torque, observe))
-REGISTER = (Registration("HopRover-v0", suite="level"),
-            Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),
-            Registration("HopRoverRL-v0", RL_SETTINGS, suite="level"))
+    name="torque",
+    config=EnvConfig,
+    step=step,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+    holes={"ACTUATE": commanded_torque},
+    action_torque=action_to_torque,
+    torque_action=torque_to_action,
+    compile_extra=(open_step, close_step, action_to_torque, observe),
+)
+REGISTER = (
+    Registration("HopRover-v0", suite="level"),
+    Registration("HopRoverContest-v0", {"target_x": 0.5}, suite="contest"),
+    Registration("HopRoverRL-v0", RL_SETTINGS, suite="level"),
+)

@@ -80,6 +80,7 @@ HopRover-v0's, with the defaults above, and `flight_start` (a share in [0, 1]);
 * v1: this observation (unclipped spin and distances, no time), the per-decision
   attitude cost, and `flight_start`.
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
+
 import dataclasses
 import math
 
@@ -104,19 +105,22 @@ from hoprover_env.tasks.observation import (
 from hoprover_env.tasks.torque import action_to_torque, commanded_torque, step, torque_to_action
 
 OBS_DX, OBS_HEIGHT, OBS_VX, OBS_VY, OBS_SIN, OBS_COS, OBS_RATE, OBS_SPIN = range(8)
-OBS_MODE = 8            # 8..14: one-hot contact state A..G
+OBS_MODE = 8  # 8..14: one-hot contact state A..G
 OBS_DWELL = 15
-OBS_REF = 16            # fine: / band half-width
-OBS_REF_FAR = 17        # whole range: / POS_SCALE
+OBS_REF = 16  # fine: / band half-width
+OBS_REF_FAR = 17  # whole range: / POS_SCALE
 OBS_LANDING = 18
 OBS_TORQUE = 19
 OBS_DIM = 20
-FAR = 10.0              # the position slots' bound [POS_SCALE]
-SPIN_BOUND = 10.0       # asinh(omega / RATE_SCALE) bound
-OBS_LOW = np.array([-FAR, -1, -10, -10, -1, -1, -10, -SPIN_BOUND] + [0] * 7
-                   + [0, -20, -FAR, -FAR, -1], dtype=np.float32)
-OBS_HIGH = np.array([FAR, 10, 10, 10, 1, 1, 10, SPIN_BOUND] + [1] * 7
-                    + [1, 20, FAR, FAR, 1], dtype=np.float32)
+FAR = 10.0  # the position slots' bound [POS_SCALE]
+SPIN_BOUND = 10.0  # asinh(omega / RATE_SCALE) bound
+OBS_LOW = np.array(
+    [-FAR, -1, -10, -10, -1, -1, -10, -SPIN_BOUND] + [0] * 7 + [0, -20, -FAR, -FAR, -1],
+    dtype=np.float32,
+)
+OBS_HIGH = np.array(
+    [FAR, 10, 10, 10, 1, 1, 10, SPIN_BOUND] + [1] * 7 + [1, 20, FAR, FAR, 1], dtype=np.float32
+)
 assert len(OBS_LOW) == len(OBS_HIGH) == OBS_DIM
 
 # HopRoverRL-v0's settings, plus the per-decision attitude cost
@@ -130,8 +134,10 @@ class RLEnvConfig(EnvConfig):
     def __post_init__(self):
         super().__post_init__()
         if self.dist_cap > FAR * POS_SCALE:
-            raise ValueError(f"dist_cap must be at most {FAR * POS_SCALE} m here (the "
-                             f"observation's range), got {self.dist_cap!r}")
+            raise ValueError(
+                f"dist_cap must be at most {FAR * POS_SCALE} m here (the "
+                f"observation's range), got {self.dist_cap!r}"
+            )
 
 
 @kernel(NONE(VEC, VEC, VEC, VEC, VEC32))
@@ -159,8 +165,15 @@ def observe(S, P, E, M, obs):
 
 
 TASK = TaskSpec(
-    name="torque_rl", config=RLEnvConfig, step=step, observe=observe, obs_low=OBS_LOW,
-    obs_high=OBS_HIGH, holes={"ACTUATE": commanded_torque},
-    action_torque=action_to_torque, torque_action=torque_to_action,
-    compile_extra=(open_step, close_step, action_to_torque, observe))
+    name="torque_rl",
+    config=RLEnvConfig,
+    step=step,
+    observe=observe,
+    obs_low=OBS_LOW,
+    obs_high=OBS_HIGH,
+    holes={"ACTUATE": commanded_torque},
+    action_torque=action_to_torque,
+    torque_action=torque_to_action,
+    compile_extra=(open_step, close_step, action_to_torque, observe),
+)
 REGISTER = (Registration("HopRoverRL-v1", RL_V1_SETTINGS, suite="level"),)

@@ -18,6 +18,7 @@ bootstraps there as it does on its own data. The observation statistics of VecNo
 are updated with the demonstrations' observations. The demonstrations stay in the buffer
 until its ring overwrites them; a resumed run restores the buffer with them.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -36,11 +37,13 @@ def collect_demonstrations(cfg: dict, env_kwargs: dict) -> list:
     try:
         import minari  # noqa: F401  (the episode buffers of the collector)
     except ImportError:
-        raise SystemExit("error: the config's demonstrations need Minari: "
-                         "pip install 'hoprover[offline]'") from None
+        raise SystemExit(
+            "error: the config's demonstrations need Minari: pip install 'hoprover[offline]'"
+        ) from None
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.envs.registry import config_class
     from hoprover_env.evaluation.datasets import collect
+
     demo = settings(cfg)
     kwargs = {k: v for k, v in env_kwargs.items() if k != "flight_start"}
     control_dt = config_class(cfg["env_id"])(**kwargs).control_dt
@@ -48,8 +51,14 @@ def collect_demonstrations(cfg: dict, env_kwargs: dict) -> list:
         policy = load_policy(demo["policy"], control_dt=control_dt)
     except (ValueError, FileNotFoundError) as exc:
         raise SystemExit(f"error: demonstrations.policy {demo['policy']!r}: {exc}") from None
-    return collect(cfg["env_id"], [policy], kwargs, n_steps=int(demo["steps"]),
-                   num_envs=16, seed=int(demo["seed"]))
+    return collect(
+        cfg["env_id"],
+        [policy],
+        kwargs,
+        n_steps=int(demo["steps"]),
+        num_envs=16,
+        seed=int(demo["seed"]),
+    )
 
 
 def prefill(model, venv, episodes: list) -> dict:
@@ -70,13 +79,22 @@ def prefill(model, venv, episodes: list) -> dict:
         done.append(te | tr)
         trunc.append(tr & ~te)
     obs, nxt, act, rew, done, trunc = map(np.concatenate, (obs, nxt, act, rew, done, trunc))
-    usable = len(obs) - len(obs) % n        # the buffer takes one row per env at a time
+    usable = len(obs) - len(obs) % n  # the buffer takes one row per env at a time
     for i in range(0, usable, n):
         rows = slice(i, i + n)
-        buf.add(obs[rows], nxt[rows], act[rows], rew[rows], done[rows],
-                [{"TimeLimit.truncated": bool(t)} for t in trunc[rows]])
+        buf.add(
+            obs[rows],
+            nxt[rows],
+            act[rows],
+            rew[rows],
+            done[rows],
+            [{"TimeLimit.truncated": bool(t)} for t in trunc[rows]],
+        )
     rms = getattr(venv, "obs_rms", None)
     if rms is not None and getattr(venv, "norm_obs", False):
         rms.update(obs)
-    return {"transitions": int(usable), "episodes": len(episodes),
-            "return_mean": float(np.mean([np.sum(ep.rewards) for ep in episodes]))}
+    return {
+        "transitions": int(usable),
+        "episodes": len(episodes),
+        "return_mean": float(np.mean([np.sum(ep.rewards) for ep in episodes])),
+    }

@@ -19,6 +19,7 @@ per-episode rows gain reference_ttrtp, regret and score. --json/--csv
 write the per-episode results atomically; --plot writes the contest sample's nine
 trajectory figures and --video an animation of one episode of the first policy.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -62,52 +63,115 @@ def terrain_conditions(args, n: int) -> dict:
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n", 2)[2])
-    ap.add_argument("--policy", action="append", default=None,
-                    help="scratch, hop, bundled, scripted, random, or a model .zip / run "
-                         "directory (repeat to compare; default: scratch, hop, bundled "
-                         "and scripted)")
-    ap.add_argument("--controller", action="append", default=[],
-                    help="a contest controller module.py:Function (repeatable)")
+    ap = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n", 2)[2],
+    )
+    ap.add_argument(
+        "--policy",
+        action="append",
+        default=None,
+        help="scratch, hop, bundled, scripted, random, or a model .zip / run "
+        "directory (repeat to compare; default: scratch, hop, bundled "
+        "and scripted)",
+    )
+    ap.add_argument(
+        "--controller",
+        action="append",
+        default=[],
+        help="a contest controller module.py:Function (repeatable)",
+    )
     ap.add_argument("--episodes", type=int, default=200, help="number of targets (default 200)")
-    ap.add_argument("--targets", type=str, default=None,
-                    help="comma-separated target x values instead of random ones")
-    ap.add_argument("--target-range", type=float, nargs=2, default=(-1.0, 1.0),
-                    metavar=("LOW", "HIGH"), help="range of the random targets [m]")
+    ap.add_argument(
+        "--targets",
+        type=str,
+        default=None,
+        help="comma-separated target x values instead of random ones",
+    )
+    ap.add_argument(
+        "--target-range",
+        type=float,
+        nargs=2,
+        default=(-1.0, 1.0),
+        metavar=("LOW", "HIGH"),
+        help="range of the random targets [m]",
+    )
     ap.add_argument("--seed", type=int, default=2015, help="seed of the random targets")
-    ap.add_argument("--control-dt", type=float, default=0.5,
-                    help="control period of scripted/contest controllers [s]")
+    ap.add_argument(
+        "--control-dt",
+        type=float,
+        default=0.5,
+        help="control period of scripted/contest controllers [s]",
+    )
     ap.add_argument("--json", type=str, default=None, help="write per-episode results (JSON)")
     ap.add_argument("--csv", type=str, default=None, help="write per-episode results (CSV)")
     ap.add_argument("--plot", type=str, default=None, help="directory for the nine figures")
     ap.add_argument("--video", type=str, default=None, help="GIF or MP4 of an episode")
-    ap.add_argument("--plot-episode", type=int, default=None,
-                    help="which target to plot/film (default: the first one that needs a hop)")
+    ap.add_argument(
+        "--plot-episode",
+        type=int,
+        default=None,
+        help="which target to plot/film (default: the first one that needs a hop)",
+    )
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
-    ap.add_argument("--env", type=str, default=None, choices=sorted(ENVS),
-                    help="the task a controller (scripted, --controller) acts in; a "
-                         "task that draws its ground (HopRoverTerrain-v0: slopes from "
-                         f"U{task_ground('HopRoverTerrain-v0')['slope']} rad) also draws "
-                         "one held-out slope per episode from its range (seeded by --seed) "
-                         "and sets its roughness, for every policy")
-    ap.add_argument("--slope", type=float, default=None,
-                    help="one ground slope [rad] for every episode and policy")
-    ap.add_argument("--roughness", type=float, default=None,
-                    help="rough-terrain bounces [rad] for every episode and policy")
-    ap.add_argument("--suite", nargs="?", type=int, const=0, default=None, metavar="VERSION",
-                    help="evaluate on the frozen test suite of --env (default HopRover-v0; "
-                         "the newest version, or VERSION) and score against its references")
-    ap.add_argument("--batch", type=int, default=256,
-                    help="episodes run side by side in one vector env (default 256)")
-    ap.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
-                    help="run the episodes as Ray tasks, one batch each: on a local Ray, "
-                         "or on the cluster at ADDRESS (or RAY_ADDRESS); same results")
-    ap.add_argument("--workers", type=int, default=None,
-                    help="worker processes for a policy that plays its episodes in them "
-                         "(mpc; default: one per core, 1 = in this process); same results")
+    ap.add_argument(
+        "--env",
+        type=str,
+        default=None,
+        choices=sorted(ENVS),
+        help="the task a controller (scripted, --controller) acts in; a "
+        "task that draws its ground (HopRoverTerrain-v0: slopes from "
+        f"U{task_ground('HopRoverTerrain-v0')['slope']} rad) also draws "
+        "one held-out slope per episode from its range (seeded by --seed) "
+        "and sets its roughness, for every policy",
+    )
+    ap.add_argument(
+        "--slope",
+        type=float,
+        default=None,
+        help="one ground slope [rad] for every episode and policy",
+    )
+    ap.add_argument(
+        "--roughness",
+        type=float,
+        default=None,
+        help="rough-terrain bounces [rad] for every episode and policy",
+    )
+    ap.add_argument(
+        "--suite",
+        nargs="?",
+        type=int,
+        const=0,
+        default=None,
+        metavar="VERSION",
+        help="evaluate on the frozen test suite of --env (default HopRover-v0; "
+        "the newest version, or VERSION) and score against its references",
+    )
+    ap.add_argument(
+        "--batch",
+        type=int,
+        default=256,
+        help="episodes run side by side in one vector env (default 256)",
+    )
+    ap.add_argument(
+        "--ray",
+        nargs="?",
+        const="",
+        default=None,
+        metavar="ADDRESS",
+        help="run the episodes as Ray tasks, one batch each: on a local Ray, "
+        "or on the cluster at ADDRESS (or RAY_ADDRESS); same results",
+    )
+    ap.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="worker processes for a policy that plays its episodes in them "
+        "(mpc; default: one per core, 1 = in this process); same results",
+    )
     from hoprover_env.training.ray_utils import SHIP_CODE_HELP
+
     ap.add_argument("--ship-code", action="store_true", help="with --ray: " + SHIP_CODE_HELP)
     args = ap.parse_args(_join_dash_values(sys.argv[1:] if argv is None else list(argv)))
     if args.batch < 1:
@@ -130,8 +194,7 @@ def parse_args(argv=None):
             ap.error(f"--targets must be finite numbers, got {','.join(map(str, args.targets))}")
     n_targets = len(args.targets) if args.targets is not None else args.episodes
     if args.plot_episode is not None and not 0 <= args.plot_episode < n_targets:
-        ap.error(f"--plot-episode {args.plot_episode} is not a target index "
-                 f"(0..{n_targets - 1})")
+        ap.error(f"--plot-episode {args.plot_episode} is not a target index (0..{n_targets - 1})")
     return args
 
 
@@ -141,8 +204,12 @@ def _join_dash_values(argv: list[str]) -> list[str]:
     Glue the value to its option before argparse sees it."""
     out, i = [], 0
     while i < len(argv):
-        if argv[i] == "--targets" and i + 1 < len(argv) and argv[i + 1].startswith("-") \
-                and not argv[i + 1].startswith("--"):
+        if (
+            argv[i] == "--targets"
+            and i + 1 < len(argv)
+            and argv[i + 1].startswith("-")
+            and not argv[i + 1].startswith("--")
+        ):
             out.append(f"--targets={argv[i + 1]}")
             i += 2
         else:
@@ -152,14 +219,18 @@ def _join_dash_values(argv: list[str]) -> list[str]:
 
 
 def format_table(rows) -> str:
-    head = f"{'policy':<22}{'success':>9}{'median TTRTP':>14}{'p90 TTRTP':>11}" \
-           f"{'broken':>8}{'wall s/ep':>11}"
+    head = (
+        f"{'policy':<22}{'success':>9}{'median TTRTP':>14}{'p90 TTRTP':>11}"
+        f"{'broken':>8}{'wall s/ep':>11}"
+    )
     lines = [head, "-" * len(head)]
     for name, s in rows:
         med = "-" if math.isnan(s["median_ttrtp"]) else f"{s['median_ttrtp']:.1f} s"
         p90 = "-" if math.isnan(s["p90_ttrtp"]) else f"{s['p90_ttrtp']:.1f} s"
-        lines.append(f"{name:<22}{s['success_rate']:>8.1%}{med:>14}{p90:>11}"
-                     f"{s['broken']:>8d}{s['wall_per_episode']:>11.3f}")
+        lines.append(
+            f"{name:<22}{s['success_rate']:>8.1%}{med:>14}{p90:>11}"
+            f"{s['broken']:>8d}{s['wall_per_episode']:>11.3f}"
+        )
     return "\n".join(lines)
 
 
@@ -175,15 +246,18 @@ def main(argv=None) -> int:
 def _main(argv=None) -> int:
     try:
         args = parse_args(argv)
-    except SystemExit as exc:      # argparse has printed its one-line error (or --help)
+    except SystemExit as exc:  # argparse has printed its one-line error (or --help)
         return exc.code if isinstance(exc.code, int) else 2
     suite = None
     if args.suite is not None:
         if args.targets is not None or args.slope is not None or args.roughness is not None:
-            print("error: --suite fixes the episodes; drop --targets/--slope/--roughness",
-                  file=sys.stderr)
+            print(
+                "error: --suite fixes the episodes; drop --targets/--slope/--roughness",
+                file=sys.stderr,
+            )
             return 2
         from hoprover_env.evaluation import suites
+
         try:
             suite = suites.load(args.env or "HopRover-v0", args.suite or None)
         except ValueError as exc:
@@ -194,8 +268,11 @@ def _main(argv=None) -> int:
         targets = args.targets
     else:
         targets = seeded_targets(args.episodes, args.seed, *args.target_range)
-    specs = args.policy if args.policy is not None else (
-        [] if args.controller else ["scratch", "hop", "bundled", "scripted"])
+    specs = (
+        args.policy
+        if args.policy is not None
+        else ([] if args.controller else ["scratch", "hop", "bundled", "scripted"])
+    )
     try:
         policies = [load_policy(s, control_dt=args.control_dt, seed=args.seed) for s in specs]
         policies += [load_controller(c, args.control_dt) for c in args.controller]
@@ -204,7 +281,7 @@ def _main(argv=None) -> int:
         return 2
     ground = suite.terrain() if suite else terrain_conditions(args, len(targets))
     if args.env is not None:
-        for pol in policies:              # controllers act in the task asked for
+        for pol in policies:  # controllers act in the task asked for
             if not hasattr(pol, "env_id"):
                 pol.env_id = args.env
     names = [p.name for p in policies]
@@ -215,78 +292,125 @@ def _main(argv=None) -> int:
 
     rows, all_results = [], []
     if args.ray is not None and (ground or suite):
-        print("error: --ray evaluates on the contest's flat ground; run --env/--slope/"
-              "--roughness locally", file=sys.stderr)
+        print(
+            "error: --ray evaluates on the contest's flat ground; run --env/--slope/"
+            "--roughness locally",
+            file=sys.stderr,
+        )
         return 2
     if args.ray is not None:
         jobs = [("policy", s, p.name) for s, p in zip(specs, policies)]
-        jobs += [("controller", c, p.name) for c, p in zip(args.controller,
-                                                             policies[len(specs):])]
+        jobs += [("controller", c, p.name) for c, p in zip(args.controller, policies[len(specs) :])]
         try:
             from hoprover_env.training.ray_eval import evaluate_on_ray
             from hoprover_env.training.ray_utils import ClusterCodeError
         except ImportError as exc:
-            print(f"error: --ray needs Ray: pip install 'hoprover[ray]' ({exc})",
-                  file=sys.stderr)
+            print(f"error: --ray needs Ray: pip install 'hoprover[ray]' ({exc})", file=sys.stderr)
             return 2
         t0 = time.perf_counter()
         try:
-            by_name = evaluate_on_ray(jobs, targets, args.control_dt, args.seed, args.batch,
-                                      address=args.ray or None, ship_code=args.ship_code)
+            by_name = evaluate_on_ray(
+                jobs,
+                targets,
+                args.control_dt,
+                args.seed,
+                args.batch,
+                address=args.ray or None,
+                ship_code=args.ship_code,
+            )
         except ClusterCodeError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
         for _, _, name in jobs:
             rows.append((name, summarize(by_name[name])))
             all_results.extend(by_name[name])
-        print(f"  {len(jobs)} policies x {len(targets)} episodes on Ray in "
-              f"{time.perf_counter() - t0:.1f} s", file=sys.stderr)
+        print(
+            f"  {len(jobs)} policies x {len(targets)} episodes on Ray in "
+            f"{time.perf_counter() - t0:.1f} s",
+            file=sys.stderr,
+        )
     for pol in policies if args.ray is None else []:
         bar = None
         if not args.no_progress and len(targets) > 20:
             from tqdm import tqdm
+
             bar = tqdm(total=len(targets), desc=pol.name, unit="ep", leave=False)
         progress = (lambda k, b=bar: b.update(k - b.n)) if bar else None
         t0 = time.perf_counter()
         try:
-            if suite:                     # each episode as frozen (suites.run)
-                results = suites.run_results(pol, suite, batch=args.batch,
-                                             progress=progress, workers=args.workers)
+            if suite:  # each episode as frozen (suites.run)
+                results = suites.run_results(
+                    pol, suite, batch=args.batch, progress=progress, workers=args.workers
+                )
             else:
-                results = run_episodes(pol, targets, batch=args.batch, progress=progress,
-                                       terrain=ground, workers=args.workers)
-        except ValueError as exc:         # a bad --slope / --roughness, named by the env
+                results = run_episodes(
+                    pol,
+                    targets,
+                    batch=args.batch,
+                    progress=progress,
+                    terrain=ground,
+                    workers=args.workers,
+                )
+        except ValueError as exc:  # a bad --slope / --roughness, named by the env
             print(f"error: {exc}", file=sys.stderr)
             return 2
         if bar:
             bar.close()
         rows.append((pol.name, summarize(results)))
         all_results.extend(suites.judged(results, suite) if suite else results)
-        print(f"  {pol.name}: {len(results)} episodes in {time.perf_counter() - t0:.1f} s",
-              file=sys.stderr)
-    where = "" if not ground else (
-        f"; slope {args.slope} rad" if args.slope is not None else
-        f"; slopes U{task_ground(args.env).get('slope')} rad" if "slope" in ground else "") + (
-        f", roughness {ground['roughness'][0]} rad" if "roughness" in ground else "")
+        print(
+            f"  {pol.name}: {len(results)} episodes in {time.perf_counter() - t0:.1f} s",
+            file=sys.stderr,
+        )
+    where = (
+        ""
+        if not ground
+        else (
+            f"; slope {args.slope} rad"
+            if args.slope is not None
+            else f"; slopes U{task_ground(args.env).get('slope')} rad"
+            if "slope" in ground
+            else ""
+        )
+        + (f", roughness {ground['roughness'][0]} rad" if "roughness" in ground else "")
+    )
     if suite:
-        print(f"\nthe {suite.name}-v{suite.version} suite of {args.env or 'HopRover-v0'} "
-              f"({len(suite)} episodes, checksum {suite.checksum[:12]}); TTRTP over the "
-              "successful episodes\n")
+        print(
+            f"\nthe {suite.name}-v{suite.version} suite of {args.env or 'HopRover-v0'} "
+            f"({len(suite)} episodes, checksum {suite.checksum[:12]}); TTRTP over the "
+            "successful episodes\n"
+        )
     else:
-        print(f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}"
-              f"{where}); TTRTP over the successful episodes\n")
+        print(
+            f"\n{len(targets)} targets (seed {args.seed}, range {tuple(args.target_range)}"
+            f"{where}); TTRTP over the successful episodes\n"
+        )
     print(format_table(rows))
     if suite:
         from hoprover_env.evaluation.scores import format_table as score_table
         from hoprover_env.evaluation.scores import summarize as score
-        print("\nagainst the best-known references (score = reference / TTRTP, 0 on "
-              "failure; 95 % bootstrap intervals over the episodes):\n")
-        print(score_table([score(name, [r["score"] for r in all_results
-                                        if r["policy"] == name]) for name, _ in rows]))
+
+        print(
+            "\nagainst the best-known references (score = reference / TTRTP, 0 on "
+            "failure; 95 % bootstrap intervals over the episodes):\n"
+        )
+        print(
+            score_table(
+                [
+                    score(name, [r["score"] for r in all_results if r["policy"] == name])
+                    for name, _ in rows
+                ]
+            )
+        )
 
     if args.json:
-        write_json(args.json, {"summary": dict(rows), "episodes": [
-            r if isinstance(r, dict) else r.as_dict() for r in all_results]})
+        write_json(
+            args.json,
+            {
+                "summary": dict(rows),
+                "episodes": [r if isinstance(r, dict) else r.as_dict() for r in all_results],
+            },
+        )
     if args.csv:
         buf = io.StringIO()
         dicts = [r if isinstance(r, dict) else r.as_dict() for r in all_results]
@@ -297,18 +421,22 @@ def _main(argv=None) -> int:
         atomic_write(args.csv, buf.getvalue())
     if args.plot or args.video:
         from hoprover_env.evaluation.replay import record_episode
+
         k = args.plot_episode
-        if k is None:        # the first target more than a body width away: a real hop
+        if k is None:  # the first target more than a body width away: a real hop
             far = np.flatnonzero(np.abs(targets) > 0.15)
             k = int(far[0]) if far.size else 0
-        rec = record_episode(policies[0], float(targets[k]),
-                             terrain={key: v[k] for key, v in ground.items()})
+        rec = record_episode(
+            policies[0], float(targets[k]), terrain={key: v[k] for key, v in ground.items()}
+        )
         if args.plot:
             from hoprover_env.evaluation.plots import nine_figures
+
             paths = nine_figures(rec, args.plot)
             print(f"\nwrote {len(paths)} figures to {args.plot}")
         if args.video:
             from hoprover_env.evaluation.replay import write_video
+
             try:
                 write_video(rec, args.video)
             except (RuntimeError, ImportError) as exc:
@@ -316,7 +444,6 @@ def _main(argv=None) -> int:
                 return 2
             print(f"wrote {args.video}")
     return 0
-
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ come with the installed hoprover; a model file, a run directory or a controller 
 is read once on the driver and travels with the tasks through Ray's object store, so
 a path on the driver is enough: the nodes need not see it.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -28,6 +29,7 @@ def policy_files(kind: str, spec: str) -> tuple[str, dict[str, bytes]] | None:
     they will be written to, {relative name: bytes}); None for a spec that names no
     file (bundled, scripted, random)."""
     from hoprover_env.agents.policies import BUNDLED
+
     if kind == "policy" and (spec in BUNDLED or spec in ("scripted", "random")):
         return None
     if kind == "controller" or spec.endswith(".py") or ".py:" in spec:
@@ -35,16 +37,22 @@ def policy_files(kind: str, spec: str) -> tuple[str, dict[str, bytes]] | None:
         path = Path(file)
         return (f"{path.name}:{attr}" if attr else path.name), {path.name: path.read_bytes()}
     path = Path(spec)
-    if path.is_dir():      # a run directory: its models, not its checkpoints or logs
-        files = {f"{path.resolve().name}/{p.name}": p.read_bytes() for p in path.iterdir()
-                 if p.is_file() and (p.name.startswith(("best_model", "final_model"))
-                                     or p.name == "vecnormalize.pkl")}
+    if path.is_dir():  # a run directory: its models, not its checkpoints or logs
+        files = {
+            f"{path.resolve().name}/{p.name}": p.read_bytes()
+            for p in path.iterdir()
+            if p.is_file()
+            and (p.name.startswith(("best_model", "final_model")) or p.name == "vecnormalize.pkl")
+        }
         return path.resolve().name, files
     if not path.exists():
         raise FileNotFoundError(f"model file not found: {path}")
     # a model .zip with its metadata and normalisation statistics beside it
-    sibs = [path.with_suffix(".json"), path.with_name(path.stem + "_vecnormalize.pkl"),
-            path.parent / "vecnormalize.pkl"]
+    sibs = [
+        path.with_suffix(".json"),
+        path.with_name(path.stem + "_vecnormalize.pkl"),
+        path.parent / "vecnormalize.pkl",
+    ]
     files = {path.name: path.read_bytes()}
     files.update({p.name: p.read_bytes() for p in sibs if p.exists()})
     return path.name, files
@@ -54,8 +62,9 @@ def _materialize(shipped) -> str:
     """Write shipped policy files once per worker process; returns their folder."""
     relspec, files = shipped
     digest = hashlib.sha256(b"".join(k.encode() + v for k, v in sorted(files.items())))
-    folder = Path(tempfile.gettempdir()) / f"hoprover-policy-{os.getpid()}-" \
-                                           f"{digest.hexdigest()[:16]}"
+    folder = (
+        Path(tempfile.gettempdir()) / f"hoprover-policy-{os.getpid()}-{digest.hexdigest()[:16]}"
+    )
     if not folder.exists():
         tmp = Path(tempfile.mkdtemp(dir=folder.parent))
         for name, data in files.items():
@@ -65,28 +74,49 @@ def _materialize(shipped) -> str:
     return str(folder / relspec)
 
 
-def _run_chunk(kind: str, spec: str, shipped, targets, first: int, control_dt: float,
-               seed: int, batch: int, expected: dict):
+def _run_chunk(
+    kind: str,
+    spec: str,
+    shipped,
+    targets,
+    first: int,
+    control_dt: float,
+    seed: int,
+    batch: int,
+    expected: dict,
+):
     from hoprover_env.util.buildinfo import require
+
     require(expected)
     from hoprover_env.agents.policies import load_controller, load_policy
     from hoprover_env.evaluation.episodes import run_episodes
+
     if shipped is not None:
         spec = _materialize(shipped)
-    policy = load_controller(spec, control_dt) if kind == "controller" else \
-        load_policy(spec, control_dt=control_dt, seed=seed)
-    return [r.as_dict() for r in run_episodes(policy, targets, batch=batch,
-                                              first_episode=first)]
+    policy = (
+        load_controller(spec, control_dt)
+        if kind == "controller"
+        else load_policy(spec, control_dt=control_dt, seed=seed)
+    )
+    return [r.as_dict() for r in run_episodes(policy, targets, batch=batch, first_episode=first)]
 
 
-def evaluate_on_ray(jobs: list[tuple[str, str, str]], targets, control_dt: float, seed: int,
-                    batch: int = 256, address: str | None = None,
-                    num_cpus: int | None = None, progress=None,
-                    ship_code: bool = False) -> dict[str, list]:
+def evaluate_on_ray(
+    jobs: list[tuple[str, str, str]],
+    targets,
+    control_dt: float,
+    seed: int,
+    batch: int = 256,
+    address: str | None = None,
+    num_cpus: int | None = None,
+    progress=None,
+    ship_code: bool = False,
+) -> dict[str, list]:
     """jobs: (kind 'policy' | 'controller', spec, row name). Returns row name -> the
     EpisodeResults in target order. `progress(name, episodes_done)` after each chunk."""
     from hoprover_env.training.ray_utils import init_ray
     from hoprover_env.util.buildinfo import build_info
+
     ray = init_ray(address, num_cpus, ship_code)
     expected = build_info()
     task = ray.remote(num_cpus=1)(_run_chunk)
@@ -96,8 +126,17 @@ def evaluate_on_ray(jobs: list[tuple[str, str, str]], targets, control_dt: float
         files = policy_files(kind, spec)
         shipped = None if files is None else ray.put(files)
         for first in range(0, len(targets), batch):
-            ref = task.remote(kind, spec, shipped, targets[first:first + batch], first,
-                              control_dt, seed, batch, expected)
+            ref = task.remote(
+                kind,
+                spec,
+                shipped,
+                targets[first : first + batch],
+                first,
+                control_dt,
+                seed,
+                batch,
+                expected,
+            )
             pending[ref] = (name, first)
     chunks: dict[str, dict[int, list]] = {name: {} for _, _, name in jobs}
     while pending:

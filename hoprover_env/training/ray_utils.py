@@ -17,6 +17,7 @@ Which code the tasks run (docs/SCALING.md, "Running on a cluster"):
   out uncommitted changes; the copy lives in Ray's session directory, so numba compiles
   it again on every node for every change and every Ray session.
 """
+
 from __future__ import annotations
 
 import os
@@ -26,8 +27,10 @@ ROOT = Path(__file__).resolve().parents[2]
 # what a cluster job does not need shipped with the project's code (--ship-code)
 EXCLUDES = ["runs/", ".venv/", ".git/", "benchmarks/figures/", "**/__pycache__/"]
 SETUP_HOOK = "hoprover_env.util.buildinfo.use_checkout"
-SHIP_CODE_HELP = ("ship this checkout to the cluster's nodes and run that copy, instead of "
-                  "the hoprover installed on them (numba then compiles on every node)")
+SHIP_CODE_HELP = (
+    "ship this checkout to the cluster's nodes and run that copy, instead of "
+    "the hoprover installed on them (numba then compiles on every node)"
+)
 
 
 class ClusterCodeError(RuntimeError):
@@ -52,13 +55,13 @@ def runtime_env(ship_code: bool) -> dict:
     return {"worker_process_setup_hook": SETUP_HOOK}
 
 
-def init_ray(address: str | None = None, num_cpus: int | None = None,
-             ship_code: bool = False):
+def init_ray(address: str | None = None, num_cpus: int | None = None, ship_code: bool = False):
     """Join the cluster at `address` (or RAY_ADDRESS) and check that every node runs
     the driver's hoprover (ClusterCodeError if not); or start a local Ray on this
     machine, whose workers import this checkout (its numba cache included). Returns
     the ray module."""
     import ray
+
     if ray.is_initialized():
         return ray
     address = cluster_address(address)
@@ -72,8 +75,13 @@ def init_ray(address: str | None = None, num_cpus: int | None = None,
         # checking that it is alive, so a cluster that was killed or is still running
         # elsewhere on the machine would capture (or hang) a run that asked for a Ray
         # of its own
-        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False,
-                 log_to_driver=False, runtime_env={"env_vars": {"PYTHONPATH": path}})
+        ray.init(
+            address="local",
+            num_cpus=num_cpus,
+            include_dashboard=False,
+            log_to_driver=False,
+            runtime_env={"env_vars": {"PYTHONPATH": path}},
+        )
     return ray
 
 
@@ -84,32 +92,40 @@ def check_nodes(ray, expected: dict | None = None) -> dict:
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
 
     from hoprover_env.util.buildinfo import build_info, mismatch, probe
+
     expected = expected or build_info()
     task = ray.remote(num_cpus=0, max_retries=0)(probe)
     nodes = [n for n in ray.nodes() if n["Alive"]]
-    refs = {n["NodeID"]: task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(
-        n["NodeID"], soft=False)).remote() for n in nodes}
+    refs = {
+        n["NodeID"]: task.options(
+            scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)
+        ).remote()
+        for n in nodes
+    }
     seen, problems = {}, []
     for node in nodes:
         where = f"{node.get('NodeManagerAddress', '?')} (id {node['NodeID'][:8]})"
         try:
             seen[node["NodeID"]] = info = ray.get(refs[node["NodeID"]], timeout=300)
-        except Exception as exc:      # noqa: BLE001 - whatever stops a node importing it
+        except Exception as exc:  # noqa: BLE001 - whatever stops a node importing it
             problems.append(
                 f"  node {where}: its workers cannot load hoprover_env.util.buildinfo: hoprover "
                 f"is not installed there, or is older than this driver's "
-                f"({type(exc).__name__}: {str(exc).strip().splitlines()[-1]})")
+                f"({type(exc).__name__}: {str(exc).strip().splitlines()[-1]})"
+            )
             continue
         why = mismatch(expected, info)
         if why:
             problems.append(f"  node {where} on {info['host']}: {why}")
     if problems:
         raise ClusterCodeError(
-            "the cluster does not run this hoprover:\n" + "\n".join(problems) +
-            f"\nthis driver: hoprover {expected['version']}, source {expected['source']}, "
+            "the cluster does not run this hoprover:\n"
+            + "\n".join(problems)
+            + f"\nthis driver: hoprover {expected['version']}, source {expected['source']}, "
             f"commit {expected['commit']}, at {expected['path']}.\nInstall the same "
             "checkout on every node (pip install -e '.[ray]'), or pass --ship-code to run "
-            "this checkout's copy there.")
+            "this checkout's copy there."
+        )
     return seen
 
 
@@ -117,6 +133,7 @@ def head_node_strategy(ray):
     """A scheduling strategy that pins a task to the head node (where a ray:// client's
     work would otherwise run in the client server)."""
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
     for node in ray.nodes():
         if node["Alive"] and "node:__internal_head__" in node.get("Resources", {}):
             return NodeAffinitySchedulingStrategy(node["NodeID"], soft=False)
@@ -136,25 +153,36 @@ def check_storage(ray, storage: str) -> None:
     it writes), or a directory every node mounts at the same path. Writes a marker
     file there and asks every live node whether it sees it (StorageError if not)."""
     import uuid
+
     if "://" in storage:
         return
     nodes = [n for n in ray.nodes() if n["Alive"]]
     if len(nodes) < 2:
         return
     from ray.util.scheduling_strategies import NodeAffinitySchedulingStrategy
+
     os.makedirs(storage, exist_ok=True)
     marker = os.path.join(storage, f".hoprover-storage-check-{uuid.uuid4().hex}")
     Path(marker).write_text("every node of the cluster must see this file\n")
     try:
         task = ray.remote(num_cpus=0, max_retries=0)(_sees)
-        refs = [(n, task.options(scheduling_strategy=NodeAffinitySchedulingStrategy(
-            n["NodeID"], soft=False)).remote(marker)) for n in nodes]
-        blind = [n.get("NodeManagerAddress", "?") for n, ref in refs
-                 if not ray.get(ref, timeout=300)]
+        refs = [
+            (
+                n,
+                task.options(
+                    scheduling_strategy=NodeAffinitySchedulingStrategy(n["NodeID"], soft=False)
+                ).remote(marker),
+            )
+            for n in nodes
+        ]
+        blind = [
+            n.get("NodeManagerAddress", "?") for n, ref in refs if not ray.get(ref, timeout=300)
+        ]
     finally:
         os.remove(marker)
     if blind:
         raise StorageError(
             f"--out {storage} is not shared: node(s) {', '.join(blind)} do not see it. A "
             "sweep on a cluster needs storage every node reaches: a shared mount at the "
-            "same path on every node (NFS, ...), or a URI such as s3://bucket/sweeps")
+            "same path on every node (NFS, ...), or a URI such as s3://bucket/sweeps"
+        )

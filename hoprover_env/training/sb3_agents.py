@@ -19,6 +19,7 @@ A config has these sections (every key is checked; a typo is an error that names
     evaluation: {freq, episodes, seed}
     checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time
 """
+
 from __future__ import annotations
 
 import copy
@@ -32,36 +33,92 @@ import yaml
 
 from hoprover_env.agents.policies import ALGOS, SB3_ALGOS, _algo_class
 
-TOP_KEYS = {"algo", "env_id", "n_envs", "timesteps", "seed", "env", "normalize", "policy",
-            "hyperparams", "pretrain", "evaluation", "checkpoint", "init_from",
-            "demonstrations"}
+TOP_KEYS = {
+    "algo",
+    "env_id",
+    "n_envs",
+    "timesteps",
+    "seed",
+    "env",
+    "normalize",
+    "policy",
+    "hyperparams",
+    "pretrain",
+    "evaluation",
+    "checkpoint",
+    "init_from",
+    "demonstrations",
+}
 # hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
 # learning rate fall linearly from `learning_rate` to it over the run
 OWN_HYPER_KEYS = {"learning_rate_end"}
 NORMALIZE_KEYS = {"obs", "reward", "clip_obs", "clip_reward", "update"}
 # the policy keys a config may set; an algorithm takes those its policy class does
 # (policy_keys): TQC's n_quantiles, CrossQ's batch renormalisation, RecurrentPPO's LSTM
-POLICY_KEYS = {"net_arch", "activation_fn", "log_std_init", "ortho_init", "use_expln",
-               "squash_output", "n_critics", "share_features_extractor", "features_extractor",
-               "full_std", "clip_mean", "n_quantiles", "batch_norm", "batch_norm_momentum",
-               "batch_norm_eps", "renorm_warmup_steps", "lstm_hidden_size", "n_lstm_layers",
-               "shared_lstm", "enable_critic_lstm"}
+POLICY_KEYS = {
+    "net_arch",
+    "activation_fn",
+    "log_std_init",
+    "ortho_init",
+    "use_expln",
+    "squash_output",
+    "n_critics",
+    "share_features_extractor",
+    "features_extractor",
+    "full_std",
+    "clip_mean",
+    "n_quantiles",
+    "batch_norm",
+    "batch_norm_momentum",
+    "batch_norm_eps",
+    "renorm_warmup_steps",
+    "lstm_hidden_size",
+    "n_lstm_layers",
+    "shared_lstm",
+    "enable_critic_lstm",
+}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
-PRETRAIN_DEFAULTS = {"expert": "scripted", "episodes": 400, "epochs": 30, "batch_size": 1024,
-                     "learning_rate": 1e-3, "seed": 1, "value_epochs": 10, "log_std": -2.5,
-                     "noise": 0.0, "dagger_rounds": 0, "dagger_episodes": 200,
-                     "ground_weight": 1.0, "learning_rate_end": None}
+PRETRAIN_DEFAULTS = {
+    "expert": "scripted",
+    "episodes": 400,
+    "epochs": 30,
+    "batch_size": 1024,
+    "learning_rate": 1e-3,
+    "seed": 1,
+    "value_epochs": 10,
+    "log_std": -2.5,
+    "noise": 0.0,
+    "dagger_rounds": 0,
+    "dagger_episodes": 200,
+    "ground_weight": 1.0,
+    "learning_rate_end": None,
+}
 PRETRAIN_KEYS = set(PRETRAIN_DEFAULTS)
 EVAL_KEYS = {"freq", "episodes", "seed"}
 CHECKPOINT_KEYS = {"freq", "seconds"}
-ACTIVATIONS = {"tanh": "Tanh", "relu": "ReLU", "elu": "ELU", "leaky_relu": "LeakyReLU",
-               "gelu": "GELU", "silu": "SiLU"}
-DEFAULTS = {"env_id": "HopRover-v0", "n_envs": 32, "timesteps": 1_000_000, "seed": 0,
-            "env": {}, "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
-            "policy": {}, "hyperparams": {}, "pretrain": None, "init_from": None,
-            "demonstrations": None,
-            "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
-            "checkpoint": {"freq": 200_000, "seconds": 300.0}}
+ACTIVATIONS = {
+    "tanh": "Tanh",
+    "relu": "ReLU",
+    "elu": "ELU",
+    "leaky_relu": "LeakyReLU",
+    "gelu": "GELU",
+    "silu": "SiLU",
+}
+DEFAULTS = {
+    "env_id": "HopRover-v0",
+    "n_envs": 32,
+    "timesteps": 1_000_000,
+    "seed": 0,
+    "env": {},
+    "normalize": {"obs": True, "reward": True, "clip_obs": 10.0},
+    "policy": {},
+    "hyperparams": {},
+    "pretrain": None,
+    "init_from": None,
+    "demonstrations": None,
+    "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
+    "checkpoint": {"freq": 200_000, "seconds": 300.0},
+}
 
 
 def pretrain_settings(cfg: dict) -> dict:
@@ -88,8 +145,10 @@ def hyper_keys(algo: str) -> set:
     """The `hyperparams` keys of `algo`: its constructor's keyword arguments (less those
     train.py sets itself) and hoprover's own."""
     params = set(inspect.signature(algo_class(algo).__init__).parameters)
-    return (params - {"self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log",
-                      "_init_setup_model"}) | OWN_HYPER_KEYS
+    return (
+        params
+        - {"self", "policy", "env", "policy_kwargs", "seed", "tensorboard_log", "_init_setup_model"}
+    ) | OWN_HYPER_KEYS
 
 
 def algo_default(algo: str, name: str):
@@ -102,14 +161,15 @@ def policy_keys(algo: str) -> set:
     """The `policy` keys of `algo`: those of POLICY_KEYS that its policy class takes."""
     cls = algo_class(algo)
     params = set(inspect.signature(cls.policy_aliases[SB3_ALGOS[algo][2]].__init__).parameters)
-    params.add("features_extractor")          # hoprover's name of features_extractor_class
+    params.add("features_extractor")  # hoprover's name of features_extractor_class
     return POLICY_KEYS & params
 
 
 def _check_keys(section: str, given: dict, valid: set):
     if not isinstance(given, dict):
-        raise ConfigError(f"config section '{section}' must be a mapping, "
-                          f"got {type(given).__name__}")
+        raise ConfigError(
+            f"config section '{section}' must be a mapping, got {type(given).__name__}"
+        )
     bad = sorted(set(given) - valid)
     if bad:
         raise ConfigError(f"unknown config key '{section}.{bad[0]}' (valid: {sorted(valid)})")
@@ -129,16 +189,19 @@ def config_path(spec: str | Path) -> Path:
     path = Path(spec)
     if path.is_file():
         return path
-    if path.name == str(spec):                      # a bare name: the packaged configs
+    if path.name == str(spec):  # a bare name: the packaged configs
         for cand in (PACKAGED_CONFIGS / path.name, PACKAGED_CONFIGS / f"{path.name}.yaml"):
             if cand.is_file():
                 return cand
-    raise FileNotFoundError(f"config file not found: {spec} (packaged configs, usable by "
-                            f"name: {', '.join(packaged_configs())})")
+    raise FileNotFoundError(
+        f"config file not found: {spec} (packaged configs, usable by "
+        f"name: {', '.join(packaged_configs())})"
+    )
 
 
-def load_config(path: str | Path | None, overrides: dict | None = None,
-                section_overrides: dict | None = None) -> dict:
+def load_config(
+    path: str | Path | None, overrides: dict | None = None, section_overrides: dict | None = None
+) -> dict:
     """Read, fill in defaults, apply command-line overrides (top-level keys, and keys of
     sections: {"checkpoint": {"seconds": 60}}; None leaves a value as it is), and
     validate a config."""
@@ -154,9 +217,11 @@ def load_config(path: str | Path | None, overrides: dict | None = None,
             raise ConfigError(f"{path}: not valid YAML{where}: {problem}") from None
         if not isinstance(raw, dict):
             raise ConfigError(f"{path}: the config must be a mapping")
-    if "trainer" in raw:          # a config for another trainer (configs/ppo_mission_hop.yaml)
-        raise ConfigError(f"this config names its own trainer: run it with "
-                          f"`python -m {raw['trainer']} --config {path}`, not train.py")
+    if "trainer" in raw:  # a config for another trainer (configs/ppo_mission_hop.yaml)
+        raise ConfigError(
+            f"this config names its own trainer: run it with "
+            f"`python -m {raw['trainer']} --config {path}`, not train.py"
+        )
     bad = sorted(set(raw) - TOP_KEYS)
     if bad:
         raise ConfigError(f"unknown config key '{bad[0]}' (valid: {sorted(TOP_KEYS)})")
@@ -187,10 +252,12 @@ def _check_discounts(cfg: dict, env_config) -> None:
         return
     learner = cfg["hyperparams"].get("gamma", algo_default(cfg["algo"], "gamma"))
     if not math.isclose(float(env_gamma), float(learner), rel_tol=0, abs_tol=1e-12):
-        raise ConfigError(f"config keys 'env.gamma' ({env_gamma}) and 'hyperparams.gamma' "
-                          f"({learner}) differ: the reward's shaping must be discounted as "
-                          f"the learner discounts, or it changes what the best policy is; "
-                          f"set both to the same value")
+        raise ConfigError(
+            f"config keys 'env.gamma' ({env_gamma}) and 'hyperparams.gamma' "
+            f"({learner}) differ: the reward's shaping must be discounted as "
+            f"the learner discounts, or it changes what the best policy is; "
+            f"set both to the same value"
+        )
 
 
 def validate(cfg: dict) -> None:
@@ -198,9 +265,11 @@ def validate(cfg: dict) -> None:
         raise ConfigError(f"config key 'algo' is missing ({', '.join(ALGOS)})")
     algo_class(cfg["algo"])
     from hoprover_env.envs.registry import ENVS, config_class
+
     if cfg.get("env_id") not in ENVS:
-        raise ConfigError(f"config key 'env_id' must be one of {sorted(ENVS)}, "
-                          f"got {cfg.get('env_id')!r}")
+        raise ConfigError(
+            f"config key 'env_id' must be one of {sorted(ENVS)}, got {cfg.get('env_id')!r}"
+        )
     env_cls = config_class(cfg["env_id"])
     env_fields = env_cls.option_names()
     _check_keys("env", cfg["env"], env_fields)
@@ -211,56 +280,78 @@ def validate(cfg: dict) -> None:
     _check_keys("normalize", cfg["normalize"], NORMALIZE_KEYS)
     _check_keys("policy", cfg["policy"], policy_keys(cfg["algo"]))
     if "activation_fn" in cfg["policy"] and cfg["policy"]["activation_fn"] not in ACTIVATIONS:
-        raise ConfigError(f"config key 'policy.activation_fn' must be one of "
-                          f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}")
+        raise ConfigError(
+            f"config key 'policy.activation_fn' must be one of "
+            f"{sorted(ACTIVATIONS)}, got {cfg['policy']['activation_fn']!r}"
+        )
     if "features_extractor" in cfg["policy"]:
         extractor = features_extractor(cfg["policy"]["features_extractor"])
         if getattr(extractor, "frozen_statistics", False) and (
-                cfg["normalize"].get("update", True) or not cfg["normalize"].get("obs", True)):
-            raise ConfigError("config key 'policy.features_extractor' "
-                              f"({extractor.__name__}) needs normalize.obs: true and "
-                              "normalize.update: false (it reads the frozen observation "
-                              "statistics)")
+            cfg["normalize"].get("update", True) or not cfg["normalize"].get("obs", True)
+        ):
+            raise ConfigError(
+                "config key 'policy.features_extractor' "
+                f"({extractor.__name__}) needs normalize.obs: true and "
+                "normalize.update: false (it reads the frozen observation "
+                "statistics)"
+            )
     _check_keys("hyperparams", cfg["hyperparams"], hyper_keys(cfg["algo"]))
     init = cfg.get("init_from")
     if init is not None:
         if not (isinstance(init, str) and init):
-            raise ConfigError(f"config key 'init_from' must be a model (a bundled name, a run "
-                              f"directory or a .zip), got {init!r}")
+            raise ConfigError(
+                f"config key 'init_from' must be a model (a bundled name, a run "
+                f"directory or a .zip), got {init!r}"
+            )
         if cfg.get("pretrain") is not None:
-            raise ConfigError("config keys 'init_from' and 'pretrain' exclude each other: "
-                              "a run starts from a model or from cloning, not both")
+            raise ConfigError(
+                "config keys 'init_from' and 'pretrain' exclude each other: "
+                "a run starts from a model or from cloning, not both"
+            )
     if cfg.get("pretrain") is not None:
         _check_keys("pretrain", cfg["pretrain"], PRETRAIN_KEYS)
         if cfg["algo"] != "ppo":
-            raise ConfigError("config section 'pretrain' (behaviour cloning) is only "
-                              "supported with algo: ppo")
+            raise ConfigError(
+                "config section 'pretrain' (behaviour cloning) is only supported with algo: ppo"
+            )
     if cfg.get("demonstrations") is not None:
         from hoprover_env.training import demonstrations
+
         _check_keys("demonstrations", cfg["demonstrations"], demonstrations.KEYS)
         from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
         if not issubclass(algo_class(cfg["algo"]), OffPolicyAlgorithm):
-            raise ConfigError("config section 'demonstrations' (a replay buffer filled "
-                              "before learning) needs an off-policy algo (sac, td3, tqc, "
-                              f"crossq), got {cfg['algo']!r}")
+            raise ConfigError(
+                "config section 'demonstrations' (a replay buffer filled "
+                "before learning) needs an off-policy algo (sac, td3, tqc, "
+                f"crossq), got {cfg['algo']!r}"
+            )
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
         _check_value(key, cfg[key], POS_INT)
     _check_value("seed", cfg["seed"], INT)
-    for section, types in (("normalize", NORMALIZE_TYPES), ("policy", POLICY_TYPES),
-                           ("hyperparams", HYPER_TYPES), ("pretrain", PRETRAIN_TYPES),
-                           ("demonstrations", DEMONSTRATION_TYPES),
-                           ("evaluation", EVAL_TYPES), ("checkpoint", CHECKPOINT_TYPES)):
+    for section, types in (
+        ("normalize", NORMALIZE_TYPES),
+        ("policy", POLICY_TYPES),
+        ("hyperparams", HYPER_TYPES),
+        ("pretrain", PRETRAIN_TYPES),
+        ("demonstrations", DEMONSTRATION_TYPES),
+        ("evaluation", EVAL_TYPES),
+        ("checkpoint", CHECKPOINT_TYPES),
+    ):
         for key, value in (cfg.get(section) or {}).items():
             if key in types:
                 _check_value(f"{section}.{key}", value, types[key])
     pol = cfg["policy"]
-    if pol.get("shared_lstm") and (pol.get("enable_critic_lstm", True)
-                                   or not pol.get("share_features_extractor", True)):
-        raise ConfigError("config key 'policy.shared_lstm': true shares the actor's LSTM "
-                          "with the critic: it needs policy.enable_critic_lstm: false (and "
-                          "share_features_extractor left true)")
+    if pol.get("shared_lstm") and (
+        pol.get("enable_critic_lstm", True) or not pol.get("share_features_extractor", True)
+    ):
+        raise ConfigError(
+            "config key 'policy.shared_lstm': true shares the actor's LSTM "
+            "with the critic: it needs policy.enable_critic_lstm: false (and "
+            "share_features_extractor left true)"
+        )
     _check_discounts(cfg, env_config)
 
 
@@ -271,8 +362,7 @@ def _is_int(v):
 
 
 def _is_real(v):
-    return (isinstance(v, (int, float)) and not isinstance(v, bool)
-            and bool(np.isfinite(v)))
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
 
 
 def _is_layers(v):
@@ -289,50 +379,117 @@ NONNEG_REAL = (lambda v: _is_real(v) and v >= 0, "a finite number >= 0")
 UNIT = (lambda v: _is_real(v) and 0 < v <= 1, "a number in (0, 1]")
 UNIT_CLOSED = (lambda v: _is_real(v) and 0 <= v <= 1, "a number in [0, 1]")
 OPT_POS_REAL = (lambda v: v is None or POS_REAL[0](v), "null or a finite number > 0")
-NET_ARCH = (lambda v: _is_layers(v) or (isinstance(v, dict) and len(v) > 0 and all(
-    k in ("pi", "vf", "qf") and _is_layers(x) for k, x in v.items())),
-    "a list of positive layer sizes, e.g. [64, 64], or {pi: [...], vf: [...]} / {pi, qf}")
-ENT_COEF = (lambda v: NONNEG_REAL[0](v) or (isinstance(v, str) and v.startswith("auto")),
-            "a finite number >= 0 (or 'auto' for SAC, TQC and CrossQ)")
+NET_ARCH = (
+    lambda v: (
+        _is_layers(v)
+        or (
+            isinstance(v, dict)
+            and len(v) > 0
+            and all(k in ("pi", "vf", "qf") and _is_layers(x) for k, x in v.items())
+        )
+    ),
+    "a list of positive layer sizes, e.g. [64, 64], or {pi: [...], vf: [...]} / {pi, qf}",
+)
+ENT_COEF = (
+    lambda v: NONNEG_REAL[0](v) or (isinstance(v, str) and v.startswith("auto")),
+    "a finite number >= 0 (or 'auto' for SAC, TQC and CrossQ)",
+)
 TARGET_ENTROPY = (lambda v: REAL[0](v) or v == "auto", "a finite number or 'auto'")
-TRAIN_FREQ = (lambda v: POS_INT[0](v) or (isinstance(v, list) and len(v) == 2 and POS_INT[0](
-    v[0]) and v[1] in ("step", "episode")), "a positive integer or [n, step|episode]")
+TRAIN_FREQ = (
+    lambda v: (
+        POS_INT[0](v)
+        or (
+            isinstance(v, list) and len(v) == 2 and POS_INT[0](v[0]) and v[1] in ("step", "episode")
+        )
+    ),
+    "a positive integer or [n, step|episode]",
+)
 GRADIENT_STEPS = (lambda v: _is_int(v) and (v >= 1 or v == -1), "a positive integer or -1")
 
-NORMALIZE_TYPES = {"obs": BOOL, "reward": BOOL, "update": BOOL, "clip_obs": POS_REAL,
-                   "clip_reward": POS_REAL}
-POLICY_TYPES = {"net_arch": NET_ARCH, "log_std_init": REAL, "ortho_init": BOOL,
-                "use_expln": BOOL, "squash_output": BOOL, "n_critics": POS_INT,
-                "share_features_extractor": BOOL, "full_std": BOOL, "clip_mean": POS_REAL,
-                "n_quantiles": POS_INT, "batch_norm": BOOL, "batch_norm_momentum": UNIT,
-                "batch_norm_eps": POS_REAL, "renorm_warmup_steps": NONNEG_INT,
-                "lstm_hidden_size": POS_INT, "n_lstm_layers": POS_INT, "shared_lstm": BOOL,
-                "enable_critic_lstm": BOOL}
-DEMONSTRATION_TYPES = {"policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
-                       "steps": POS_INT, "seed": INT}
-PRETRAIN_TYPES = {"expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
-                  "episodes": POS_INT, "epochs": POS_INT, "batch_size": POS_INT,
-                  "learning_rate": POS_REAL, "seed": INT, "value_epochs": NONNEG_INT,
-                  "log_std": REAL, "noise": NONNEG_REAL, "dagger_rounds": NONNEG_INT,
-                  "dagger_episodes": POS_INT, "ground_weight": POS_REAL,
-                  "learning_rate_end": POS_REAL}
+NORMALIZE_TYPES = {
+    "obs": BOOL,
+    "reward": BOOL,
+    "update": BOOL,
+    "clip_obs": POS_REAL,
+    "clip_reward": POS_REAL,
+}
+POLICY_TYPES = {
+    "net_arch": NET_ARCH,
+    "log_std_init": REAL,
+    "ortho_init": BOOL,
+    "use_expln": BOOL,
+    "squash_output": BOOL,
+    "n_critics": POS_INT,
+    "share_features_extractor": BOOL,
+    "full_std": BOOL,
+    "clip_mean": POS_REAL,
+    "n_quantiles": POS_INT,
+    "batch_norm": BOOL,
+    "batch_norm_momentum": UNIT,
+    "batch_norm_eps": POS_REAL,
+    "renorm_warmup_steps": NONNEG_INT,
+    "lstm_hidden_size": POS_INT,
+    "n_lstm_layers": POS_INT,
+    "shared_lstm": BOOL,
+    "enable_critic_lstm": BOOL,
+}
+DEMONSTRATION_TYPES = {
+    "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
+    "steps": POS_INT,
+    "seed": INT,
+}
+PRETRAIN_TYPES = {
+    "expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
+    "episodes": POS_INT,
+    "epochs": POS_INT,
+    "batch_size": POS_INT,
+    "learning_rate": POS_REAL,
+    "seed": INT,
+    "value_epochs": NONNEG_INT,
+    "log_std": REAL,
+    "noise": NONNEG_REAL,
+    "dagger_rounds": NONNEG_INT,
+    "dagger_episodes": POS_INT,
+    "ground_weight": POS_REAL,
+    "learning_rate_end": POS_REAL,
+}
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
 CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
 # the keyword arguments of the algorithms (which ones an algorithm takes is checked
 # against its constructor's signature in validate)
-HYPER_TYPES = {"learning_rate": POS_REAL, "n_steps": POS_INT, "batch_size": POS_INT,
-               "n_epochs": POS_INT, "gamma": UNIT, "gae_lambda": UNIT_CLOSED,
-               "clip_range": POS_REAL, "clip_range_vf": OPT_POS_REAL, "normalize_advantage": BOOL,
-               "ent_coef": ENT_COEF, "vf_coef": NONNEG_REAL, "max_grad_norm": POS_REAL,
-               "target_kl": OPT_POS_REAL, "use_sde": BOOL, "sde_sample_freq": INT,
-               "buffer_size": POS_INT, "learning_starts": NONNEG_INT, "tau": UNIT,
-               "train_freq": TRAIN_FREQ, "gradient_steps": GRADIENT_STEPS,
-               "policy_delay": POS_INT, "target_policy_noise": NONNEG_REAL,
-               "target_noise_clip": NONNEG_REAL, "action_noise": NONNEG_REAL,
-               "target_update_interval": POS_INT, "stats_window_size": POS_INT,
-               "learning_rate_end": POS_REAL, "target_entropy": TARGET_ENTROPY,
-               "top_quantiles_to_drop_per_net": NONNEG_INT, "use_sde_at_warmup": BOOL,
-               "optimize_memory_usage": BOOL}
+HYPER_TYPES = {
+    "learning_rate": POS_REAL,
+    "n_steps": POS_INT,
+    "batch_size": POS_INT,
+    "n_epochs": POS_INT,
+    "gamma": UNIT,
+    "gae_lambda": UNIT_CLOSED,
+    "clip_range": POS_REAL,
+    "clip_range_vf": OPT_POS_REAL,
+    "normalize_advantage": BOOL,
+    "ent_coef": ENT_COEF,
+    "vf_coef": NONNEG_REAL,
+    "max_grad_norm": POS_REAL,
+    "target_kl": OPT_POS_REAL,
+    "use_sde": BOOL,
+    "sde_sample_freq": INT,
+    "buffer_size": POS_INT,
+    "learning_starts": NONNEG_INT,
+    "tau": UNIT,
+    "train_freq": TRAIN_FREQ,
+    "gradient_steps": GRADIENT_STEPS,
+    "policy_delay": POS_INT,
+    "target_policy_noise": NONNEG_REAL,
+    "target_noise_clip": NONNEG_REAL,
+    "action_noise": NONNEG_REAL,
+    "target_update_interval": POS_INT,
+    "stats_window_size": POS_INT,
+    "learning_rate_end": POS_REAL,
+    "target_entropy": TARGET_ENTROPY,
+    "top_quantiles_to_drop_per_net": NONNEG_INT,
+    "use_sde_at_warmup": BOOL,
+    "optimize_memory_usage": BOOL,
+}
 
 
 def _check_value(key: str, value, kind) -> None:
@@ -352,6 +509,7 @@ def env_kwargs(cfg: dict) -> dict:
     """Env arguments of a config: what its id fixes (the contest's target), then its
     `env:` section."""
     from hoprover_env.envs.registry import task
+
     return {**task(cfg["env_id"]).kwargs, **cfg["env"]}
 
 
@@ -363,6 +521,7 @@ def features_extractor(spec):
     import importlib
 
     from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+
     key = "config key 'policy.features_extractor'"
     if not isinstance(spec, str) or spec.count(":") != 1:
         raise ConfigError(f"{key} must be 'module:Class', got {spec!r}")
@@ -378,6 +537,7 @@ def features_extractor(spec):
 
 def policy_kwargs(cfg: dict) -> dict:
     import torch.nn as nn
+
     kw = dict(cfg["policy"])
     if "features_extractor" in kw:
         kw["features_extractor_class"] = features_extractor(kw.pop("features_extractor"))
@@ -393,14 +553,22 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
     if "learning_rate_end" in hyper:
         try:
             from stable_baselines3.common.utils import LinearSchedule
-        except ImportError:            # stable-baselines3 < 2.7
+        except ImportError:  # stable-baselines3 < 2.7
             from stable_baselines3.common.utils import get_linear_fn as LinearSchedule
         start = hyper.get("learning_rate", algo_default(cfg["algo"], "learning_rate"))
         hyper["learning_rate"] = LinearSchedule(start, hyper.pop("learning_rate_end"), 1.0)
-    if isinstance(hyper.get("action_noise"), (int, float)):     # TD3, TQC, CrossQ
+    if isinstance(hyper.get("action_noise"), (int, float)):  # TD3, TQC, CrossQ
         from stable_baselines3.common.noise import NormalActionNoise
+
         sigma, dim = float(hyper.pop("action_noise")), venv.action_space.shape[0]
         hyper["action_noise"] = NormalActionNoise(np.zeros(dim), sigma * np.ones(dim))
-    return cls(SB3_ALGOS[cfg["algo"]][2], venv, policy_kwargs=policy_kwargs(cfg),
-               seed=cfg["seed"], tensorboard_log=tensorboard_log, device=device, verbose=0,
-               **hyper)
+    return cls(
+        SB3_ALGOS[cfg["algo"]][2],
+        venv,
+        policy_kwargs=policy_kwargs(cfg),
+        seed=cfg["seed"],
+        tensorboard_log=tensorboard_log,
+        device=device,
+        verbose=0,
+        **hyper,
+    )

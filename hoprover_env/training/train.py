@@ -13,6 +13,7 @@ checkpoint.freq steps and every checkpoint.seconds of wall time (default 300 s,
 --checkpoint-seconds), so a killed run loses at most that. --resume continues from the
 last checkpoint to the requested total; Ctrl-C saves a checkpoint before exiting.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,34 +49,59 @@ EVAL_FIELDS = ["timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp
 
 
 def parse_args(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n", 2)[2])
-    ap.add_argument("--algo", choices=ALGOS, default=None,
-                    help="the config's algo by default (tqc, crossq, recurrentppo: sb3-contrib)")
-    ap.add_argument("--config", type=str, default=None,
-                    help="YAML config: a path, or a packaged config by name (ppo_hop)")
+    ap = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n", 2)[2],
+    )
+    ap.add_argument(
+        "--algo",
+        choices=ALGOS,
+        default=None,
+        help="the config's algo by default (tqc, crossq, recurrentppo: sb3-contrib)",
+    )
+    ap.add_argument(
+        "--config",
+        type=str,
+        default=None,
+        help="YAML config: a path, or a packaged config by name (ppo_hop)",
+    )
     from hoprover_env.envs.registry import ENVS
-    ap.add_argument("--env", type=str, default=None,
-                    help=f"environment id: {', '.join(ENVS)} (default: the config's env_id)")
+
+    ap.add_argument(
+        "--env",
+        type=str,
+        default=None,
+        help=f"environment id: {', '.join(ENVS)} (default: the config's env_id)",
+    )
     ap.add_argument("--timesteps", type=int, default=None, help="total environment steps")
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--n-envs", type=int, default=None, help="sub-envs of the batched env")
-    ap.add_argument("--checkpoint-seconds", type=float, default=None,
-                    help="wall-clock seconds between checkpoints (config checkpoint.seconds, "
-                         "default 300)")
+    ap.add_argument(
+        "--checkpoint-seconds",
+        type=float,
+        default=None,
+        help="wall-clock seconds between checkpoints (config checkpoint.seconds, default 300)",
+    )
     ap.add_argument("--out", type=str, required=True, help="run directory")
     ap.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     ap.add_argument("--device", type=str, default="cpu")
-    ap.add_argument("--torch-threads", type=int, default=None,
-                    help="torch's CPU threads (default: torch's own, every core: the env "
-                         "and the updates take turns, so each can use all of them; give 1 "
-                         "per run when several runs share the cores)")
+    ap.add_argument(
+        "--torch-threads",
+        type=int,
+        default=None,
+        help="torch's CPU threads (default: torch's own, every core: the env "
+        "and the updates take turns, so each can use all of them; give 1 "
+        "per run when several runs share the cores)",
+    )
     ap.add_argument("--no-progress", action="store_true", help="no progress bar")
-    ap.add_argument("--quick", action="store_true",
-                    help="a smoke run of the config in a few minutes: 20k steps (unless "
-                         "--timesteps), 10 evaluation episodes, cloning cut to 16 episodes, "
-                         "2 epochs and one DAgger round")
+    ap.add_argument(
+        "--quick",
+        action="store_true",
+        help="a smoke run of the config in a few minutes: 20k steps (unless "
+        "--timesteps), 10 evaluation episodes, cloning cut to 16 episodes, "
+        "2 epochs and one DAgger round",
+    )
     args = ap.parse_args(argv)
     if args.torch_threads is not None and args.torch_threads < 1:
         ap.error(f"--torch-threads must be a positive integer, got {args.torch_threads}")
@@ -84,15 +110,22 @@ def parse_args(argv=None):
 
 def smoke_config(cfg: dict, timesteps_given: bool) -> dict:
     """The same config at a budget that checks the whole pipeline in about a minute."""
-    cfg = {**cfg, "evaluation": {**cfg["evaluation"], "episodes": 10,
-                                 "freq": min(cfg["evaluation"]["freq"], 10_000)},
-           "checkpoint": {**cfg["checkpoint"], "freq": min(cfg["checkpoint"]["freq"], 10_000)}}
+    cfg = {
+        **cfg,
+        "evaluation": {
+            **cfg["evaluation"],
+            "episodes": 10,
+            "freq": min(cfg["evaluation"]["freq"], 10_000),
+        },
+        "checkpoint": {**cfg["checkpoint"], "freq": min(cfg["checkpoint"]["freq"], 10_000)},
+    }
     if not timesteps_given:
         cfg["timesteps"] = 20_000
     if cfg.get("pretrain"):
         pt = dict(cfg["pretrain"])
-        pt.update(episodes=16, epochs=2,
-                  value_epochs=min(pretrain_settings(cfg)["value_epochs"], 1))
+        pt.update(
+            episodes=16, epochs=2, value_epochs=min(pretrain_settings(cfg)["value_epochs"], 1)
+        )
         if pt.get("dagger_rounds"):
             pt.update(dagger_rounds=1, dagger_episodes=8)
         cfg["pretrain"] = pt
@@ -135,14 +168,22 @@ def collection_key(cfg: dict, name: str) -> dict:
     i.e. on everything that shaped it (the whole pretraining, the policy, the
     normalisation and the seed)."""
     pt = pretrain_settings(cfg)
-    key = {"env_id": cfg["env_id"], "env": cfg.get("env"),
-           "expert": pt["expert"], "seed": pt["seed"],
-           "gamma": cfg["hyperparams"].get("gamma", 0.99)}
+    key = {
+        "env_id": cfg["env_id"],
+        "env": cfg.get("env"),
+        "expert": pt["expert"],
+        "seed": pt["seed"],
+        "gamma": cfg["hyperparams"].get("gamma", 0.99),
+    }
     if name == "demonstrations":
         key.update(episodes=pt["episodes"], noise=pt["noise"])
     else:
-        key.update(pretrain=cfg["pretrain"], policy=cfg.get("policy"),
-                   normalize=cfg.get("normalize"), run_seed=cfg["seed"])
+        key.update(
+            pretrain=cfg["pretrain"],
+            policy=cfg.get("policy"),
+            normalize=cfg.get("normalize"),
+            run_seed=cfg["seed"],
+        )
     return json.loads(json.dumps(key))
 
 
@@ -151,9 +192,11 @@ def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
-    base = VecMonitor(HopRoverSB3VecEnv(cfg["n_envs"], seed=cfg["seed"], env_id=cfg["env_id"],
-                                        **env_kwargs(cfg)),
-                      info_keywords=("broken",))
+
+    base = VecMonitor(
+        HopRoverSB3VecEnv(cfg["n_envs"], seed=cfg["seed"], env_id=cfg["env_id"], **env_kwargs(cfg)),
+        info_keywords=("broken",),
+    )
     if stats_path is not None:
         venv = VecNormalize.load(str(stats_path), base)
         # statistics read from a file (a checkpoint, init_from) stay as they are where the
@@ -162,19 +205,26 @@ def build_env(cfg: dict, stats_path: Path | None = None):
         return venv
     norm = cfg["normalize"]
     gamma = cfg["hyperparams"].get("gamma", 0.99)
-    return VecNormalize(base, norm_obs=norm.get("obs", True), norm_reward=norm.get("reward", True),
-                        clip_obs=norm.get("clip_obs", 10.0),
-                        clip_reward=norm.get("clip_reward", 10.0), gamma=gamma)
-
+    return VecNormalize(
+        base,
+        norm_obs=norm.get("obs", True),
+        norm_reward=norm.get("reward", True),
+        clip_obs=norm.get("clip_obs", 10.0),
+        clip_reward=norm.get("clip_reward", 10.0),
+        gamma=gamma,
+    )
 
 
 def tensorboard_dir(out: Path) -> str | None:
     """The run's TensorBoard directory, or None (and a note) without the tensorboard extra."""
     import importlib.util
+
     if importlib.util.find_spec("tensorboard") is None:
-        print("note: no TensorBoard logs (tensorboard is not installed: pip install "
-              "'hoprover[tensorboard]'); evaluations.csv has the learning curve",
-              file=sys.stderr)
+        print(
+            "note: no TensorBoard logs (tensorboard is not installed: pip install "
+            "'hoprover[tensorboard]'); evaluations.csv has the learning curve",
+            file=sys.stderr,
+        )
         return None
     return str(out / "tb")
 
@@ -184,17 +234,22 @@ class Trainer:
         self.cfg, self.out, self.device, self.progress = cfg, out, device, progress
         self.ckpt = out / "checkpoints" / "last"
         # how the model was trained: enough to reproduce it with train.py --config
-        self.meta_base = {"algo": cfg["algo"], "env_id": cfg["env_id"],
-                          "env_kwargs": env_kwargs(cfg), "seed": cfg["seed"],
-                          "config": {k: v for k, v in cfg.items() if v is not None},
-                          "git_commit": git_commit()}
-        if cfg.get("init_from"):            # the model a fine-tuning run started from
+        self.meta_base = {
+            "algo": cfg["algo"],
+            "env_id": cfg["env_id"],
+            "env_kwargs": env_kwargs(cfg),
+            "seed": cfg["seed"],
+            "config": {k: v for k, v in cfg.items() if v is not None},
+            "git_commit": git_commit(),
+        }
+        if cfg.get("init_from"):  # the model a fine-tuning run started from
             self.meta_base["init_from"] = str(cfg["init_from"])
         ev = cfg["evaluation"]
-        self.eval_targets = seeded_targets(ev["episodes"], ev["seed"],
-                                           *env_kwargs(cfg).get("target_range", (-1.0, 1.0)))
+        self.eval_targets = seeded_targets(
+            ev["episodes"], ev["seed"], *env_kwargs(cfg).get("target_range", (-1.0, 1.0))
+        )
         self.evals: list[dict] = []
-        self.on_eval = None         # called with each evaluation row (sweep.py reports it)
+        self.on_eval = None  # called with each evaluation row (sweep.py reports it)
         self.pretrain: dict = {}
         self.best = (-1.0, -math.inf)
         self.wall0 = 0.0
@@ -206,8 +261,10 @@ class Trainer:
 
     def _fresh(self):
         if (self.ckpt.with_suffix(".json")).exists():
-            raise SystemExit(f"error: {self.out} already has a checkpoint; use --resume to "
-                             "continue it or choose another --out")
+            raise SystemExit(
+                f"error: {self.out} already has a checkpoint; use --resume to "
+                "continue it or choose another --out"
+            )
         self.out.mkdir(parents=True, exist_ok=True)
         atomic_write(self.out / "config.yaml", yaml.safe_dump(self.cfg, sort_keys=False))
         if self.cfg.get("init_from"):
@@ -223,13 +280,17 @@ class Trainer:
     def _demonstrate(self):
         """The config's demonstrations into the replay buffer (training/demonstrations.py)."""
         from hoprover_env.training.demonstrations import collect_demonstrations, prefill
+
         t0 = time.perf_counter()
-        added = prefill(self.model, self.venv,
-                        collect_demonstrations(self.cfg, env_kwargs(self.cfg)))
+        added = prefill(
+            self.model, self.venv, collect_demonstrations(self.cfg, env_kwargs(self.cfg))
+        )
         self.meta_base["demonstrations"] = added
-        print(f"demonstrations: {added['transitions']} transitions of {added['episodes']} "
-              f"episodes in the replay buffer ({time.perf_counter() - t0:.0f} s)",
-              file=sys.stderr)
+        print(
+            f"demonstrations: {added['transitions']} transitions of {added['episodes']} "
+            f"episodes in the replay buffer ({time.perf_counter() - t0:.0f} s)",
+            file=sys.stderr,
+        )
 
     def _init_from(self, spec: str):
         """A fresh run (this config's hyperparameters, schedule and env) that starts from
@@ -237,20 +298,25 @@ class Trainer:
         fine-tuning stage as one command, where --resume would keep the old run's
         hyperparameters (SB3 restores them from the .zip)."""
         from hoprover_env.agents.policies import model_files
+
         try:
             zip_path, stats = model_files(spec)
         except FileNotFoundError as exc:
             raise SystemExit(f"error: init_from {spec!r}: {exc}") from None
         if stats is None and self.cfg["normalize"].get("obs", True):
-            raise SystemExit(f"error: init_from {spec!r} has no VecNormalize statistics "
-                             f"beside {zip_path}, but this config normalises observations")
+            raise SystemExit(
+                f"error: init_from {spec!r} has no VecNormalize statistics "
+                f"beside {zip_path}, but this config normalises observations"
+            )
         self.venv = build_env(self.cfg, stats)
         self.model = make_agent(self.cfg, self.venv, tensorboard_dir(self.out), self.device)
         try:
             self.model.set_parameters(str(zip_path), exact_match=True, device=self.device)
         except (RuntimeError, ValueError) as exc:
-            raise SystemExit(f"error: init_from {spec!r} ({zip_path}) does not fit this "
-                             f"config's policy (algo, policy.net_arch): {exc}") from None
+            raise SystemExit(
+                f"error: init_from {spec!r} ({zip_path}) does not fit this "
+                f"config's policy (algo, policy.net_arch): {exc}"
+            ) from None
         print(f"starting from {zip_path} (init_from)", file=sys.stderr)
 
     def _load_checkpoint(self):
@@ -265,8 +331,12 @@ class Trainer:
         self.pretrain = {k: v for k, v in meta.items() if k.startswith("pretrain")}
         self.venv = build_env(self.cfg, Path(str(self.ckpt) + "_vecnormalize.pkl"))
         cls = algo_class(self.cfg["algo"])
-        self.model = cls.load(str(self.ckpt) + ".zip", env=self.venv, device=self.device,
-                              tensorboard_log=tensorboard_dir(self.out))
+        self.model = cls.load(
+            str(self.ckpt) + ".zip",
+            env=self.venv,
+            device=self.device,
+            tensorboard_log=tensorboard_dir(self.out),
+        )
         rb = Path(str(self.ckpt) + "_replay_buffer.pkl")
         if rb.exists() and has_replay_buffer(self.model):
             self.model.load_replay_buffer(str(rb))
@@ -278,14 +348,25 @@ class Trainer:
 
         from hoprover_env.agents.policies import load_policy
         from hoprover_env.training.warm_start import clone, collect
+
         pt = pretrain_settings(self.cfg)
         ekw = env_kwargs(self.cfg)
         expert = load_policy(pt["expert"], control_dt=ekw.get("control_dt", 0.5))
         gamma = self.cfg["hyperparams"].get("gamma", 0.99)
         seed = pt["seed"]
         log = lambda m: print(m, file=sys.stderr)  # noqa: E731
-        fit = {k: pt[k] for k in ("epochs", "batch_size", "learning_rate", "value_epochs",
-                                  "log_std", "ground_weight", "learning_rate_end")}
+        fit = {
+            k: pt[k]
+            for k in (
+                "epochs",
+                "batch_size",
+                "learning_rate",
+                "value_epochs",
+                "log_std",
+                "ground_weight",
+                "learning_rate_end",
+            )
+        }
         fit.update(seed=self.cfg["seed"], log=log)
         t_start = time.perf_counter()
         timer = {"collect": 0.0, "fit": 0.0}
@@ -296,24 +377,56 @@ class Trainer:
             timer[key] += time.perf_counter() - t0
             return out
 
-        log(f"behaviour cloning: running the expert ({pt['episodes']} episodes, "
-            f"then {pt['dagger_rounds']} DAgger rounds)")
-        data = self._collected("demonstrations", lambda: timed(
-            "collect", collect, expert, ekw, pt["episodes"], seed, gamma,
-            noise=pt["noise"], log=log))
+        log(
+            f"behaviour cloning: running the expert ({pt['episodes']} episodes, "
+            f"then {pt['dagger_rounds']} DAgger rounds)"
+        )
+        data = self._collected(
+            "demonstrations",
+            lambda: timed(
+                "collect",
+                collect,
+                expert,
+                ekw,
+                pt["episodes"],
+                seed,
+                gamma,
+                noise=pt["noise"],
+                log=log,
+            ),
+        )
         log(f"behaviour cloning: {len(data[0])} expert steps in {timer['collect']:.1f} s")
         timed("fit", clone, self.model, self.venv, *data, **fit)
         best = self._score_clone("cloned", None)
         for k in range(pt["dagger_rounds"]):
             norm = self.venv
-            learner = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
-                                epsilon=norm.epsilon, name="learner", env_kwargs=ekw)
-            new = self._collected(f"dagger_{k + 1}", lambda k=k, learner=learner: timed(
-                "collect", collect, expert, ekw, pt["dagger_episodes"],
-                seed + 1 + k, gamma, executor=learner, log=log))
+            learner = SB3Policy(
+                self.model,
+                copy.deepcopy(norm.obs_rms),
+                norm.clip_obs,
+                epsilon=norm.epsilon,
+                name="learner",
+                env_kwargs=ekw,
+            )
+            new = self._collected(
+                f"dagger_{k + 1}",
+                lambda k=k, learner=learner: timed(
+                    "collect",
+                    collect,
+                    expert,
+                    ekw,
+                    pt["dagger_episodes"],
+                    seed + 1 + k,
+                    gamma,
+                    executor=learner,
+                    log=log,
+                ),
+            )
             data = tuple(np.concatenate([a, b]) for a, b in zip(data, new))
-            log(f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps "
-                "labelled by the expert")
+            log(
+                f"DAgger round {k + 1}/{pt['dagger_rounds']}: +{len(new[0])} learner steps "
+                "labelled by the expert"
+            )
             timed("fit", clone, self.model, self.venv, *data, **fit)
             best = self._score_clone(f"after DAgger round {k + 1}", best)
         # the rounds' scores scatter: keep the best clone (weights and the statistics its
@@ -323,13 +436,17 @@ class Trainer:
         self.venv.obs_rms, self.venv.ret_rms = rms
         print(f"  keeping the clone {label}", file=sys.stderr)
         if not self.cfg["normalize"].get("update", True):
-            self.venv.training = False      # keep the statistics the clone was fitted to
-        self.pretrain = {"pretrain_s": time.perf_counter() - t_start,
-                         "pretrain_collect_s": timer["collect"],
-                         "pretrain_fit_s": timer["fit"]}
-        log(f"behaviour cloning took {self.pretrain['pretrain_s']:.0f} s: "
+            self.venv.training = False  # keep the statistics the clone was fitted to
+        self.pretrain = {
+            "pretrain_s": time.perf_counter() - t_start,
+            "pretrain_collect_s": timer["collect"],
+            "pretrain_fit_s": timer["fit"],
+        }
+        log(
+            f"behaviour cloning took {self.pretrain['pretrain_s']:.0f} s: "
             f"{timer['collect']:.0f} s running the expert and the learner in the env, "
-            f"{timer['fit']:.0f} s fitting, the rest judging the rounds")
+            f"{timer['fit']:.0f} s fitting, the rest judging the rounds"
+        )
 
     def _collected(self, name: str, run) -> tuple:
         """The (obs, actions, returns) of one collection, kept in OUT/pretrain/NAME.npz:
@@ -340,8 +457,7 @@ class Trainer:
         key = path.with_suffix(".json")
         made_with = collection_key(self.cfg, name)
         if path.exists() and (not key.exists() or json.loads(key.read_text()) != made_with):
-            print(f"  {path} was collected with other settings: collecting again",
-                  file=sys.stderr)
+            print(f"  {path} was collected with other settings: collecting again", file=sys.stderr)
             path.unlink()
         if path.exists():
             with np.load(path) as f:
@@ -356,34 +472,54 @@ class Trainer:
         """The contest judge's summary of the current policy on the validation targets,
         with the observation statistics frozen as they are now."""
         import copy
+
         norm = self.venv
-        policy = SB3Policy(self.model, copy.deepcopy(norm.obs_rms), norm.clip_obs,
-                           epsilon=norm.epsilon, name=label, env_kwargs=env_kwargs(self.cfg),
-                           env_id=self.cfg["env_id"])
+        policy = SB3Policy(
+            self.model,
+            copy.deepcopy(norm.obs_rms),
+            norm.clip_obs,
+            epsilon=norm.epsilon,
+            name=label,
+            env_kwargs=env_kwargs(self.cfg),
+            env_id=self.cfg["env_id"],
+        )
         return summarize(run_episodes(policy, self.eval_targets, env_kwargs(self.cfg)))
 
     def _score_clone(self, label: str, best):
         """Judge the current clone; return the better of it and `best` as
         (score, policy weights, (obs_rms, ret_rms), label)."""
         import copy
+
         norm = self.venv
         res = self._judge(label)
-        print(f"  {label}: success {res['success_rate']:.1%}, median TTRTP "
-              f"{res['median_ttrtp']:.1f} s, broken {res['broken']}", file=sys.stderr)
+        print(
+            f"  {label}: success {res['success_rate']:.1%}, median TTRTP "
+            f"{res['median_ttrtp']:.1f} s, broken {res['broken']}",
+            file=sys.stderr,
+        )
         score = _score(res)
         if best is None or score > best[0]:
-            best = (score, copy.deepcopy(self.model.policy.state_dict()),
-                    (copy.deepcopy(norm.obs_rms), copy.deepcopy(norm.ret_rms)), label)
+            best = (
+                score,
+                copy.deepcopy(self.model.policy.state_dict()),
+                (copy.deepcopy(norm.obs_rms), copy.deepcopy(norm.ret_rms)),
+                label,
+            )
         return best
 
     # ---- evaluation and checkpoints ----------------------------------------------------
     def evaluate(self):
         res = self._judge("current")
-        row = {"timesteps": int(self.model.num_timesteps), "wall_s": round(self.wall(), 1),
-               "success_rate": res["success_rate"], "median_ttrtp": res["median_ttrtp"],
-               "p90_ttrtp": res["p90_ttrtp"], "broken": res["broken"]}
+        row = {
+            "timesteps": int(self.model.num_timesteps),
+            "wall_s": round(self.wall(), 1),
+            "success_rate": res["success_rate"],
+            "median_ttrtp": res["median_ttrtp"],
+            "p90_ttrtp": res["p90_ttrtp"],
+            "broken": res["broken"],
+        }
         self.evals.append(row)
-        if getattr(self.model, "_logger", None) is not None:      # set once learning runs
+        if getattr(self.model, "_logger", None) is not None:  # set once learning runs
             for key in ("success_rate", "median_ttrtp", "broken"):
                 if not math.isnan(row[key]):
                     self.model.logger.record(f"eval/{key}", row[key])
@@ -397,12 +533,25 @@ class Trainer:
         improved = score > tuple(self.best)
         if improved:
             self.best = score
-            save_model(self.model, self.venv, self.out / "best_model",
-                       {**self.meta_base, **self.pretrain, "timesteps": row["timesteps"],
-                        "wall_s": self.wall(), "env_s": self.env_seconds(), "evaluation": row})
-        print(f"  eval @ {row['timesteps']:>9d}: success {row['success_rate']:.1%}, median TTRTP "
-              f"{row['median_ttrtp']:.1f} s, broken {row['broken']}"
-              f"{'  (best)' if improved else ''}", file=sys.stderr)
+            save_model(
+                self.model,
+                self.venv,
+                self.out / "best_model",
+                {
+                    **self.meta_base,
+                    **self.pretrain,
+                    "timesteps": row["timesteps"],
+                    "wall_s": self.wall(),
+                    "env_s": self.env_seconds(),
+                    "evaluation": row,
+                },
+            )
+        print(
+            f"  eval @ {row['timesteps']:>9d}: success {row['success_rate']:.1%}, median TTRTP "
+            f"{row['median_ttrtp']:.1f} s, broken {row['broken']}"
+            f"{'  (best)' if improved else ''}",
+            file=sys.stderr,
+        )
         if self.on_eval is not None:
             self.on_eval(row)
 
@@ -425,9 +574,15 @@ class Trainer:
             # evaluations of steps the checkpoint does not count are redone by --resume:
             # keeping them too would list those steps twice
             done = [e for e in self.evals if e["timesteps"] <= self.model.num_timesteps]
-            meta = {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
-                    "evaluations": done, "best": list(self.best), "wall_s": self.wall(),
-                    "env_s": self.env_seconds()}
+            meta = {
+                **self.meta_base,
+                **self.pretrain,
+                "timesteps": int(self.model.num_timesteps),
+                "evaluations": done,
+                "best": list(self.best),
+                "wall_s": self.wall(),
+                "env_s": self.env_seconds(),
+            }
             save_model(self.model, self.venv, self.ckpt, meta, replay=replay)
             return meta["timesteps"]
         finally:
@@ -436,6 +591,7 @@ class Trainer:
     # ---- run -----------------------------------------------------------------------------
     def run(self) -> int:
         from stable_baselines3.common.callbacks import BaseCallback
+
         trainer = self
         total = self.cfg["timesteps"]
         ev_freq, ck_freq = self.cfg["evaluation"]["freq"], self.cfg["checkpoint"]["freq"]
@@ -454,8 +610,15 @@ class Trainer:
                 self.bar = None
                 if trainer.progress:
                     from tqdm import tqdm
-                    self.bar = tqdm(total=total, initial=self.num_timesteps, unit="step",
-                                    unit_scale=True, desc="train", dynamic_ncols=True)
+
+                    self.bar = tqdm(
+                        total=total,
+                        initial=self.num_timesteps,
+                        unit="step",
+                        unit_scale=True,
+                        desc="train",
+                        dynamic_ncols=True,
+                    )
 
             def _on_step(self):
                 if self.bar is not None:
@@ -471,7 +634,7 @@ class Trainer:
                     trainer.checkpoint()
                 return True
 
-            def _on_training_end(self):            # learn() returned: all trained on
+            def _on_training_end(self):  # learn() returned: all trained on
                 trainer.trained_steps = self.num_timesteps
                 if self.bar is not None:
                     self.bar.close()
@@ -479,8 +642,8 @@ class Trainer:
         self.t_start = time.perf_counter()
         self.trained_steps = self.model.num_timesteps
         if self.model.num_timesteps == 0 and not self.evals:
-            self.evaluate()                      # the starting point (e.g. after cloning)
-            self.checkpoint()                    # cloning is never redone on --resume
+            self.evaluate()  # the starting point (e.g. after cloning)
+            self.checkpoint()  # cloning is never redone on --resume
         remaining = total - self.model.num_timesteps
         interrupted = False
         # SIGTERM saves a checkpoint like Ctrl-C; signals can only be handled in the main
@@ -491,8 +654,9 @@ class Trainer:
             signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
         try:
             if remaining > 0:
-                self.model.learn(remaining, callback=Hooks(), reset_num_timesteps=False,
-                                 tb_log_name="run")
+                self.model.learn(
+                    remaining, callback=Hooks(), reset_num_timesteps=False, tb_log_name="run"
+                )
         except KeyboardInterrupt:
             interrupted = True
         finally:
@@ -500,19 +664,34 @@ class Trainer:
                 signal.signal(signal.SIGTERM, previous)
         if interrupted:
             saved = self.checkpoint()
-            print(f"\ninterrupted; checkpoint saved at {saved} trained steps. "
-                  f"Continue with: python train.py --config {self.out / 'config.yaml'} "
-                  f"--out {self.out} --resume", file=sys.stderr)
+            print(
+                f"\ninterrupted; checkpoint saved at {saved} trained steps. "
+                f"Continue with: python train.py --config {self.out / 'config.yaml'} "
+                f"--out {self.out} --resume",
+                file=sys.stderr,
+            )
             return 130
         if not self.evals or self.evals[-1]["timesteps"] != self.model.num_timesteps:
             self.evaluate()
-        self.checkpoint()           # after the last evaluation: --resume must know it and its best
-        save_model(self.model, self.venv, self.out / "final_model",
-                   {**self.meta_base, **self.pretrain, "timesteps": int(self.model.num_timesteps),
-                    "wall_s": self.wall(), "env_s": self.env_seconds()})
-        print(f"done: {self.model.num_timesteps} RL steps in {self.wall():.0f} s wall, of which "
-              f"{self.env_seconds():.0f} s ({self.env_seconds() / self.wall():.0%}) stepping "
-              f"the environment; best {self.out / 'best_model.zip'}", file=sys.stderr)
+        self.checkpoint()  # after the last evaluation: --resume must know it and its best
+        save_model(
+            self.model,
+            self.venv,
+            self.out / "final_model",
+            {
+                **self.meta_base,
+                **self.pretrain,
+                "timesteps": int(self.model.num_timesteps),
+                "wall_s": self.wall(),
+                "env_s": self.env_seconds(),
+            },
+        )
+        print(
+            f"done: {self.model.num_timesteps} RL steps in {self.wall():.0f} s wall, of which "
+            f"{self.env_seconds():.0f} s ({self.env_seconds() / self.wall():.0%}) stepping "
+            f"the environment; best {self.out / 'best_model.zip'}",
+            file=sys.stderr,
+        )
         return 0
 
 
@@ -523,10 +702,17 @@ def main(argv=None) -> int:
     if args.resume and config is None and (out / "config.yaml").exists():
         config = out / "config.yaml"
     try:
-        cfg = load_config(config, {"algo": args.algo, "env_id": args.env,
-                                   "timesteps": args.timesteps, "seed": args.seed,
-                                   "n_envs": args.n_envs},
-                          {"checkpoint": {"seconds": args.checkpoint_seconds}})
+        cfg = load_config(
+            config,
+            {
+                "algo": args.algo,
+                "env_id": args.env,
+                "timesteps": args.timesteps,
+                "seed": args.seed,
+                "n_envs": args.n_envs,
+            },
+            {"checkpoint": {"seconds": args.checkpoint_seconds}},
+        )
     except (ConfigError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -534,13 +720,17 @@ def main(argv=None) -> int:
         cfg = smoke_config(cfg, args.timesteps is not None)
     if args.torch_threads is not None:
         import torch
+
         torch.set_num_threads(args.torch_threads)
     try:
         trainer = Trainer(cfg, out, args.resume, args.device, not args.no_progress)
     except KeyboardInterrupt:
-        print("\ninterrupted before RL training began (during set-up or behaviour cloning, "
-              "which keeps no checkpoint of its own): nothing to resume; the same command "
-              "starts the run over", file=sys.stderr)
+        print(
+            "\ninterrupted before RL training began (during set-up or behaviour cloning, "
+            "which keeps no checkpoint of its own): nothing to resume; the same command "
+            "starts the run over",
+            file=sys.stderr,
+        )
         return 130
     return trainer.run()
 

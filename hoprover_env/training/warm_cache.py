@@ -16,6 +16,7 @@ the same CPU model (numba compiles for the host CPU): in a container build after
 installing hoprover, or in a cluster's node setup step. It prints what it compiled and
 what it found already compiled.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,6 +29,7 @@ def compile_counts() -> tuple[dict[str, int], int]:
     """({function name: signatures compiled in this process}, signatures loaded from the
     cache) over every numba function this process has seen."""
     from numba.core.dispatcher import Dispatcher
+
     compiled, loaded = {}, 0
     for obj in gc.get_objects():
         if isinstance(obj, Dispatcher):
@@ -47,6 +49,7 @@ def warm(log=None) -> None:
 
     from hoprover_env import RoverParams, simulate, simulate_batch
     from hoprover_env.envs import registry as _registry
+
     say = log or (lambda msg: None)
     for env_id in _registry.ENVS:
         t0 = time.perf_counter()
@@ -62,19 +65,38 @@ def warm(log=None) -> None:
         say(f"  {env_id}: {time.perf_counter() - t0:.1f} s")
     # each integrator, and the event integrator on rough ground too: the loops of simulate
     # and simulate_batch are compiled per kind of run (sim/rollout.py, loop_kind)
-    for integrator, params in (("event", None), ("event", RoverParams(roughness=0.1)),
-                               ("euler", None)):
+    for integrator, params in (
+        ("event", None),
+        ("event", RoverParams(roughness=0.1)),
+        ("euler", None),
+    ):
         t0 = time.perf_counter()
-        simulate(np.full(10, 3e-4), t_end=5.0, control_dt=0.5, integrator=integrator,
-                 params=params, seed=0)
-        simulate_batch(np.full((2, 10), 3e-4), np.array([0.5, -0.5]), t_end=5.0,
-                       control_dt=0.5, integrator=integrator, params=params, seed=0)
+        simulate(
+            np.full(10, 3e-4),
+            t_end=5.0,
+            control_dt=0.5,
+            integrator=integrator,
+            params=params,
+            seed=0,
+        )
+        simulate_batch(
+            np.full((2, 10), 3e-4),
+            np.array([0.5, -0.5]),
+            t_end=5.0,
+            control_dt=0.5,
+            integrator=integrator,
+            params=params,
+            seed=0,
+        )
         ground = "smooth" if params is None else "rough"
-        say(f"  simulate, simulate_batch ({integrator}, {ground} ground): "
-            f"{time.perf_counter() - t0:.1f} s")
+        say(
+            f"  simulate, simulate_batch ({integrator}, {ground} ground): "
+            f"{time.perf_counter() - t0:.1f} s"
+        )
     # the layers above this one, imported here so that the cache warms without them
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.episodes import run_episodes
+
     for name in ("scripted", "scratch"):
         t0 = time.perf_counter()
         run_episodes(load_policy(name, control_dt=0.5), np.array([0.5]))
@@ -82,22 +104,29 @@ def warm(log=None) -> None:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog=__doc__.split("\n", 2)[2])
+    ap = argparse.ArgumentParser(
+        description=__doc__.splitlines()[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=__doc__.split("\n", 2)[2],
+    )
     ap.parse_args(argv)
     from numba.core.config import CACHE_DIR
 
     from hoprover_env.util.buildinfo import build_info
+
     info = build_info()
-    print(f"hoprover {info['version']} (source {info['source']}, commit {info['commit']}) "
-          f"at {info['path']}; numba cache: {CACHE_DIR or 'beside the sources'}",
-          file=sys.stderr)
+    print(
+        f"hoprover {info['version']} (source {info['source']}, commit {info['commit']}) "
+        f"at {info['path']}; numba cache: {CACHE_DIR or 'beside the sources'}",
+        file=sys.stderr,
+    )
     t0 = time.perf_counter()
     warm(log=lambda msg: print(msg, file=sys.stderr))
     compiled, loaded = compile_counts()
-    print(f"compiled {sum(compiled.values())} function signatures, loaded {loaded} from "
-          f"the cache, in {time.perf_counter() - t0:.1f} s")
+    print(
+        f"compiled {sum(compiled.values())} function signatures, loaded {loaded} from "
+        f"the cache, in {time.perf_counter() - t0:.1f} s"
+    )
     return 0
 
 

@@ -13,6 +13,7 @@ checkout's root (train.py, and the drivers beside it) on sys.path, next to the i
 hoprover_env. The hash covers the package alone: the drivers and research pipelines
 beside it in a checkout are not hoprover's code.
 """
+
 from __future__ import annotations
 
 import functools
@@ -23,25 +24,23 @@ import subprocess
 import sys
 from pathlib import Path
 
-VERSION = "0.1.0"                               # hoprover_env.__version__
+VERSION = "0.1.0"  # hoprover_env.__version__
 PACKAGE = Path(__file__).resolve().parent.parent
 # a checkout's root, when hoprover_env was installed from one (pip install -e .)
 CHECKOUT = PACKAGE.parent
-DATA_SUFFIXES = (".zip", ".pkl", ".json", ".pt")     # the bundled policies (package data)
+DATA_SUFFIXES = (".zip", ".pkl", ".json", ".pt")  # the bundled policies (package data)
 
 
 def _checkout_root() -> Path | None:
     root = CHECKOUT
-    return root if (root / "pyproject.toml").is_file() and \
-        (root / "train.py").is_file() else None
+    return root if (root / "pyproject.toml").is_file() and (root / "train.py").is_file() else None
 
 
 def _code_files() -> list[Path]:
     """What a task runs: the package's sources and bundled policies. Never caches
     (__pycache__) or stray files."""
     files = [p for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts]
-    files += [p for p in (PACKAGE / "agents" / "policies").glob("*")
-              if p.suffix in DATA_SUFFIXES]
+    files += [p for p in (PACKAGE / "agents" / "policies").glob("*") if p.suffix in DATA_SUFFIXES]
     return sorted(files)
 
 
@@ -60,12 +59,18 @@ def git_commit(root: str | os.PathLike | None = None) -> str | None:
     to tracked files), or None when it is not a git checkout or git is missing."""
     root = Path(root) if root is not None else CHECKOUT
     try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True,
-                             text=True, timeout=10)
+        rev = subprocess.run(
+            ["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, timeout=10
+        )
         if rev.returncode != 0:
             return None
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=root, capture_output=True, text=True, timeout=10).stdout
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"],
+            cwd=root,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout
     except (OSError, subprocess.SubprocessError):
         return None
     rev = rev.stdout.strip()
@@ -80,8 +85,13 @@ def build_info() -> dict:
     # the commit of the checkout only when the package is that checkout's, not of
     # whatever git repository a site-packages happens to sit in
     root = _checkout_root()
-    return {"version": VERSION, "commit": git_commit(root) if root else None,
-            "source": source_hash(), "path": str(PACKAGE), "checkout": root is not None}
+    return {
+        "version": VERSION,
+        "commit": git_commit(root) if root else None,
+        "source": source_hash(),
+        "path": str(PACKAGE),
+        "checkout": root is not None,
+    }
 
 
 def probe() -> dict:
@@ -92,13 +102,17 @@ def probe() -> dict:
 def mismatch(expected: dict, seen: dict) -> str | None:
     """Why `seen` (a node's probe) cannot run the driver's work, or None."""
     if seen.get("version") != expected["version"] or seen.get("source") != expected["source"]:
-        return (f"hoprover {seen.get('version')} (source {seen.get('source')}, commit "
-                f"{seen.get('commit')}) at {seen.get('path')}, but the driver has "
-                f"{expected['version']} (source {expected['source']}, commit "
-                f"{expected['commit']})")
+        return (
+            f"hoprover {seen.get('version')} (source {seen.get('source')}, commit "
+            f"{seen.get('commit')}) at {seen.get('path')}, but the driver has "
+            f"{expected['version']} (source {expected['source']}, commit "
+            f"{expected['commit']})"
+        )
     if expected.get("checkout") and not seen.get("checkout"):
-        return (f"hoprover at {seen.get('path')} is installed without its checkout "
-                "(train.py): install it from a checkout with pip install -e")
+        return (
+            f"hoprover at {seen.get('path')} is installed without its checkout "
+            "(train.py): install it from a checkout with pip install -e"
+        )
     return None
 
 
@@ -107,8 +121,10 @@ def require(expected: dict) -> None:
     after the start-up check)."""
     why = mismatch(expected, probe())
     if why is not None:
-        raise RuntimeError(f"node {socket.gethostname()} runs {why}. Install the driver's "
-                           "hoprover on every node, or pass --ship-code")
+        raise RuntimeError(
+            f"node {socket.gethostname()} runs {why}. Install the driver's "
+            "hoprover on every node, or pass --ship-code"
+        )
 
 
 def use_checkout() -> None:

@@ -1,4 +1,5 @@
 """Result files of train.py and evaluate.py: written whole or not at all, as strict JSON."""
+
 from __future__ import annotations
 
 import json
@@ -16,8 +17,9 @@ def atomic_write(path: str | os.PathLike, text: str | bytes) -> None:
     try:
         # mkstemp creates 0600 and the rename keeps it: give the file what open() would
         os.fchmod(fd, 0o666 & ~_umask())
-        with (os.fdopen(fd, "wb") if isinstance(text, bytes)
-              else os.fdopen(fd, "w", newline="")) as fh:
+        with (
+            os.fdopen(fd, "wb") if isinstance(text, bytes) else os.fdopen(fd, "w", newline="")
+        ) as fh:
             fh.write(text)
         os.replace(tmp, path)
     except BaseException:
@@ -26,7 +28,7 @@ def atomic_write(path: str | os.PathLike, text: str | bytes) -> None:
 
 
 def _umask() -> int:
-    mask = os.umask(0)     # reading the umask means setting it: put it straight back
+    mask = os.umask(0)  # reading the umask means setting it: put it straight back
     os.umask(mask)
     return mask
 
@@ -46,6 +48,7 @@ def write_npz(path: str | os.PathLike, **arrays) -> None:
     import io
 
     import numpy as np
+
     buf = io.BytesIO()
     np.savez(buf, **arrays)
     atomic_write(path, buf.getvalue())

@@ -4,6 +4,7 @@ Each returns the value in the form the kernel wants (a float, a float64 array) o
 with a message that names the argument. Numpy scalars are welcome; booleans, strings and
 complex numbers are refused rather than converted.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,8 +56,7 @@ def check_torque(torque, what="torque") -> float:
     if isinstance(torque, np.ndarray) and torque.size == 1 and torque.dtype.kind in "iuf":
         torque = torque.reshape(()).item()
     if not is_real(torque):
-        raise ValueError(f"{what} must be a real number, got {type(torque).__name__} "
-                         f"{torque!r}")
+        raise ValueError(f"{what} must be a real number, got {type(torque).__name__} {torque!r}")
     value = float(torque)
     if not math.isfinite(value):
         raise ValueError(f"{what} must be finite, got {value!r}")
@@ -66,16 +66,20 @@ def check_torque(torque, what="torque") -> float:
 def real_array(name: str, value) -> np.ndarray:
     """A contiguous float64 array of `value`, refusing what is not real numbers (strings,
     booleans, complex numbers, objects, ragged rows) with an error naming the argument."""
-    if isinstance(value, (list, tuple)) and value and all(
-            isinstance(row, (list, tuple, np.ndarray)) for row in value):
+    if (
+        isinstance(value, (list, tuple))
+        and value
+        and all(isinstance(row, (list, tuple, np.ndarray)) for row in value)
+    ):
         lengths = [len(row) for row in value]
         for i, length in enumerate(lengths):
             if length != lengths[0]:
-                raise ValueError(f"run {i}: {name} row has {length} entries, run 0 has "
-                                 f"{lengths[0]}")
+                raise ValueError(
+                    f"run {i}: {name} row has {length} entries, run 0 has {lengths[0]}"
+                )
     try:
         raw = np.asarray(value)
-    except (TypeError, ValueError):          # ragged deeper down
+    except (TypeError, ValueError):  # ragged deeper down
         raise ValueError(f"{name} must be a rectangular array of real numbers") from None
     if raw.dtype.kind not in "iuf":
         raise ValueError(f"{name} must hold real numbers, got dtype {raw.dtype}")
@@ -88,17 +92,24 @@ def check_seed(seed, rough: bool = False):
     so that the run can be replayed; on smooth ground it stays None (nothing is drawn)."""
     if seed is None:
         return secrets.randbits(64) if rough else None
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, numbers.Integral) \
-            or not 0 <= int(seed) < 2**64:
-        raise ValueError(f"seed must be None or an integer in [0, 2**64), got "
-                         f"{type(seed).__name__} {seed!r}")
+    if (
+        isinstance(seed, (bool, np.bool_))
+        or not isinstance(seed, numbers.Integral)
+        or not 0 <= int(seed) < 2**64
+    ):
+        raise ValueError(
+            f"seed must be None or an integer in [0, 2**64), got {type(seed).__name__} {seed!r}"
+        )
     return int(seed)
 
 
 def check_rover(rover) -> int:
     """A rover index (the run's place in a batch, the sub-env of a vector env)."""
-    if isinstance(rover, (bool, np.bool_)) or not isinstance(rover, numbers.Integral) \
-            or not 0 <= int(rover) < 2**53:
+    if (
+        isinstance(rover, (bool, np.bool_))
+        or not isinstance(rover, numbers.Integral)
+        or not 0 <= int(rover) < 2**53
+    ):
         raise ValueError(f"rover must be an integer in [0, 2**53), got {rover!r}")
     return int(rover)
 
@@ -116,17 +127,27 @@ def seed_array(seed, n: int) -> np.ndarray:
     check_seed's message)."""
     a = np.asarray(seed)
     if a.shape != (n,) or a.dtype.kind not in "iuO":
-        raise ValueError(f"seed must be None, one integer, or an integer array of shape "
-                         f"({n},) (one per run), got {a.dtype} array of shape {a.shape}")
+        raise ValueError(
+            f"seed must be None, one integer, or an integer array of shape "
+            f"({n},) (one per run), got {a.dtype} array of shape {a.shape}"
+        )
     if a.dtype.kind == "u":
         return a.astype(np.uint64)
     if a.dtype.kind == "i":
         bad = first_true(a < 0)
-    else:                                   # Python objects: each one looked at
+    else:  # Python objects: each one looked at
         values = a.tolist()
-        bad = next((i for i, v in enumerate(values) if v is None
-                    or isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral)
-                    or not 0 <= int(v) < 2**64), -1)
+        bad = next(
+            (
+                i
+                for i, v in enumerate(values)
+                if v is None
+                or isinstance(v, (bool, np.bool_))
+                or not isinstance(v, numbers.Integral)
+                or not 0 <= int(v) < 2**64
+            ),
+            -1,
+        )
     if bad >= 0:
         v = a[bad].item() if a.dtype.kind != "O" else a[bad]
         try:
@@ -134,8 +155,11 @@ def seed_array(seed, n: int) -> np.ndarray:
         except ValueError as err:
             raise ValueError(f"run {bad}: {err}") from None
         raise ValueError(f"run {bad}: seed must be an integer in [0, 2**64), got {v!r}")
-    return (a.astype(np.uint64) if a.dtype.kind == "i"
-            else np.array([int(v) for v in a.tolist()], dtype=np.uint64))
+    return (
+        a.astype(np.uint64)
+        if a.dtype.kind == "i"
+        else np.array([int(v) for v in a.tolist()], dtype=np.uint64)
+    )
 
 
 def run_rows(name: str, value, n: int, width: int) -> np.ndarray | None:

@@ -28,6 +28,7 @@ actions; a per-decision cost puts it back.
 
 Writes one JSON (atomically) and prints a summary.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -63,17 +64,18 @@ def env_arguments(policy) -> dict:
 def play(policy, targets: np.ndarray, seed: int) -> dict:
     """The deterministic actor's episodes side by side, every decision recorded."""
     n = len(targets)
-    venv = vector_env_class(policy.env_id)(n, autoreset_mode=AutoresetMode.SAME_STEP,
-                                           info_level="full", **env_arguments(policy))
+    venv = vector_env_class(policy.env_id)(
+        n, autoreset_mode=AutoresetMode.SAME_STEP, info_level="full", **env_arguments(policy)
+    )
     obs, info = venv.reset(seed=seed, options={"target_x": targets})
     policy.reset(n)
     modes, acts, omegas, states = [], [], [], []
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
-    run = np.zeros(n, int)               # decisions in the current flight
-    longest = np.zeros(n, int)           # each episode's longest flight
-    flights: list[int] = []              # each finished flight's decisions
+    run = np.zeros(n, int)  # decisions in the current flight
+    longest = np.zeros(n, int)  # each episode's longest flight
+    flights: list[int] = []  # each finished flight's decisions
     final = np.full(n, np.nan)
     while open_.any():
         a = np.asarray(policy.act(obs, venv), dtype=np.float32)
@@ -104,9 +106,17 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
                 final[i] = float(fin["rover_state"][i][0]) - targets[i]
         open_ &= ~ended
     venv.close()
-    return {"flights": np.asarray(flights + [int(r) for r in run if r]), "longest": longest,
-            "mode": np.asarray(modes), "action": np.asarray(acts), "omega": np.asarray(omegas),
-            "flight_states": np.asarray(states), "opening": first, "final": final, **out}
+    return {
+        "flights": np.asarray(flights + [int(r) for r in run if r]),
+        "longest": longest,
+        "mode": np.asarray(modes),
+        "action": np.asarray(acts),
+        "omega": np.asarray(omegas),
+        "flight_states": np.asarray(states),
+        "opening": first,
+        "final": final,
+        **out,
+    }
 
 
 def control_dt(policy) -> float:
@@ -135,14 +145,14 @@ def per_state(run: dict, tip: float) -> dict:
             row["tipping_share"] = float(np.mean(np.abs(a) > tip))
         if name == "flight" and sel.sum() > 2:
             row["median_abs_omega"] = float(np.median(np.abs(w)))
-            row["corr_action_minus_omega"] = float(np.corrcoef(a, -w)[0, 1]) \
-                if a.std() > 0 and w.std() > 0 else float("nan")
+            row["corr_action_minus_omega"] = (
+                float(np.corrcoef(a, -w)[0, 1]) if a.std() > 0 and w.std() > 0 else float("nan")
+            )
         rows[name] = row
     return rows
 
 
-def action_gap(policy, states: np.ndarray, targets, k: int,
-               rng: np.random.Generator) -> list[dict]:
+def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Generator) -> list[dict]:
     """Critic and one-step reward over GRID at k flight states."""
     model = policy.model
     if len(states) == 0:
@@ -165,14 +175,23 @@ def action_gap(policy, states: np.ndarray, targets, k: int,
         act = torch.as_tensor(GRID[:, None], dtype=torch.float32)
         with torch.no_grad():
             q = model.critic(o, act)
-            q = q.mean(dim=(1, 2)) if isinstance(q, torch.Tensor) else \
-                torch.min(torch.cat(q, dim=1), dim=1).values
+            q = (
+                q.mean(dim=(1, 2))
+                if isinstance(q, torch.Tensor)
+                else torch.min(torch.cat(q, dim=1), dim=1).values
+            )
         q = q.numpy()
-        rows.append({"omega": float(x0[5]), "theta": float(x0[2]),
-                     "reward_range": float(np.ptp(r)), "q_range": float(np.ptp(q)),
-                     "reward_argmax": float(GRID[int(np.argmax(r))]),
-                     "q_argmax": float(GRID[int(np.argmax(q))]),
-                     "agree": bool(abs(np.argmax(r) - np.argmax(q)) <= 1)})
+        rows.append(
+            {
+                "omega": float(x0[5]),
+                "theta": float(x0[2]),
+                "reward_range": float(np.ptp(r)),
+                "q_range": float(np.ptp(q)),
+                "reward_argmax": float(GRID[int(np.argmax(r))]),
+                "q_argmax": float(GRID[int(np.argmax(q))]),
+                "agree": bool(abs(np.argmax(r) - np.argmax(q)) <= 1),
+            }
+        )
     return rows
 
 
@@ -188,28 +207,39 @@ def main(argv=None) -> int:
     policy = load_sb3(args.model)
     targets = seeded_targets(args.episodes, args.seed)
     run = play(policy, targets, args.seed)
-    opening_corr = float(np.corrcoef(run["opening"], targets)[0, 1]) \
-        if np.std(run["opening"]) > 0 else float("nan")
+    opening_corr = (
+        float(np.corrcoef(run["opening"], targets)[0, 1])
+        if np.std(run["opening"]) > 0
+        else float("nan")
+    )
     report = {
-        "model": str(args.model), "env_id": policy.env_id, "episodes": args.episodes,
+        "model": str(args.model),
+        "env_id": policy.env_id,
+        "episodes": args.episodes,
         "per_state": per_state(run, tipping_action(policy)),
-        "broken": int(run["broken"].sum()), "success": int(run["success"].sum()),
+        "broken": int(run["broken"].sum()),
+        "success": int(run["success"].sum()),
         "median_final_distance_m": float(np.median(np.abs(run["final"]))),
         "ended_in_flight": int(run["ended_in_flight"].sum()),
         "median_flight_s": float(np.median(run["flights"]) * control_dt(policy))
-        if len(run["flights"]) else float("nan"),
+        if len(run["flights"])
+        else float("nan"),
         "median_longest_flight_s": float(np.median(run["longest"]) * control_dt(policy)),
         "median_abs_opening": float(np.median(np.abs(run["opening"]))),
         "corr_opening_target": opening_corr,
-        "action_gap": action_gap(policy, run["flight_states"], targets,
-                                 args.gap_states, np.random.default_rng(args.seed))}
+        "action_gap": action_gap(
+            policy, run["flight_states"], targets, args.gap_states, np.random.default_rng(args.seed)
+        ),
+    }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write(args.out, json.dumps(report, indent=1) + "\n")
     print(json.dumps({k: v for k, v in report.items() if k != "action_gap"}, indent=1))
     for g in report["action_gap"]:
-        print(f"  flight state omega {g['omega']:+.2f}: reward range {g['reward_range']:.3f}, "
-              f"Q range {g['q_range']:.3f}, argmax r {g['reward_argmax']:+.1f} Q "
-              f"{g['q_argmax']:+.1f}")
+        print(
+            f"  flight state omega {g['omega']:+.2f}: reward range {g['reward_range']:.3f}, "
+            f"Q range {g['q_range']:.3f}, argmax r {g['reward_argmax']:+.1f} Q "
+            f"{g['q_argmax']:+.1f}"
+        )
     return 0
 
 

@@ -29,6 +29,7 @@ At each checkpoint, 32 episodes are played with the behaviour the learner explor
 Writes OUT/diagnosis.csv (atomically, after every checkpoint) and the training's own
 evaluations through nothing else: this is a measurement, not a training run to keep.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,20 +54,39 @@ from hoprover_env.training.sb3_agents import env_kwargs, load_config, make_agent
 from hoprover_env.training.train import build_env
 from hoprover_env.util.files import atomic_write
 
-REST, FLIGHT = 5, 0                      # contact state codes F and A
-FIELDS = ["timesteps", "wall_s", "q_pred", "q_mc", "q_bias", "truncated", "reward_min",
-          "reward_max", "return_mean", "tip_frac_rest", "decisions_rest", "decisions_contact",
-          "decisions_flight", "explore_success", "explore_broken",
-          "eval_success", "eval_broken", "eval_median_ttrtp", "ent_coef", "obs_std_min",
-          "obs_std_max"]
+REST, FLIGHT = 5, 0  # contact state codes F and A
+FIELDS = [
+    "timesteps",
+    "wall_s",
+    "q_pred",
+    "q_mc",
+    "q_bias",
+    "truncated",
+    "reward_min",
+    "reward_max",
+    "return_mean",
+    "tip_frac_rest",
+    "decisions_rest",
+    "decisions_contact",
+    "decisions_flight",
+    "explore_success",
+    "explore_broken",
+    "eval_success",
+    "eval_broken",
+    "eval_median_ttrtp",
+    "ent_coef",
+    "obs_std_min",
+    "obs_std_max",
+]
 
 
 def tipping_action(cfg: dict) -> float:
     """The smallest |action| whose torque tips a rover at rest (m g r / T_max under the
     config's action map and scale)."""
     p = RoverParams()
-    return torque_to_action(p.mass * p.gravity * p.half_width, p,
-                            SimpleNamespace(**env_kwargs(cfg)))
+    return torque_to_action(
+        p.mass * p.gravity * p.half_width, p, SimpleNamespace(**env_kwargs(cfg))
+    )
 
 
 def mode_slot(env_id: str) -> int:
@@ -81,7 +101,7 @@ def critic_value(model, obs: torch.Tensor, act: torch.Tensor) -> np.ndarray:
     mean over the kept quantiles for TQC."""
     with torch.no_grad():
         q = model.critic(obs, act)
-        if isinstance(q, torch.Tensor):          # TQC: (batch, critics, quantiles)
+        if isinstance(q, torch.Tensor):  # TQC: (batch, critics, quantiles)
             return q.mean(dim=(1, 2)).numpy()
         return torch.min(torch.cat(q, dim=1), dim=1).values.numpy()
 
@@ -119,7 +139,7 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
     success, broken = np.zeros(episodes, bool), np.zeros(episodes, bool)
     counts = {"rest": 0, "contact": 0, "flight": 0}
     n_tip = 0
-    mode = np.full(episodes, REST)       # every episode starts upright at rest
+    mode = np.full(episodes, REST)  # every episode starts upright at rest
     slot = mode_slot(cfg["env_id"])
     tip = tipping_action(cfg)
     while open_.any():
@@ -137,14 +157,15 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
         for i in np.flatnonzero(open_):
             bonus[i].append(ent[i])
         obs, rew, done, infos = env.step(a)
-        mode = np.argmax(obs[:, slot:slot + 7], axis=1)   # the next decision's state
+        mode = np.argmax(obs[:, slot : slot + 7], axis=1)  # the next decision's state
         for i in np.flatnonzero(open_ & done):
             info = infos[i]
             success[i], broken[i] = bool(info.get("is_success")), bool(info.get("broken"))
             if info.get("TimeLimit.truncated", False):
                 trunc[i] = True
-                last = torch.as_tensor(venv.normalize_obs(info["terminal_observation"][None]),
-                                       dtype=torch.float32)
+                last = torch.as_tensor(
+                    venv.normalize_obs(info["terminal_observation"][None]), dtype=torch.float32
+                )
                 a_last, _ = explore_action(model, last, rng)
                 tail[i] = critic_value(model, last, a_last)[0]
         for i in np.flatnonzero(open_):
@@ -157,27 +178,44 @@ def explore(model, venv, cfg, episodes: int, seed: int) -> dict:
         disc = gamma ** np.arange(len(r))
         q_mc[i] = float((disc * r).sum() + gamma ** len(r) * tail[i])
     allr = np.concatenate([np.asarray(r) for r in rewards])
-    return {"q_pred": float(q0.mean()), "q_mc": float(q_mc.mean()),
-            "q_bias": float((q0 - q_mc).mean()), "truncated": int(trunc.sum()),
-            "reward_min": float(allr.min()), "reward_max": float(allr.max()),
-            "return_mean": float(np.mean([np.sum(r) for r in rewards])),
-            "tip_frac_rest": n_tip / max(counts["rest"], 1),
-            **{f"decisions_{k}": v for k, v in counts.items()},
-            "explore_success": float(success.mean()),
-            "explore_broken": int(broken.sum())}
+    return {
+        "q_pred": float(q0.mean()),
+        "q_mc": float(q_mc.mean()),
+        "q_bias": float((q0 - q_mc).mean()),
+        "truncated": int(trunc.sum()),
+        "reward_min": float(allr.min()),
+        "reward_max": float(allr.max()),
+        "return_mean": float(np.mean([np.sum(r) for r in rewards])),
+        "tip_frac_rest": n_tip / max(counts["rest"], 1),
+        **{f"decisions_{k}": v for k, v in counts.items()},
+        "explore_success": float(success.mean()),
+        "explore_broken": int(broken.sum()),
+    }
 
 
 def measure(model, venv, cfg, targets, t0: float) -> dict:
     import copy
+
     row = {"timesteps": int(model.num_timesteps), "wall_s": round(time.perf_counter() - t0, 1)}
     row.update(explore(model, venv, cfg, 32, seed=1000 + int(model.num_timesteps)))
-    policy = SB3Policy(model, copy.deepcopy(venv.obs_rms), venv.clip_obs, epsilon=venv.epsilon,
-                       env_kwargs=env_kwargs(cfg), env_id=cfg["env_id"])
+    policy = SB3Policy(
+        model,
+        copy.deepcopy(venv.obs_rms),
+        venv.clip_obs,
+        epsilon=venv.epsilon,
+        env_kwargs=env_kwargs(cfg),
+        env_id=cfg["env_id"],
+    )
     res = summarize(run_episodes(policy, targets, env_kwargs(cfg)))
     std = np.sqrt(venv.obs_rms.var)
-    row.update(eval_success=res["success_rate"], eval_broken=res["broken"],
-               eval_median_ttrtp=res["median_ttrtp"], ent_coef=ent_coef(model),
-               obs_std_min=float(std.min()), obs_std_max=float(std.max()))
+    row.update(
+        eval_success=res["success_rate"],
+        eval_broken=res["broken"],
+        eval_median_ttrtp=res["median_ttrtp"],
+        ent_coef=ent_coef(model),
+        obs_std_min=float(std.min()),
+        obs_std_max=float(std.max()),
+    )
     return row
 
 
@@ -205,8 +243,13 @@ def main(argv=None) -> int:
         w.writeheader()
         w.writerows(rows)
         atomic_write(out / "diagnosis.csv", buf.getvalue())
-        print(", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
-                        for k, v in rows[-1].items()), file=sys.stderr, flush=True)
+        print(
+            ", ".join(
+                f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}" for k, v in rows[-1].items()
+            ),
+            file=sys.stderr,
+            flush=True,
+        )
         if model.num_timesteps >= args.steps:
             return 0
         model.learn(args.every, reset_num_timesteps=False)

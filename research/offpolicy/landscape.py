@@ -27,6 +27,7 @@ same return stopped at the 600 s limit, without bootstrapping, which is what thi
 showed before and undervalues resting (a whole episode at rest: -2.37 cut, -3.05
 bootstrapped, at HopRoverRL-v0's settings).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,11 +49,21 @@ from hoprover_env.tasks.hop import HopEnvConfig
 from hoprover_env.tasks.observation import OBS_COS, OBS_DX, OBS_MODE, OBS_RATE, OBS_SIN, RATE_SCALE
 from hoprover_env.util.files import atomic_write
 
-PARAMS = RoverParams()                  # the ids' default rover
-HOLD_KP, HOLD_KD = HopEnvConfig.hold_kp, HopEnvConfig.hold_kd     # the hop task's defaults
-FIELDS = ["action_map", "rule", "action", "discounted_return", "discounted_return_cut",
-          "return", "broken", "success", "final_offset_m", "steps"]
-LIMIT = 600.0                           # the ids' episode_time [s]
+PARAMS = RoverParams()  # the ids' default rover
+HOLD_KP, HOLD_KD = HopEnvConfig.hold_kp, HopEnvConfig.hold_kd  # the hop task's defaults
+FIELDS = [
+    "action_map",
+    "rule",
+    "action",
+    "discounted_return",
+    "discounted_return_cut",
+    "return",
+    "broken",
+    "success",
+    "final_offset_m",
+    "steps",
+]
+LIMIT = 600.0  # the ids' episode_time [s]
 
 
 def follow_up(rule: str, obs: np.ndarray, action_map: str) -> float:
@@ -60,34 +71,45 @@ def follow_up(rule: str, obs: np.ndarray, action_map: str) -> float:
     state A, the first of the one-hot components) in the action map's units."""
     if rule == "none" or obs[OBS_MODE] < 0.5:
         return 0.0
-    torque = attitude_hold(math.atan2(obs[OBS_SIN], obs[OBS_COS]), obs[OBS_RATE] * RATE_SCALE,
-                           PARAMS.inertia, HOLD_KP, HOLD_KD)
+    torque = attitude_hold(
+        math.atan2(obs[OBS_SIN], obs[OBS_COS]),
+        obs[OBS_RATE] * RATE_SCALE,
+        PARAMS.inertia,
+        HOLD_KP,
+        HOLD_KD,
+    )
     return torque_to_action(torque, PARAMS, SimpleNamespace(action_map=action_map))
 
 
 def episode(action_map: str, rule: str, a: float, target: float, horizon: float) -> dict:
-    env = gym.make("HopRoverRL-v0", action_map=action_map, target_x=target,
-                   episode_time=horizon)
+    env = gym.make("HopRoverRL-v0", action_map=action_map, target_x=target, episode_time=horizon)
     obs, _ = env.reset(seed=0)
     gamma, ret, disc, cut = RL_SETTINGS["gamma"], 0.0, 0.0, 0.0
     steps_in_limit = int(round(LIMIT / RL_SETTINGS["control_dt"]))
     for k in range(1_000_000):
         act = a if k == 0 else follow_up(rule, obs, action_map)
         obs, r, term, trunc, info = env.step(np.array([act], dtype=np.float32))
-        disc += gamma ** k * float(r)
+        disc += gamma**k * float(r)
         if k < steps_in_limit:
             ret += float(r)
-            cut += gamma ** k * float(r)
+            cut += gamma**k * float(r)
             end_info, end_obs, end_k = info, obs, k
         if term or trunc:
             break
     env.close()
-    info, obs = end_info, end_obs      # the episode as the ids end it, at the 600 s limit
-    return {"action_map": action_map, "rule": rule, "action": round(a, 4),
-            "discounted_return": round(disc, 4), "discounted_return_cut": round(cut, 4),
-            "return": round(ret, 4),
-            "broken": bool(info["broken"]), "success": bool(info["is_success"]),
-            "final_offset_m": round(float(obs[OBS_DX]), 4), "steps": end_k + 1}
+    info, obs = end_info, end_obs  # the episode as the ids end it, at the 600 s limit
+    return {
+        "action_map": action_map,
+        "rule": rule,
+        "action": round(a, 4),
+        "discounted_return": round(disc, 4),
+        "discounted_return_cut": round(cut, 4),
+        "return": round(ret, 4),
+        "broken": bool(info["broken"]),
+        "success": bool(info["is_success"]),
+        "final_offset_m": round(float(obs[OBS_DX]), 4),
+        "steps": end_k + 1,
+    }
 
 
 def main(argv=None) -> int:
@@ -95,16 +117,23 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, required=True, help="the CSV to write")
     ap.add_argument("--target", type=float, default=0.5, help="target x [m]")
     ap.add_argument("--points", type=int, default=81, help="actions on the grid over [-1, 1]")
-    ap.add_argument("--horizon", type=float, default=4800.0,
-                    help="simulated seconds the rule is followed for the bootstrapped value")
+    ap.add_argument(
+        "--horizon",
+        type=float,
+        default=4800.0,
+        help="simulated seconds the rule is followed for the bootstrapped value",
+    )
     args = ap.parse_args(argv)
     if args.points < 3:
         ap.error(f"--points must be at least 3, got {args.points}")
     if args.horizon < LIMIT:
         ap.error(f"--horizon must be at least the {LIMIT:g} s limit, got {args.horizon}")
-    rows = [episode(m, rule, float(a), args.target, args.horizon)
-            for m in ("linear", "cubic") for rule in ("none", "hold")
-            for a in np.linspace(-1, 1, args.points)]
+    rows = [
+        episode(m, rule, float(a), args.target, args.horizon)
+        for m in ("linear", "cubic")
+        for rule in ("none", "hold")
+        for a in np.linspace(-1, 1, args.points)
+    ]
     buf = io.StringIO()
     writer = csv.DictWriter(buf, fieldnames=FIELDS)
     writer.writeheader()
@@ -114,10 +143,12 @@ def main(argv=None) -> int:
     for m in ("linear", "cubic"):
         for rule in ("none", "hold"):
             sel = [r for r in rows if r["action_map"] == m and r["rule"] == rule]
-            print(f"{m:6s} {rule:4s}: broken {sum(r['broken'] for r in sel)}/{len(sel)}, "
-                  f"success {sum(r['success'] for r in sel)}/{len(sel)}, best discounted "
-                  f"return {max(r['discounted_return'] for r in sel):+.2f} at a = "
-                  f"{max(sel, key=lambda r: r['discounted_return'])['action']:+.3f}")
+            print(
+                f"{m:6s} {rule:4s}: broken {sum(r['broken'] for r in sel)}/{len(sel)}, "
+                f"success {sum(r['success'] for r in sel)}/{len(sel)}, best discounted "
+                f"return {max(r['discounted_return'] for r in sel):+.2f} at a = "
+                f"{max(sel, key=lambda r: r['discounted_return'])['action']:+.3f}"
+            )
     return 0
 
 

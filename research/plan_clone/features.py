@@ -18,6 +18,7 @@ network: an SB3 features extractor, saved with the model (its statistics as buff
 and found again on load (`policy_kwargs`); a config asks for it with
 ``policy: {features: micro}``.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -35,9 +36,9 @@ FEATURES = (
     (6, 0.3, (0.0005, 0.002, 0.01)),
     (2, 0.01, (0.0005, 0.005)),
 )
-DX_SLOT = 0                                          # c.m. minus target [m]
-EDGE_SLOT, EDGE_SCALES = 16, (0.0005, 0.002, 0.01)   # m beyond the band's edge
-BAND_HALF_WIDTH = 0.05                               # m: slot 16's unit
+DX_SLOT = 0  # c.m. minus target [m]
+EDGE_SLOT, EDGE_SCALES = 16, (0.0005, 0.002, 0.01)  # m beyond the band's edge
+BAND_HALF_WIDTH = 0.05  # m: slot 16's unit
 
 
 def n_features() -> int:
@@ -69,7 +70,7 @@ class MicroStateFeatures(BaseFeaturesExtractor):
         self.register_buffer("mean", torch.zeros(dim))
         self.register_buffer("std", torch.ones(dim))
 
-    frozen_statistics = True        # hoprover_env.training: the statistics stay fixed
+    frozen_statistics = True  # hoprover_env.training: the statistics stay fixed
 
     def forward(self, obs):
         return torch.cat([obs, micro_features(obs * self.std + self.mean)], dim=1)
@@ -85,8 +86,9 @@ def set_statistics(policy, vecnorm) -> None:
     """Give `policy`'s MicroStateFeatures (if any) the observation statistics of
     `vecnorm` (a VecNormalize), as it normalises: (obs - mean) / sqrt(var + epsilon)."""
     mean = torch.as_tensor(np.asarray(vecnorm.obs_rms.mean), dtype=torch.float32)
-    std = torch.as_tensor(np.sqrt(np.asarray(vecnorm.obs_rms.var) + vecnorm.epsilon),
-                          dtype=torch.float32)
+    std = torch.as_tensor(
+        np.sqrt(np.asarray(vecnorm.obs_rms.var) + vecnorm.epsilon), dtype=torch.float32
+    )
     for name in ("features_extractor", "pi_features_extractor", "vf_features_extractor"):
         ext = getattr(policy, name, None)
         if isinstance(ext, MicroStateFeatures):

@@ -43,6 +43,7 @@ fixed parts of the network. `GatedNet.forward` maps raw observations (N, 19) to 
 (N, 1); `GatedPolicy` is the policy `load_policy` returns for a saved one (a .pt file:
 the weights, with the branches' sizes in its metadata).
 """
+
 from __future__ import annotations
 
 import copy
@@ -66,9 +67,9 @@ from hoprover_env.tasks.observation import (
     mirror,
 )
 
-NUDGE_MAX = 0.115                       # m: `near_edge`'s reach beyond the target
-STILL_TILT, STILL_SPEED = 0.01, 1e-3    # rad, m/s: a nudge tilts and moves less
-FLIGHT_TILT = 0.05                      # rad: a nudge's micro-flight tilts up to ~0.02
+NUDGE_MAX = 0.115  # m: `near_edge`'s reach beyond the target
+STILL_TILT, STILL_SPEED = 0.01, 1e-3  # rad, m/s: a nudge tilts and moves less
+FLIGHT_TILT = 0.05  # rad: a nudge's micro-flight tilts up to ~0.02
 # |OBS_REF| (the contact point's offset in band half-widths) below which `hold` holds:
 # 5e-8 m inside the edge, so float32 round-off never holds a rover just outside the band
 HOLD_REF = 1.0 - 1e-6
@@ -82,7 +83,7 @@ def observed_mode(obs):
     """The contact state (0..6 = A..G) of raw observations (numpy or torch): the index
     of their one-hot slots."""
     lib = torch if isinstance(obs, torch.Tensor) else np
-    return lib.argmax(obs[:, OBS_MODE:OBS_MODE + len(MODE_LETTERS)], 1)
+    return lib.argmax(obs[:, OBS_MODE : OBS_MODE + len(MODE_LETTERS)], 1)
 
 
 def rest_offset(obs):
@@ -113,8 +114,7 @@ def near_edge(obs, nudge_max: float = NUDGE_MAX, flight: bool = False, rest: boo
     offset = lib.abs(obs[:, OBS_DX]) * POS_SCALE
     if rest:
         offset = lib.where(aloft, offset, lib.abs(rest_offset(obs)))
-    return (settled & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED)
-            & (offset <= nudge_max))
+    return settled & (lib.abs(obs[:, OBS_VX]) * VEL_SCALE < STILL_SPEED) & (offset <= nudge_max)
 
 
 def at_rest_in_band(obs):
@@ -128,12 +128,21 @@ class Branch(nn.Module):
     """An SB3 actor's deterministic path: normalise (VecNormalize's statistics and
     clip), features, MLP, action head."""
 
-    def __init__(self, mean, var, clip: float, features: nn.Module, mlp: nn.Module,
-                 head: nn.Module, epsilon: float = 1e-8):
+    def __init__(
+        self,
+        mean,
+        var,
+        clip: float,
+        features: nn.Module,
+        mlp: nn.Module,
+        head: nn.Module,
+        epsilon: float = 1e-8,
+    ):
         super().__init__()
         self.register_buffer("mean", torch.as_tensor(np.asarray(mean), dtype=torch.float32))
-        self.register_buffer("std", torch.as_tensor(np.sqrt(np.asarray(var) + epsilon),
-                                                    dtype=torch.float32))
+        self.register_buffer(
+            "std", torch.as_tensor(np.sqrt(np.asarray(var) + epsilon), dtype=torch.float32)
+        )
         self.clip = float(clip)
         self.features, self.mlp, self.head = features, mlp, head
 
@@ -146,17 +155,31 @@ class Branch(nn.Module):
         """The deterministic actor of an SB3Policy (hoprover_env.agents.policies)."""
         p = policy.model.policy
         rms = policy.obs_rms
-        return cls(rms.mean, rms.var, policy.clip_obs, copy.deepcopy(p.features_extractor),
-                   copy.deepcopy(p.mlp_extractor.policy_net), copy.deepcopy(p.action_net),
-                   policy.epsilon)
+        return cls(
+            rms.mean,
+            rms.var,
+            policy.clip_obs,
+            copy.deepcopy(p.features_extractor),
+            copy.deepcopy(p.mlp_extractor.policy_net),
+            copy.deepcopy(p.action_net),
+            policy.epsilon,
+        )
 
 
 class GatedNet(nn.Module):
     """Raw observations (N, 19) -> actions (N, 1) in [-1, 1] (module docstring)."""
 
-    def __init__(self, main: Branch, nudge: Branch, deadzone: float = 0.01,
-                 nudge_max: float = NUDGE_MAX, symmetric: bool = False,
-                 flight: bool = False, hold: bool = False, rest: bool = False):
+    def __init__(
+        self,
+        main: Branch,
+        nudge: Branch,
+        deadzone: float = 0.01,
+        nudge_max: float = NUDGE_MAX,
+        symmetric: bool = False,
+        flight: bool = False,
+        hold: bool = False,
+        rest: bool = False,
+    ):
         super().__init__()
         self.main, self.nudge = main, nudge
         self.deadzone, self.nudge_max = float(deadzone), float(nudge_max)
@@ -182,9 +205,12 @@ class GatedNet(nn.Module):
 def _spec(branch: Branch) -> dict:
     layers = [m.out_features for m in branch.mlp if isinstance(m, nn.Linear)]
     acts = {type(m).__name__ for m in branch.mlp if not isinstance(m, nn.Linear)}
-    return {"layers": layers, "activation": acts.pop() if acts else "Identity",
-            "micro": type(branch.features).__name__ == "MicroStateFeatures",
-            "clip": branch.clip}
+    return {
+        "layers": layers,
+        "activation": acts.pop() if acts else "Identity",
+        "micro": type(branch.features).__name__ == "MicroStateFeatures",
+        "clip": branch.clip,
+    }
 
 
 def _branch(spec: dict, obs_dim: int = 19) -> Branch:
@@ -192,14 +218,21 @@ def _branch(spec: dict, obs_dim: int = 19) -> Branch:
     from stable_baselines3.common.torch_layers import FlattenExtractor
 
     from research.plan_clone.features import MicroStateFeatures
+
     space = spaces.Box(-np.inf, np.inf, (obs_dim,), np.float32)
     features = MicroStateFeatures(space) if spec["micro"] else FlattenExtractor(space)
     mods, width = [], features.features_dim
     for n in spec["layers"]:
         mods += [nn.Linear(width, n), getattr(nn, spec["activation"])()]
         width = n
-    return Branch(np.zeros(obs_dim), np.ones(obs_dim), spec["clip"], features,
-                  nn.Sequential(*mods), nn.Linear(width, 1))
+    return Branch(
+        np.zeros(obs_dim),
+        np.ones(obs_dim),
+        spec["clip"],
+        features,
+        nn.Sequential(*mods),
+        nn.Linear(width, 1),
+    )
 
 
 def save(net: GatedNet, path, meta: dict | None = None) -> None:
@@ -208,16 +241,28 @@ def save(net: GatedNet, path, meta: dict | None = None) -> None:
     import io
 
     from hoprover_env.util.files import atomic_write, write_json
+
     path = Path(path)
     buf = io.BytesIO()
     torch.save(net.state_dict(), buf)
     atomic_write(path, buf.getvalue())
-    write_json(path.with_suffix(".json"), {
-        "kind": "gated", "main": _spec(net.main), "nudge": _spec(net.nudge),
-        "deadzone": net.deadzone, "nudge_max": net.nudge_max, "symmetric": net.symmetric,
-        "flight": net.flight, "hold": net.hold, "rest": net.rest,
-        "env_id": "HopRover-v0",
-        "env_kwargs": {"control_dt": 0.5}, **(meta or {})})
+    write_json(
+        path.with_suffix(".json"),
+        {
+            "kind": "gated",
+            "main": _spec(net.main),
+            "nudge": _spec(net.nudge),
+            "deadzone": net.deadzone,
+            "nudge_max": net.nudge_max,
+            "symmetric": net.symmetric,
+            "flight": net.flight,
+            "hold": net.hold,
+            "rest": net.rest,
+            "env_id": "HopRover-v0",
+            "env_kwargs": {"control_dt": 0.5},
+            **(meta or {}),
+        },
+    )
 
 
 def load(path) -> tuple[GatedNet, dict]:
@@ -230,11 +275,19 @@ def load(path) -> tuple[GatedNet, dict]:
             raise FileNotFoundError(f"gated network file missing: {p}")
     meta = json.loads(meta_path.read_text())
     if meta.get("kind") != "gated":
-        raise ValueError(f"{meta_path} does not describe a gated network (kind "
-                         f"{meta.get('kind')!r})")
-    net = GatedNet(_branch(meta["main"]), _branch(meta["nudge"]), meta["deadzone"],
-                   meta["nudge_max"], meta.get("symmetric", False), meta.get("flight", False),
-                   meta.get("hold", False), meta.get("rest", False))
+        raise ValueError(
+            f"{meta_path} does not describe a gated network (kind {meta.get('kind')!r})"
+        )
+    net = GatedNet(
+        _branch(meta["main"]),
+        _branch(meta["nudge"]),
+        meta["deadzone"],
+        meta["nudge_max"],
+        meta.get("symmetric", False),
+        meta.get("flight", False),
+        meta.get("hold", False),
+        meta.get("rest", False),
+    )
     net.load_state_dict(torch.load(path, map_location="cpu", weights_only=True))
     net.eval()
     return net, meta
@@ -270,39 +323,56 @@ def load_any(spec: str, **kwargs):
     if str(spec).endswith(".pt"):
         return load_policy(spec)
     from hoprover_env.agents.policies import load_policy as load_package_policy
+
     return load_package_policy(str(spec), **kwargs)
 
 
-GROUP = "Imitation of a planner"        # the leaderboard's group of a network made here
-HOW_MADE = ("two networks cloned by least squares and DAgger rounds from the plan-table "
-            "teacher, joined by fixed, hand-written parts; no slope input, level ground only")
-TEACHER = ("the plan-table teacher (research/plan_clone/plan_table.py): a table of best-known "
-           "plans searched with the simulator from the start state on level ground for a grid "
-           "of targets, made alike between neighbours, and a nudge law for targets just beyond "
-           "the band's edge (research/plan_clone/nudge.py)")
+GROUP = "Imitation of a planner"  # the leaderboard's group of a network made here
+HOW_MADE = (
+    "two networks cloned by least squares and DAgger rounds from the plan-table "
+    "teacher, joined by fixed, hand-written parts; no slope input, level ground only"
+)
+TEACHER = (
+    "the plan-table teacher (research/plan_clone/plan_table.py): a table of best-known "
+    "plans searched with the simulator from the start state on level ground for a grid "
+    "of targets, made alike between neighbours, and a nudge law for targets just beyond "
+    "the band's edge (research/plan_clone/nudge.py)"
+)
 
 
 def hand_written(arch: dict) -> list[str]:
     """The fixed (not learned) parts of a gated network with the settings `arch`
     (`nudge_max`, `deadzone`, `symmetric`, `flight`, `hold`, `rest`), in words, with
     their numbers: what the bundled policy's .json lists under "hand_written"."""
-    where = (f"within {arch['nudge_max']:g} m of the target (`nudge_max`"
-             + ("; on the ground measured from the corner it stands on, `rest`)"
-                if arch.get("rest") else ")"))
-    gate = (f"a fixed gate between the two learned branches on thresholds: the nudge branch "
-            f"acts where the rover is {where} and nearly still (tilt below {STILL_TILT:g} rad, "
-            f"speed below {STILL_SPEED * 1e3:g} mm/s)"
-            + (f", or in a slow flight there (tilt below {FLIGHT_TILT:g} rad, `flight`)"
-               if arch.get("flight") else "") + "; the main branch everywhere else")
+    where = f"within {arch['nudge_max']:g} m of the target (`nudge_max`" + (
+        "; on the ground measured from the corner it stands on, `rest`)"
+        if arch.get("rest")
+        else ")"
+    )
+    gate = (
+        f"a fixed gate between the two learned branches on thresholds: the nudge branch "
+        f"acts where the rover is {where} and nearly still (tilt below {STILL_TILT:g} rad, "
+        f"speed below {STILL_SPEED * 1e3:g} mm/s)"
+        + (
+            f", or in a slow flight there (tilt below {FLIGHT_TILT:g} rad, `flight`)"
+            if arch.get("flight")
+            else ""
+        )
+        + "; the main branch everywhere else"
+    )
     parts = [gate]
     if arch.get("hold"):
         parts.append("zero torque forced at rest on a face with a corner in the band (`hold`)")
     if arch.get("symmetric"):
-        parts.append("mirror symmetry: each branch acts as the odd part of its fit under "
-                     "x -> -x (`symmetric`)")
+        parts.append(
+            "mirror symmetry: each branch acts as the odd part of its fit under "
+            "x -> -x (`symmetric`)"
+        )
     dz = float(arch.get("deadzone", 0.0))
-    parts.append("a dead zone on the main branch's output (`deadzone`: "
-                  + (f"{dz:g} of T_max)" if dz > 0 else "0 in this network, so it never acts)"))
+    parts.append(
+        "a dead zone on the main branch's output (`deadzone`: "
+        + (f"{dz:g} of T_max)" if dz > 0 else "0 in this network, so it never acts)")
+    )
     return parts
 
 
@@ -313,16 +383,23 @@ def export(net: GatedNet, path, meta: dict) -> None:
     `hoprover_env.agents.policies.load_policy` runs it with no code of this module."""
     from hoprover_env.agents.base import TorchPolicy
     from hoprover_env.tasks.observation import OBS_DIM
-    arch_keys = ("main", "nudge", "deadzone", "nudge_max", "symmetric", "flight", "hold",
-                 "rest")
+
+    arch_keys = ("main", "nudge", "deadzone", "nudge_max", "symmetric", "flight", "hold", "rest")
     arch = {k: meta[k] for k in arch_keys if k in meta}
-    meta = {**{k: v for k, v in meta.items() if k not in arch_keys},
-            "kind": "torch.export", "made_by": "imitation of a planner",
-            "hand_written": hand_written(arch), "architecture": arch, "group": GROUP,
-            "how_made": HOW_MADE, "teacher": TEACHER}
+    meta = {
+        **{k: v for k, v in meta.items() if k not in arch_keys},
+        "kind": "torch.export",
+        "made_by": "imitation of a planner",
+        "hand_written": hand_written(arch),
+        "architecture": arch,
+        "group": GROUP,
+        "how_made": HOW_MADE,
+        "teacher": TEACHER,
+    }
     example = torch.zeros((4, OBS_DIM), dtype=torch.float32)
     TorchPolicy.save(net.eval(), example, path, meta)
     from hoprover_env.util.files import write_json
+
     write_json(Path(path).with_suffix(".json"), meta)
 
 
@@ -330,6 +407,7 @@ def main(argv=None) -> int:
     """python -m research.plan_clone.gated export NET.pt OUT.pt2: a saved gated network as
     the package's self-describing policy file."""
     import argparse
+
     ap = argparse.ArgumentParser(description=main.__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
     e = sub.add_parser("export", help="a gated network (.pt + .json) as a .pt2 module")

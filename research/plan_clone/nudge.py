@@ -40,6 +40,7 @@ puts it beside a plan-table clone as the nudge branch of a gated network
         --nudge runs/plan_table/nudge_branch.pkl --out runs/plan_table/plan_clone.pt \\
         --symmetric
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,15 +54,38 @@ from hoprover_env.tasks.observation import OBS_DX, OBS_RATE, OBS_SIN, POS_SCALE,
 from research.plan_clone.gated import NUDGE_MAX, near_edge, observed_mode  # noqa: F401
 from research.plan_clone.plan_table import BAND_EDGE
 
-PIVOTS = tuple(range(MODE_B, MODE_E + 1))    # B-E: on one corner
-PREFIX = "nudge_"            # a table's arrays of the nudge family
+PIVOTS = tuple(range(MODE_B, MODE_E + 1))  # B-E: on one corner
+PREFIX = "nudge_"  # a table's arrays of the nudge family
 # the grid `search` flies (fractions of T_max, rad, fractions of T_max)
 PUSH_GRID = np.arange(0.02, 0.2001, 0.005)
 TILT_GRID = np.geomspace(1e-4, 6e-3, 16)
 BRAKE_GRID = np.arange(0.0, 0.3001, 0.005)
-OFFSETS = (0.10005, 0.1001, 0.1002, 0.1003, 0.1004, 0.1006, 0.1008, 0.101, 0.1013, 0.1016,
-           0.102, 0.1025, 0.103, 0.1035, 0.104, 0.105, 0.106, 0.107, 0.108, 0.109, 0.11,
-           0.1115, 0.113, 0.115)
+OFFSETS = (
+    0.10005,
+    0.1001,
+    0.1002,
+    0.1003,
+    0.1004,
+    0.1006,
+    0.1008,
+    0.101,
+    0.1013,
+    0.1016,
+    0.102,
+    0.1025,
+    0.103,
+    0.1035,
+    0.104,
+    0.105,
+    0.106,
+    0.107,
+    0.108,
+    0.109,
+    0.11,
+    0.1115,
+    0.113,
+    0.115,
+)
 
 
 def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
@@ -69,13 +93,14 @@ def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
     `tilt`, `brake` per row (or scalars). Rows in flight, in the band at rest, or
     rocking back get 0."""
     obs = np.asarray(obs, dtype=np.float64)
-    offset = -obs[:, OBS_DX] * POS_SCALE                 # target minus c.m. [m]
+    offset = -obs[:, OBS_DX] * POS_SCALE  # target minus c.m. [m]
     d = np.where(offset >= 0.0, 1.0, -1.0)
     mode = observed_mode(obs)
     theta = np.arcsin(np.clip(obs[:, OBS_SIN], -1.0, 1.0))
     omega = obs[:, OBS_RATE] * RATE_SCALE
-    push, tilt, brake = (np.broadcast_to(np.asarray(v, dtype=float), len(obs))
-                         for v in (push, tilt, brake))
+    push, tilt, brake = (
+        np.broadcast_to(np.asarray(v, dtype=float), len(obs)) for v in (push, tilt, brake)
+    )
     rest = (mode == MODE_F) & (np.abs(offset) > BAND_EDGE)
     tipping = np.isin(mode, PIVOTS) & (theta * d > 0.0) & (omega * d > 0.0)
     a = np.where(rest | (tipping & (np.abs(theta) < tilt)), push, 0.0)
@@ -85,13 +110,15 @@ def nudge_actions(obs: np.ndarray, push, tilt, brake) -> np.ndarray:
 
 def family_of(table: dict) -> dict | None:
     """The nudge family a table holds (`search`'s output), or None."""
-    return {k[len(PREFIX):]: v for k, v in table.items() if k.startswith(PREFIX)} or None
+    return {k[len(PREFIX) :]: v for k, v in table.items() if k.startswith(PREFIX)} or None
 
 
 def with_family(table: dict, family: dict) -> dict:
     """`table` holding `family` (in place of any it had)."""
-    return {**{k: v for k, v in table.items() if not k.startswith(PREFIX)},
-            **{PREFIX + k: v for k, v in family.items()}}
+    return {
+        **{k: v for k, v in table.items() if not k.startswith(PREFIX)},
+        **{PREFIX + k: v for k, v in family.items()},
+    }
 
 
 def family_actions(obs: np.ndarray, family: dict) -> np.ndarray:
@@ -126,9 +153,9 @@ def search(offsets=None, log=print) -> dict:
     """TTRTP [s] (inf: missed) of every grid point for each offset (default `OFFSETS`),
     from the start."""
     from hoprover_env.evaluation.episodes import run_episodes
+
     offsets = OFFSETS if offsets is None else offsets
-    P, T, B = (a.ravel() for a in np.meshgrid(PUSH_GRID, TILT_GRID, BRAKE_GRID,
-                                              indexing="ij"))
+    P, T, B = (a.ravel() for a in np.meshgrid(PUSH_GRID, TILT_GRID, BRAKE_GRID, indexing="ij"))
     out = {}
     for x in offsets:
         t0 = time.perf_counter()
@@ -145,6 +172,7 @@ def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60, margin: int = 1)
     offset's `keep` best, the path that also pays `jump_cost` per grid step between
     neighbouring offsets (dynamic programming)."""
     from scipy.ndimage import maximum_filter
+
     xs = sorted(grid)
     cost, cand = [], []
     for x in xs:
@@ -162,14 +190,27 @@ def choose(grid: dict, jump_cost: float = 0.02, keep: int = 60, margin: int = 1)
     for b in reversed(back):
         path.append(int(b[path[-1]]))
     idx = np.array([cand[i][k] for i, k in enumerate(path[::-1])])
-    return {"offsets": np.array(xs), "push": PUSH_GRID[idx[:, 0]],
-            "tilt": TILT_GRID[idx[:, 1]], "brake": BRAKE_GRID[idx[:, 2]],
-            "robust": np.array([cost[i][k] for i, k in enumerate(path[::-1])]),
-            "ttrtp": np.array([grid[x][tuple(i)] for x, i in zip(xs, idx)])}
+    return {
+        "offsets": np.array(xs),
+        "push": PUSH_GRID[idx[:, 0]],
+        "tilt": TILT_GRID[idx[:, 1]],
+        "brake": BRAKE_GRID[idx[:, 2]],
+        "robust": np.array([cost[i][k] for i, k in enumerate(path[::-1])]),
+        "ttrtp": np.array([grid[x][tuple(i)] for x, i in zip(xs, idx)]),
+    }
 
 
-def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: float,
-                 inside: float = 0.0, budget: int = 500, log=print):
+def collect_edge(
+    table: dict,
+    learner,
+    seed: int,
+    n: int,
+    reach: float,
+    noise: float,
+    inside: float = 0.0,
+    budget: int = 500,
+    log=print,
+):
     """(obs, labels, returns) of the teacher labelling `learner`'s flights (DAgger) to `n`
     targets uniform in BAND_EDGE - `inside`..`reach` m on alternating sides, with
     N(0, noise^2) on the learner's actions: the states a network meets at the band's
@@ -178,12 +219,20 @@ def collect_edge(table: dict, learner, seed: int, n: int, reach: float, noise: f
     edge, and a fit smooths that step into a small push just inside)."""
     from hoprover_env.training.warm_start import collect
     from research.plan_clone.plan_table import CONTROL_DT, PlanTableTeacher
+
     rng = np.random.default_rng(seed)
-    targets = (rng.uniform(BAND_EDGE - inside, reach, n)
-               * np.where(np.arange(n) % 2, -1.0, 1.0))
-    return collect(PlanTableTeacher(table, budget=budget), {"control_dt": CONTROL_DT}, n,
-                   seed + 7, 0.995, batch=400, targets=targets, log=log,
-                   executor=_Noisy(learner, noise, np.random.default_rng(seed + 1)))
+    targets = rng.uniform(BAND_EDGE - inside, reach, n) * np.where(np.arange(n) % 2, -1.0, 1.0)
+    return collect(
+        PlanTableTeacher(table, budget=budget),
+        {"control_dt": CONTROL_DT},
+        n,
+        seed + 7,
+        0.995,
+        batch=400,
+        targets=targets,
+        log=log,
+        executor=_Noisy(learner, noise, np.random.default_rng(seed + 1)),
+    )
 
 
 class _Noisy:
@@ -201,8 +250,9 @@ class _Noisy:
         return a + self.noise * self.rng.standard_normal(a.shape) if self.noise else a
 
 
-def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, settings: dict,
-                 shape: dict, log=print) -> dict:
+def gated_rounds(
+    cfg: dict, out, table: dict, data: list, main_pkl: str, settings: dict, shape: dict, log=print
+) -> dict:
     """The pipeline's last steps: the nudge branch fitted to the edge states of every
     collection and the gated network of both (research.plan_clone.gated, OUT/plan_clone.pt),
     then each `edge_dagger` round: that network drives at the band's edge
@@ -220,6 +270,7 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     from hoprover_env.util.files import write_npz
     from research.plan_clone.clone_study import fit, judge, report
     from research.plan_clone.gated import load_any as load_policy
+
     symmetric, flight = bool(cfg.get("symmetric", False)), bool(cfg.get("flight", False))
     hold, rest = bool(cfg.get("hold", False)), bool(cfg.get("rest", False))
     deadzone = float(cfg.get("deadzone", 0.01))
@@ -230,27 +281,54 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
         if k:
             r, path = edge[k - 1], out / names[k - 1]
             if not path.exists():
-                obs, act, ret = collect_edge(table, load_policy(str(net)), r["seed"],
-                                             r.get("n", 1200), r.get("reach", 0.125),
-                                             r.get("noise", 0.003),
-                                             r.get("inside", 0.0), log=log)
+                obs, act, ret = collect_edge(
+                    table,
+                    load_policy(str(net)),
+                    r["seed"],
+                    r.get("n", 1200),
+                    r.get("reach", 0.125),
+                    r.get("noise", 0.003),
+                    r.get("inside", 0.0),
+                    log=log,
+                )
                 write_npz(path, obs=obs, act=act, ret=ret)
             data.append(str(path))
             if r.get("refit_main"):
                 refit, main_run = out / f"clone_edge_{k}.pkl", str(out / f"main_edge_{k}")
                 if not (refit.exists() and (Path(main_run) / "best_model.zip").exists()):
-                    report(fit(data, **shape, save=str(refit), init=main_pkl,
-                               export_dir=main_run, log=log,
-                               **{**settings, **r["refit_main"]}), log)
+                    report(
+                        fit(
+                            data,
+                            **shape,
+                            save=str(refit),
+                            init=main_pkl,
+                            export_dir=main_run,
+                            log=log,
+                            **{**settings, **r["refit_main"]},
+                        ),
+                        log,
+                    )
                 main_pkl = str(refit)
         if k < len(edge) and (out / names[k]).exists():
-            continue              # the network that drove the next round is not needed
+            continue  # the network that drove the next round is not needed
         last = k == len(edge)
-        fit_branch(data, save=str(out / "nudge_branch.pkl"), mirror=symmetric,
-                   flight=flight and last, log=log)
-        assemble(main_run, str(out / "nudge_branch.pkl"), str(net), deadzone=deadzone,
-                 symmetric=symmetric, flight=flight and last, hold=hold and last,
-                 rest=rest and last)
+        fit_branch(
+            data,
+            save=str(out / "nudge_branch.pkl"),
+            mirror=symmetric,
+            flight=flight and last,
+            log=log,
+        )
+        assemble(
+            main_run,
+            str(out / "nudge_branch.pkl"),
+            str(net),
+            deadzone=deadzone,
+            symmetric=symmetric,
+            flight=flight and last,
+            hold=hold and last,
+            rest=rest and last,
+        )
         log(f"gated network after {k} edge rounds -> {net}")
     res = judge(load_policy(str(net)))
     log("gated network (main branch + nudge branch):")
@@ -258,8 +336,16 @@ def gated_rounds(cfg: dict, out, table: dict, data: list, main_pkl: str, setting
     return res
 
 
-def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
-               save=None, mirror: bool = False, flight: bool = False, log=print):
+def fit_branch(
+    data,
+    epochs: int = 15,
+    lr: float = 1e-3,
+    lr_end: float = 1e-5,
+    save=None,
+    mirror: bool = False,
+    flight: bool = False,
+    log=print,
+):
     """The nudge branch: configs/ppo_mpc.yaml's actor (ReLU, `features.micro` inputs)
     fitted from scratch to the rows of the collections `data` that `near_edge` picks
     (labelled by the nudge law: relabel older collections with `relabel`); with
@@ -272,22 +358,38 @@ def fit_branch(data, epochs: int = 15, lr: float = 1e-3, lr_end: float = 1e-5,
     from hoprover_env.tasks.observation import mirror as mirrored
     from hoprover_env.training.warm_start import clone
     from research.plan_clone.clone_study import _model, _policy, save_clone
+
     parts = []
     for p in data:
         with np.load(p) as d:
             m = near_edge(d["obs"], flight=flight)
             o, a, r = d["obs"][m], d["act"][m], d["ret"][m]
         if mirror:
-            o, a, r = (np.concatenate([o, mirrored(o)]), np.concatenate([a, -a]),
-                       np.concatenate([r, r]))
+            o, a, r = (
+                np.concatenate([o, mirrored(o)]),
+                np.concatenate([a, -a]),
+                np.concatenate([r, r]),
+            )
         parts.append((o, a, r))
     obs, act, ret = (np.concatenate([q[k] for q in parts]) for k in range(3))
     if not len(obs):
         raise ValueError(f"no sample of {list(data)} is near the band's edge (near_edge)")
     log(f"{len(obs)} samples near the edge from {len(data)} collections")
     cfg, venv, model = _model("linear", None, "relu", "micro")
-    clone(model, venv, obs, act, ret, epochs=epochs, batch_size=1024, learning_rate=lr,
-          learning_rate_end=lr_end, value_epochs=0, seed=0, log=log)
+    clone(
+        model,
+        venv,
+        obs,
+        act,
+        ret,
+        epochs=epochs,
+        batch_size=1024,
+        learning_rate=lr,
+        learning_rate_end=lr_end,
+        value_epochs=0,
+        seed=0,
+        log=log,
+    )
     if save:
         save_clone(save, model, venv)
     return _policy(cfg, venv, model, "nudge-branch")
@@ -302,20 +404,32 @@ def relabel(table: dict, obs: np.ndarray, act: np.ndarray) -> np.ndarray:
     return out
 
 
-def assemble(main_run: str, nudge_pkl: str, out: str, deadzone: float = 0.01,
-             symmetric: bool = False, flight: bool = False, hold: bool = False,
-             rest: bool = False) -> None:
+def assemble(
+    main_run: str,
+    nudge_pkl: str,
+    out: str,
+    deadzone: float = 0.01,
+    symmetric: bool = False,
+    flight: bool = False,
+    hold: bool = False,
+    rest: bool = False,
+) -> None:
     """The gated network (research.plan_clone.gated) of a main clone (a run directory) and a
     nudge branch (`fit_branch`'s pickle), saved as `out` (.pt and .json); `symmetric`,
     `flight`, `hold`, `rest`: GatedNet's."""
     from hoprover_env.agents.policies import load_policy
     from research.plan_clone import gated
     from research.plan_clone.clone_study import load_clone
-    net = gated.GatedNet(gated.Branch.from_sb3(load_policy(main_run)),
-                         gated.Branch.from_sb3(load_clone(nudge_pkl, "relu",
-                                                          features="micro")),
-                         deadzone=deadzone, symmetric=symmetric, flight=flight, hold=hold,
-                         rest=rest)
+
+    net = gated.GatedNet(
+        gated.Branch.from_sb3(load_policy(main_run)),
+        gated.Branch.from_sb3(load_clone(nudge_pkl, "relu", features="micro")),
+        deadzone=deadzone,
+        symmetric=symmetric,
+        flight=flight,
+        hold=hold,
+        rest=rest,
+    )
     gated.save(net, out, {"made_from": {"main": str(main_run), "nudge": str(nudge_pkl)}})
 
 
@@ -332,30 +446,49 @@ def main(argv=None) -> int:
     f = sub.add_parser("fit", help="fit the nudge branch to the edge states of collections")
     f.add_argument("--data", nargs="+", required=True)
     f.add_argument("--epochs", type=int, default=15)
-    f.add_argument("--mirror", action="store_true",
-                   help="also fit each edge state's mirror image (for assemble --symmetric)")
-    f.add_argument("--flight", action="store_true",
-                   help="also the slow flights near the target (for assemble --flight)")
+    f.add_argument(
+        "--mirror",
+        action="store_true",
+        help="also fit each edge state's mirror image (for assemble --symmetric)",
+    )
+    f.add_argument(
+        "--flight",
+        action="store_true",
+        help="also the slow flights near the target (for assemble --flight)",
+    )
     f.add_argument("--save", required=True)
     g = sub.add_parser("assemble", help="main clone + nudge branch -> a gated network")
     g.add_argument("--main", required=True, help="the main clone's run directory")
     g.add_argument("--nudge", required=True, help="fit's pickle")
     g.add_argument("--out", required=True, help="the network's .pt")
     g.add_argument("--deadzone", type=float, default=0.01)
-    g.add_argument("--symmetric", action="store_true",
-                   help="each branch as the odd part of its fit under the mirror x -> -x")
-    g.add_argument("--flight", action="store_true",
-                   help="the nudge branch also acts in slow flights near the target")
-    g.add_argument("--hold", action="store_true",
-                   help="zero torque at rest on a face with a corner in the band")
-    g.add_argument("--rest", action="store_true",
-                   help="gate on the ground by the rest offset (the corner stood on)")
+    g.add_argument(
+        "--symmetric",
+        action="store_true",
+        help="each branch as the odd part of its fit under the mirror x -> -x",
+    )
+    g.add_argument(
+        "--flight",
+        action="store_true",
+        help="the nudge branch also acts in slow flights near the target",
+    )
+    g.add_argument(
+        "--hold",
+        action="store_true",
+        help="zero torque at rest on a face with a corner in the band",
+    )
+    g.add_argument(
+        "--rest",
+        action="store_true",
+        help="gate on the ground by the rest offset (the corner stood on)",
+    )
     args = ap.parse_args(argv)
     from pathlib import Path
 
     from hoprover_env.util.files import write_npz
     from research.plan_clone.plan_table import load_table
-    log = lambda m: print(m, flush=True)       # noqa: E731
+
+    log = lambda m: print(m, flush=True)  # noqa: E731
     if args.cmd == "relabel":
         table = load_table(args.table)
         for p in args.data:
@@ -366,17 +499,28 @@ def main(argv=None) -> int:
             log(f"{p} -> {out}")
         return 0
     if args.cmd == "fit":
-        fit_branch(args.data, args.epochs, save=args.save, mirror=args.mirror,
-                   flight=args.flight, log=log)
+        fit_branch(
+            args.data, args.epochs, save=args.save, mirror=args.mirror, flight=args.flight, log=log
+        )
         return 0
     if args.cmd == "assemble":
-        assemble(args.main, args.nudge, args.out, args.deadzone, args.symmetric, args.flight,
-                 args.hold, args.rest)
+        assemble(
+            args.main,
+            args.nudge,
+            args.out,
+            args.deadzone,
+            args.symmetric,
+            args.flight,
+            args.hold,
+            args.rest,
+        )
         return 0
     fam = choose(search(log=log))
     for row in zip(*(fam[k] for k in ("offsets", "push", "tilt", "brake", "ttrtp", "robust"))):
-        log("offset {:.5f}: push {:.3f}, tilt {:.5f} rad, brake {:.3f}; {:.2f} s "
-            "(worst of neighbours {:.3f}x the best)".format(*row))
+        log(
+            "offset {:.5f}: push {:.3f}, tilt {:.5f} rad, brake {:.3f}; {:.2f} s "
+            "(worst of neighbours {:.3f}x the best)".format(*row)
+        )
     write_npz(args.out, **with_family(load_table(args.table), fam))
     return 0
 

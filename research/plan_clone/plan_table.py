@@ -39,6 +39,7 @@ network.
     python -m research.plan_clone.plan_table collect --table runs/plan_table/table.npz \\
         --out runs/plan_table/demo_1.npz --noise 0 --seed 1
 """
+
 from __future__ import annotations
 
 import argparse
@@ -66,25 +67,33 @@ from research.plan_clone.clone_study import BINS
 # m: a target nearer than this to the start (the rover's half-width plus the band's) is
 # in the band at t = 0
 BAND_EDGE = RoverParams().half_width + RoverParams().band_half_width
-LONG_HOP = BINS[-1][0]   # m: beyond, one long hop
+LONG_HOP = BINS[-1][0]  # m: beyond, one long hop
 # `build`'s settings (module docstring), also the defaults of the pipeline's `table`
-TABLE_DEFAULTS = {"step": 0.003, "budget": 3000, "passes": 3, "local_budget": 300,
-                  "keep": 0.005, "tol": 0.001, "mirror_tol": 0.03}
+TABLE_DEFAULTS = {
+    "step": 0.003,
+    "budget": 3000,
+    "passes": 3,
+    "local_budget": 300,
+    "keep": 0.005,
+    "tol": 0.001,
+    "mirror_tol": 0.03,
+}
 # m: nearer than the default grid's first target (just beyond the band's edge, where the
 # nudge's time rises steeply; `refine_edge`), the teacher flies the next row out
 ROUND_OUT = BAND_EDGE + TABLE_DEFAULTS["step"] / 2
-KP, KD = 2, 3            # the flight gains' coordinates in the search space
-LAUNCH_WINDOW = 1        # the launch window's coordinate (1: the longest, 20 s)
-CORRECTION_LENGTHS = (9, 6)   # the correction windows' duration coordinates
-SIGNED = [4, 7, 10]      # landing attitude and correction torques: [0, 1] maps to [-a, a]
+KP, KD = 2, 3  # the flight gains' coordinates in the search space
+LAUNCH_WINDOW = 1  # the launch window's coordinate (1: the longest, 20 s)
+CORRECTION_LENGTHS = (9, 6)  # the correction windows' duration coordinates
+SIGNED = [4, 7, 10]  # landing attitude and correction torques: [0, 1] maps to [-a, a]
 
 
 def start_state():
     """(state row, parameters) of HopRover-v0's start: at rest on a face at x = 0."""
     from hoprover_env.envs.vector_env import HopRoverVectorEnv
+
     venv = HopRoverVectorEnv(1, control_dt=0.5)
     venv.reset(seed=0, options={"target_x": np.array([0.5])})
-    return np.array(venv.S[0, :core.S_T]), venv.params[0]
+    return np.array(venv.S[0, : core.S_T]), venv.params[0]
 
 
 def grid(step: float) -> np.ndarray:
@@ -106,14 +115,21 @@ def sweep(step: float, budget: int, passes: int, log=print) -> dict:
     t0 = time.perf_counter()
     res = search(probs, budget=budget, seed=list(range(1, n + 1)))
     u, ttrtp = res.u.copy(), res.ttrtp.copy()
-    log(f"searched {n} targets in {time.perf_counter() - t0:.0f} s "
-        f"({int(np.isnan(ttrtp).sum())} without a plan)")
+    log(
+        f"searched {n} targets in {time.perf_counter() - t0:.0f} s "
+        f"({int(np.isnan(ttrtp).sum())} without a plan)"
+    )
     for p in range(passes):
         improved = 0
-        for shift in (1, -1):       # warm from the neighbour on one side, then the other
-            r = search(probs, budget=max(budget // 6, 200), starts=1, sigma=0.03,
-                       warm=np.roll(u, shift, axis=0),
-                       seed=[10000 * (p + 1) + shift + i for i in range(n)])
+        for shift in (1, -1):  # warm from the neighbour on one side, then the other
+            r = search(
+                probs,
+                budget=max(budget // 6, 200),
+                starts=1,
+                sigma=0.03,
+                warm=np.roll(u, shift, axis=0),
+                seed=[10000 * (p + 1) + shift + i for i in range(n)],
+            )
             better = np.nan_to_num(r.ttrtp, nan=np.inf) < np.nan_to_num(ttrtp, nan=np.inf)
             u[better], ttrtp[better] = r.u[better], r.ttrtp[better]
             improved += int(better.sum())
@@ -125,11 +141,25 @@ def _local_search(probs, u, cost, ttrtp, free, budget, seed=1000):
     """CMA-ES per problem over the coordinates `free` only, from the rows of `u`; every
     population of every problem in one batch. Returns improved (u, cost, ttrtp)."""
     import cma
+
     u, cost, ttrtp = u.copy(), cost.copy(), ttrtp.copy()
-    es = [cma.CMAEvolutionStrategy(list(u[i, free]), 0.02, {
-        "bounds": [0.0, 1.0], "popsize": 10, "seed": math.nan,
-        "randn": normal_sampler(seed + i), "maxfevals": budget, "verbose": -9,
-        "tolfun": 1e-5, "tolx": 1e-7}) for i in range(len(probs))]
+    es = [
+        cma.CMAEvolutionStrategy(
+            list(u[i, free]),
+            0.02,
+            {
+                "bounds": [0.0, 1.0],
+                "popsize": 10,
+                "seed": math.nan,
+                "randn": normal_sampler(seed + i),
+                "maxfevals": budget,
+                "verbose": -9,
+                "tolfun": 1e-5,
+                "tolx": 1e-7,
+            },
+        )
+        for i in range(len(probs))
+    ]
     alive = list(range(len(probs)))
     while alive:
         asks = {i: np.array(es[i].ask()) for i in alive}
@@ -140,10 +170,10 @@ def _local_search(probs, u, cost, ttrtp, free, budget, seed=1000):
         at, nxt = 0, []
         for i in alive:
             m = len(asks[i])
-            k = at + int(np.argmin(c[at:at + m]))
+            k = at + int(np.argmin(c[at : at + m]))
             if c[k] < cost[i]:
                 cost[i], ttrtp[i], u[i] = c[k], t[k], cand[k]
-            es[i].tell(list(asks[i]), list(c[at:at + m]))
+            es[i].tell(list(asks[i]), list(c[at : at + m]))
             at += m
             if not es[i].stop():
                 nxt.append(i)
@@ -151,8 +181,9 @@ def _local_search(probs, u, cost, ttrtp, free, budget, seed=1000):
     return u, cost, ttrtp
 
 
-def make_alike(table: dict, local_budget: int, keep: float, tol: float,
-               mirror_tol: float = 0.03, log=print) -> dict:
+def make_alike(
+    table: dict, local_budget: int, keep: float, tol: float, mirror_tol: float = 0.03, log=print
+) -> dict:
     """Steps 2 to 4 (module docstring)."""
     start, params = start_state()
     targets, u0, t0 = table["targets"], table["u"], table["ttrtp"]
@@ -168,8 +199,10 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float,
     kept = np.isfinite(ttrtp) & (ttrtp <= t0 * (1 + keep))
     u = np.where(kept[:, None], u, u0)
     ttrtp = np.where(kept, ttrtp, t0)
-    log(f"common flight gains: kept for {kept.sum()}/{n} targets ({kept[long_hop].sum()}/"
-        f"{long_hop.sum()} long hops)")
+    log(
+        f"common flight gains: kept for {kept.sum()}/{n} targets ({kept[long_hop].sum()}/"
+        f"{long_hop.sum()} long hops)"
+    )
 
     def simplify(label, change):
         nonlocal u, ttrtp
@@ -179,11 +212,15 @@ def make_alike(table: dict, local_budget: int, keep: float, tol: float,
         ok = np.isfinite(tv) & (tv <= ttrtp * (1 + tol))
         u[ok], ttrtp[ok] = v[ok], tv[ok]
         log(f"{label}: kept for {ok.sum()}/{n} targets")
-    simplify("launch held until liftoff",
-             lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0))
+
+    simplify(
+        "launch held until liftoff", lambda v: v.__setitem__((slice(None), LAUNCH_WINDOW), 1.0)
+    )
     for k in CORRECTION_LENGTHS:
-        simplify(f"no correction window (coordinate {k})",
-                 lambda v, k=k: v.__setitem__((slice(None), k), 0.0))
+        simplify(
+            f"no correction window (coordinate {k})",
+            lambda v, k=k: v.__setitem__((slice(None), k), 0.0),
+        )
     out = mirror_short_hops({**table, "u": u, "ttrtp": ttrtp}, mirror_tol, log, probs)
     r = out["ttrtp"] / t0
     log(f"TTRTP against step 1's plans: median {np.median(r):.4f}, worst {r.max():.4f}")
@@ -227,17 +264,26 @@ def refine_edge(table: dict, offsets, budget: int = 3000, log=print) -> dict:
     n = len(xs)
     first = table["u"][int(np.searchsorted(table["targets"], 0.0))]
     a = search(probs, budget=budget, seed=list(range(1, n + 1)))
-    b = search(probs, budget=max(budget // 6, 200), starts=1, sigma=0.03,
-               warm=np.tile(first, (n, 1)), seed=list(range(n + 1, 2 * n + 1)))
+    b = search(
+        probs,
+        budget=max(budget // 6, 200),
+        starts=1,
+        sigma=0.03,
+        warm=np.tile(first, (n, 1)),
+        seed=list(range(n + 1, 2 * n + 1)),
+    )
     ta, tb = np.nan_to_num(a.ttrtp, nan=np.inf), np.nan_to_num(b.ttrtp, nan=np.inf)
     u, t = np.where((ta <= tb)[:, None], a.u, b.u), np.fmin(ta, tb)
     mirror = mirrored(u)
     targets = np.concatenate([table["targets"], xs, -xs])
     order = np.argsort(targets)
     log(f"edge rows: {np.round(xs, 5).tolist()} take {np.round(t, 2).tolist()} s")
-    return {**table, "targets": targets[order],
-            "u": np.concatenate([table["u"], u, mirror])[order],
-            "ttrtp": np.concatenate([table["ttrtp"], t, t])[order]}
+    return {
+        **table,
+        "targets": targets[order],
+        "u": np.concatenate([table["u"], u, mirror])[order],
+        "ttrtp": np.concatenate([table["ttrtp"], t, t])[order],
+    }
 
 
 class PlanTableTeacher(MPCPolicy):
@@ -269,16 +315,17 @@ class PlanTableTeacher(MPCPolicy):
         super().__init__(**kw)
         self.targets, self.points, self.ttrtp = table["targets"], table["u"], table["ttrtp"]
         self.start = np.asarray(table["start"])
-        self.ground = start_state()[1]     # the ground and rover the table was searched on
+        self.ground = start_state()[1]  # the ground and rover the table was searched on
         self.interpolate, self.grace = interpolate, grace
         self.name = "plan-table"
         self.table_plans = 0
         self.until = []
-        self.episode = ([], 600.0)   # (params, episode time) of the env `act` last saw
+        self.episode = ([], 600.0)  # (params, episode time) of the env `act` last saw
         # the nudge at the band's edge, flown as state feedback (research/plan_clone/nudge.py)
         from research.plan_clone.nudge import family_of
+
         self.nudge = family_of(table)
-        self.nudged = np.zeros(0, dtype=bool)   # rows of the last `act` the nudge labelled
+        self.nudged = np.zeros(0, dtype=bool)  # rows of the last `act` the nudge labelled
 
     def reset(self, n: int, first_episode: int = 0) -> None:
         super().reset(n, first_episode)
@@ -303,33 +350,40 @@ class PlanTableTeacher(MPCPolicy):
         if the table has a plan for it that ends within the episode (`t_total` s), else
         None: the rover must be in the table's start state shifted in x, on its ground."""
         offset = float(s[core.S_XT] - s[core.S_X])
-        if (int(s[core.S_MODE]) != core.MODE_F or s[core.S_INBAND] != 0.0
-                or not np.array_equal(s[1:core.S_T], self.start[1:])
-                or params != self.ground
-                or abs(offset) <= BAND_EDGE or abs(offset) > np.abs(self.targets).max()):
+        if (
+            int(s[core.S_MODE]) != core.MODE_F
+            or s[core.S_INBAND] != 0.0
+            or not np.array_equal(s[1 : core.S_T], self.start[1:])
+            or params != self.ground
+            or abs(offset) <= BAND_EDGE
+            or abs(offset) > np.abs(self.targets).max()
+        ):
             return None
         end = float(s[core.S_T]) + float(np.interp(offset, self.targets, self.ttrtp))
         return offset if end + self.grace <= t_total else None
 
     def act(self, obs: np.ndarray, venv) -> np.ndarray:
-        self.episode = (venv.params, float(venv.config.episode_time))   # for needs_plan
+        self.episode = (venv.params, float(venv.config.episode_time))  # for needs_plan
         self.nudged = np.zeros(len(obs), dtype=bool)
         if self.nudge is not None:
             from research.plan_clone.nudge import near_edge
+
             self.nudged = near_edge(obs, float(self.nudge["offsets"].max())) & np.array(
-                [p == self.ground for p in venv.params])
+                [p == self.ground for p in venv.params]
+            )
         out = super().act(obs, venv)
         if self.nudged.any():
             from research.plan_clone.nudge import family_actions
+
             out[self.nudged, 0] = family_actions(obs[self.nudged], self.nudge)
         return out
 
     def needs_plan(self, i: int, S: np.ndarray) -> bool:
         if i < len(self.nudged) and self.nudged[i]:
-            self.plans[i] = None       # the nudge law acts; no plan is searched
+            self.plans[i] = None  # the nudge law acts; no plan is searched
             return False
         if self.rest_offset(S, self.episode[0][i], self.episode[1]) is not None:
-            return True            # at rest off target: the table's plan (class docstring)
+            return True  # at rest off target: the table's plan (class docstring)
         if float(S[core.S_T]) < self.until[i]:
             return False
         return super().needs_plan(i, S)
@@ -341,15 +395,14 @@ class PlanTableTeacher(MPCPolicy):
             self.plans[i] = None
             offset = self.rest_offset(S[i], params[i], float(venv.config.episode_time))
             if offset is None:
-                if t == 0.0 and np.array_equal(S[i, :core.S_T], self.start):
-                    continue           # in the band at the start: nothing to do
+                if t == 0.0 and np.array_equal(S[i, : core.S_T], self.start):
+                    continue  # in the band at the start: nothing to do
                 rest.append(i)
                 continue
-            self.plans[i] = plans_from_points(self.point(offset)[None],
-                                              np.array([np.sign(offset)]), np.array([t]),
-                                              params[i])[0]
-            self.until[i] = (t + float(np.interp(offset, self.targets, self.ttrtp))
-                             + self.grace)
+            self.plans[i] = plans_from_points(
+                self.point(offset)[None], np.array([np.sign(offset)]), np.array([t]), params[i]
+            )[0]
+            self.until[i] = t + float(np.interp(offset, self.targets, self.ttrtp)) + self.grace
             self.replanned_aloft[i] = False
             self.table_plans += 1
         if rest:
@@ -358,17 +411,25 @@ class PlanTableTeacher(MPCPolicy):
 
 def build(settings: dict, log=print) -> dict:
     """Steps 1 to 4 with `settings` (the keys of TABLE_DEFAULTS)."""
-    return make_alike(sweep(settings["step"], settings["budget"], settings["passes"], log),
-                      settings["local_budget"], settings["keep"], settings["tol"],
-                      settings["mirror_tol"], log)
+    return make_alike(
+        sweep(settings["step"], settings["budget"], settings["passes"], log),
+        settings["local_budget"],
+        settings["keep"],
+        settings["tol"],
+        settings["mirror_tol"],
+        log,
+    )
 
 
 def load_table(path) -> dict:
     """A table written by `build` / `edge` (and `python -m research.plan_clone.nudge search`: its
     nudge_* arrays)."""
     with np.load(path) as f:
-        return {k: f[k] for k in f.files
-                if k in ("targets", "u", "ttrtp", "start") or k.startswith("nudge_")}
+        return {
+            k: f[k]
+            for k in f.files
+            if k in ("targets", "u", "ttrtp", "start") or k.startswith("nudge_")
+        }
 
 
 def within_cells(targets: np.ndarray, rng) -> np.ndarray:
@@ -380,7 +441,7 @@ def within_cells(targets: np.ndarray, rng) -> np.ndarray:
     out = np.empty_like(x)
     for side in (x > 0, x < 0):
         order = np.argsort(np.abs(x[side]))
-        a = np.abs(x[side])[order]                 # the side's rows, nearest first
+        a = np.abs(x[side])[order]  # the side's rows, nearest first
         mid = (a[:-1] + a[1:]) / 2
         drawn = np.empty_like(a)
         drawn[order] = rng.uniform(np.r_[BAND_EDGE, mid], np.r_[mid, a[-1]])
@@ -388,26 +449,59 @@ def within_cells(targets: np.ndarray, rng) -> np.ndarray:
     return out
 
 
-def collect_table(table: dict, noise: float, seed: int, in_band: int, learner=None,
-                  budget: int = 500, cells: bool = False, log=print):
+def collect_table(
+    table: dict,
+    noise: float,
+    seed: int,
+    in_band: int,
+    learner=None,
+    budget: int = 500,
+    cells: bool = False,
+    log=print,
+):
     """(obs, labels, returns) of the teacher on every grid target plus `in_band` targets
     drawn in the band, with DART noise `noise` or with `learner` driving (DAgger). With
     `cells`, each grid target is replaced by one drawn in its cell (`within_cells`): a
     network that sees only the grid's targets interpolates between neighbouring rows
     whose plans are of different kinds, and between them it flies a mix of both."""
     from hoprover_env.training.warm_start import collect
+
     teacher = PlanTableTeacher(table, budget=budget)
     rng = np.random.default_rng(seed)
     targets = np.concatenate([table["targets"], rng.uniform(-BAND_EDGE, BAND_EDGE, in_band)])
     if cells:
-        targets[:len(table["targets"])] = within_cells(table["targets"], rng)
-    return collect(teacher, {"control_dt": CONTROL_DT}, len(targets), seed, 0.995, batch=360,
-                   noise=noise, executor=learner, targets=targets, log=log)
+        targets[: len(table["targets"])] = within_cells(table["targets"], rng)
+    return collect(
+        teacher,
+        {"control_dt": CONTROL_DT},
+        len(targets),
+        seed,
+        0.995,
+        batch=360,
+        noise=noise,
+        executor=learner,
+        targets=targets,
+        log=log,
+    )
 
 
-PIPELINE_KEYS = {"table", "edge", "nudge", "in_band", "cells", "demonstrations", "fit",
-                 "dagger", "dagger_fit", "symmetric", "deadzone", "edge_dagger", "flight",
-                 "hold", "rest"}
+PIPELINE_KEYS = {
+    "table",
+    "edge",
+    "nudge",
+    "in_band",
+    "cells",
+    "demonstrations",
+    "fit",
+    "dagger",
+    "dagger_fit",
+    "symmetric",
+    "deadzone",
+    "edge_dagger",
+    "flight",
+    "hold",
+    "rest",
+}
 
 
 def pipeline(config_path, out, log=print) -> dict:
@@ -428,32 +522,40 @@ def pipeline(config_path, out, log=print) -> dict:
 
     from hoprover_env.util.files import write_json
     from research.plan_clone.clone_study import fit, load_clone, report
+
     cfg = yaml.safe_load(Path(config_path).read_text())
     unknown = set(cfg) - PIPELINE_KEYS
     if unknown:
-        raise SystemExit(f"error: unknown config key(s) {sorted(unknown)} in {config_path}; "
-                         f"expected {sorted(PIPELINE_KEYS)}")
+        raise SystemExit(
+            f"error: unknown config key(s) {sorted(unknown)} in {config_path}; "
+            f"expected {sorted(PIPELINE_KEYS)}"
+        )
     nudge_cfg = cfg["nudge"] if isinstance(cfg.get("nudge"), dict) else {}
     if set(nudge_cfg) - {"margin"}:
-        raise SystemExit(f"error: unknown key(s) {sorted(set(nudge_cfg) - {'margin'})} under "
-                         f"`nudge` in {config_path}; expected ['margin']")
+        raise SystemExit(
+            f"error: unknown key(s) {sorted(set(nudge_cfg) - {'margin'})} under "
+            f"`nudge` in {config_path}; expected ['margin']"
+        )
     nudge_margin = int(nudge_cfg.get("margin", 1))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     tpath = out / "table.npz"
     if not tpath.exists():
         write_npz(tpath, **build({**TABLE_DEFAULTS, **cfg.get("table", {})}, log))
-    if cfg.get("edge"):              # rows just beyond the band's edge
+    if cfg.get("edge"):  # rows just beyond the band's edge
         epath = out / "table_edge.npz"
         if not epath.exists():
             write_npz(epath, **refine_edge(load_table(tpath), cfg["edge"], log=log))
         tpath = epath
-    if cfg.get("nudge"):       # the edge's nudges as state feedback (research/plan_clone/nudge.py)
+    if cfg.get("nudge"):  # the edge's nudges as state feedback (research/plan_clone/nudge.py)
         from research.plan_clone.nudge import choose, search, with_family
+
         npath = out / "table_nudge.npz"
         if not npath.exists():
-            write_npz(npath, **with_family(load_table(tpath),
-                                           choose(search(log=log), margin=nudge_margin)))
+            write_npz(
+                npath,
+                **with_family(load_table(tpath), choose(search(log=log), margin=nudge_margin)),
+            )
         tpath = npath
     table = load_table(tpath)
     in_band, cells = cfg.get("in_band", 120), bool(cfg.get("cells", False))
@@ -461,8 +563,9 @@ def pipeline(config_path, out, log=print) -> dict:
     for d in cfg["demonstrations"]:
         path = out / f"demo_noise{d['noise']}_seed{d['seed']}.npz"
         if not path.exists():
-            obs, act, ret = collect_table(table, d["noise"], d["seed"], in_band,
-                                          cells=cells, log=log)
+            obs, act, ret = collect_table(
+                table, d["noise"], d["seed"], in_band, cells=cells, log=log
+            )
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     fcfg = dict(cfg.get("fit", {}))
@@ -475,15 +578,25 @@ def pipeline(config_path, out, log=print) -> dict:
         clone_path = out / f"clone_{r}.pkl"
         settings = fcfg if r == 0 else {**fcfg, **cfg.get("dagger_fit", {})}
         judged = out / f"judge_{r}.json"
-        if clone_path.exists() and judged.exists() and (not last or (out / "best_model.zip")
-                                                        .exists()):
+        if (
+            clone_path.exists()
+            and judged.exists()
+            and (not last or (out / "best_model.zip").exists())
+        ):
             res = json.loads(judged.read_text())
             log(f"clone {r}: kept from an earlier run ({clone_path})")
         else:
-            res = fit(data, activation=activation, arch=arch, features=features,
-                      save=str(clone_path),
-                      init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
-                      export_dir=str(out) if last else None, log=log, **settings)
+            res = fit(
+                data,
+                activation=activation,
+                arch=arch,
+                features=features,
+                save=str(clone_path),
+                init=None if r == 0 else str(out / f"clone_{r - 1}.pkl"),
+                export_dir=str(out) if last else None,
+                log=log,
+                **settings,
+            )
             log(f"clone {r} ({len(data)} collections):")
             write_json(judged, res)
         report(res, log)
@@ -492,21 +605,31 @@ def pipeline(config_path, out, log=print) -> dict:
         path = out / f"dagger_{r + 1}_seed{rounds[r]['seed']}.npz"
         if not path.exists():
             learner = load_clone(str(clone_path), activation, arch, features=features)
-            obs, act, ret = collect_table(table, 0.0, rounds[r]["seed"], in_band, learner,
-                                          cells=cells, log=log)
+            obs, act, ret = collect_table(
+                table, 0.0, rounds[r]["seed"], in_band, learner, cells=cells, log=log
+            )
             write_npz(path, obs=obs, act=act, ret=ret)
         data.append(str(path))
     if cfg.get("nudge"):
         from research.plan_clone.nudge import gated_rounds
-        res = gated_rounds(cfg, out, table, data, str(out / f"clone_{len(rounds)}.pkl"),
-                           {**fcfg, **cfg.get("dagger_fit", {})},
-                           dict(activation=activation, arch=arch, features=features), log)
+
+        res = gated_rounds(
+            cfg,
+            out,
+            table,
+            data,
+            str(out / f"clone_{len(rounds)}.pkl"),
+            {**fcfg, **cfg.get("dagger_fit", {})},
+            dict(activation=activation, arch=arch, features=features),
+            log,
+        )
     write_json(out / "judge.json", res)
     return res
 
 
 def main(argv=None) -> int:
     from research.plan_clone.features import FEATURE_EXTRACTORS
+
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     b = sub.add_parser("build", help="search the grid and make the plans alike")
@@ -529,13 +652,17 @@ def main(argv=None) -> int:
     c.add_argument("--in-band", type=int, default=120)
     c.add_argument("--learner", default=None, help="a clone saved by clone_study fit --save")
     c.add_argument("--activation", default="relu", help="the learner's activation")
-    c.add_argument("--features", default=None, choices=sorted(FEATURE_EXTRACTORS),
-                   help="the learner's input features (research.plan_clone.features)")
+    c.add_argument(
+        "--features",
+        default=None,
+        choices=sorted(FEATURE_EXTRACTORS),
+        help="the learner's input features (research.plan_clone.features)",
+    )
     p = sub.add_parser("pipeline", help="table, demonstrations, fits and DAgger rounds")
     p.add_argument("--config", default="research/plan_clone/plan_clone.yaml")
     p.add_argument("--out", required=True)
     args = ap.parse_args(argv)
-    log = lambda m: print(m, flush=True)       # noqa: E731
+    log = lambda m: print(m, flush=True)  # noqa: E731
     if args.cmd == "pipeline":
         pipeline(args.config, args.out, log)
     elif args.cmd == "build":
@@ -549,16 +676,19 @@ def main(argv=None) -> int:
         import json
 
         from research.plan_clone.clone_study import judge
+
         teacher = PlanTableTeacher(load_table(args.table), interpolate=args.interpolate)
         log(json.dumps(judge(teacher), indent=1))
     else:
         learner = None
         if args.learner:
             from research.plan_clone.clone_study import load_clone
+
             learner = load_clone(args.learner, args.activation, features=args.features)
         t0 = time.perf_counter()
-        obs, act, ret = collect_table(load_table(args.table), args.noise, args.seed,
-                                      args.in_band, learner, log=log)
+        obs, act, ret = collect_table(
+            load_table(args.table), args.noise, args.seed, args.in_band, learner, log=log
+        )
         write_npz(args.out, obs=obs, act=act, ret=ret)
         log(f"{len(obs)} steps in {time.perf_counter() - t0:.0f} s -> {args.out}")
     return 0

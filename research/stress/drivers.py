@@ -14,6 +14,7 @@ press its bouncing corner into the ground. `contest_controller` wraps the same j
 controller behind the contest signature, for `simulate`. `execute(RunSpec)` runs one
 spec; `replay` re-runs the control interval of a recorded violation.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -63,12 +64,41 @@ from hoprover_env.sim.simulate import make_options, make_state
 # one count per violation kind.
 R_STEPS, R_SIM_SECONDS, R_EVENTS, R_IMPACTS, R_GAINS, R_KERNEL_GAINS, R_BREAKS = range(7)
 R_DRIFT = 7
-(R_GAINS_STORED, R_MAX_EVENTS_PER_STEP, R_IMPACT_SAMPLES, R_WRONG_TILT, R_KINEMATICS_OTHER,
- R_PEN_AT_BREAK, R_VIOLATIONS) = range(R_DRIFT + N_DRIFT, R_DRIFT + N_DRIFT + 7)
-(R_SAMPLES_SINGLE, R_SAMPLES_DOUBLE, R_MIN_HEIGHT, R_DRIFT_CORNER_Y, R_DRIFT_CORNER_VY,
- R_DRIFT_PIVOT_VX, R_DRIFT_FG_Y, R_DRIFT_FG_TH, R_DRIFT_FG_VY, R_DRIFT_FG_W) = (
-    R_DRIFT + d for d in (D_SAMPLES_SINGLE, D_SAMPLES_DOUBLE, D_MIN_HEIGHT, D_CORNER_Y,
-                          D_CORNER_VY, D_PIVOT_VX, D_FG_Y, D_FG_TH, D_FG_VY, D_FG_W))
+(
+    R_GAINS_STORED,
+    R_MAX_EVENTS_PER_STEP,
+    R_IMPACT_SAMPLES,
+    R_WRONG_TILT,
+    R_KINEMATICS_OTHER,
+    R_PEN_AT_BREAK,
+    R_VIOLATIONS,
+) = range(R_DRIFT + N_DRIFT, R_DRIFT + N_DRIFT + 7)
+(
+    R_SAMPLES_SINGLE,
+    R_SAMPLES_DOUBLE,
+    R_MIN_HEIGHT,
+    R_DRIFT_CORNER_Y,
+    R_DRIFT_CORNER_VY,
+    R_DRIFT_PIVOT_VX,
+    R_DRIFT_FG_Y,
+    R_DRIFT_FG_TH,
+    R_DRIFT_FG_VY,
+    R_DRIFT_FG_W,
+) = (
+    R_DRIFT + d
+    for d in (
+        D_SAMPLES_SINGLE,
+        D_SAMPLES_DOUBLE,
+        D_MIN_HEIGHT,
+        D_CORNER_Y,
+        D_CORNER_VY,
+        D_PIVOT_VX,
+        D_FG_Y,
+        D_FG_TH,
+        D_FG_VY,
+        D_FG_W,
+    )
+)
 N_RESULTS = R_VIOLATIONS + N_VIOLATION_KINDS
 
 # The first violation of each kind in a run (a row per RECORD_NAMES entry), enough to
@@ -81,8 +111,20 @@ N_BAD = B_STATE + core.N_STATE
 # their memory in a small array (M_* slots), so the same jitted function drives the
 # bulk runs and, through a Python wrapper, `simulate` for the cross-check.
 CTRL_SCHEDULE, CTRL_HOPPER = 0, 1
-(C_KP, C_KD, C_HOLD, C_LAUNCH_LO, C_LAUNCH_HI, C_REST_LO, C_REST_HI, C_LAUNCH_TIMEOUT,
- C_SETTLE_TIMEOUT, C_PRESS, C_PRESS_TIME, C_PRESS_HEIGHT) = range(12)
+(
+    C_KP,
+    C_KD,
+    C_HOLD,
+    C_LAUNCH_LO,
+    C_LAUNCH_HI,
+    C_REST_LO,
+    C_REST_HI,
+    C_LAUNCH_TIMEOUT,
+    C_SETTLE_TIMEOUT,
+    C_PRESS,
+    C_PRESS_TIME,
+    C_PRESS_HEIGHT,
+) = range(12)
 N_CTRL = 12
 PHASE_REST, PHASE_LAUNCH, PHASE_FLY, PHASE_LAND = range(4)
 M_PHASE, M_T_MARK, M_RAND_INDEX, M_LAUNCH_TORQUE, M_REST = range(5)
@@ -152,13 +194,14 @@ def control_torque(kind, x, y, th, vx, vy, w, mode, t, step, P, C, sched, rand, 
             return hold
         if mode != MODE_F:
             if t - mem[M_T_MARK] < C[C_SETTLE_TIMEOUT]:
-                return 0.0              # still settling: wait (a timeout relaunches)
+                return 0.0  # still settling: wait (a timeout relaunches)
         elif t - mem[M_T_MARK] < mem[M_REST]:
             return 0.0
         u = _next_uniform(rand, mem)
         sign = 1.0 if _next_uniform(rand, mem) < 0.5 else -1.0
-        mem[M_LAUNCH_TORQUE] = sign * P[P_TMAX] * (C[C_LAUNCH_LO]
-                                                   + (C[C_LAUNCH_HI] - C[C_LAUNCH_LO]) * u)
+        mem[M_LAUNCH_TORQUE] = (
+            sign * P[P_TMAX] * (C[C_LAUNCH_LO] + (C[C_LAUNCH_HI] - C[C_LAUNCH_LO]) * u)
+        )
         mem[M_PHASE] = PHASE_LAUNCH
         mem[M_T_MARK] = t
         phase = PHASE_LAUNCH
@@ -168,13 +211,13 @@ def control_torque(kind, x, y, th, vx, vy, w, mode, t, step, P, C, sched, rand, 
             return hold
         if t - mem[M_T_MARK] < C[C_LAUNCH_TIMEOUT]:
             return mem[M_LAUNCH_TORQUE]
-        phase = PHASE_LAND              # no lift-off: give up, settle, rest, relaunch
+        phase = PHASE_LAND  # no lift-off: give up, settle, rest, relaunch
         mem[M_PHASE] = PHASE_LAND
         mem[M_T_MARK] = t
     if phase == PHASE_FLY:
         if mode == MODE_A:
             return hold
-        mem[M_PHASE] = PHASE_LAND       # first touch
+        mem[M_PHASE] = PHASE_LAND  # first touch
         mem[M_T_MARK] = t
         phase = PHASE_LAND
     # PHASE_LAND: bouncing, sliding, rocking until F
@@ -184,7 +227,7 @@ def control_torque(kind, x, y, th, vx, vy, w, mode, t, step, P, C, sched, rand, 
         mem[M_REST] = C[C_REST_LO] + (C[C_REST_HI] - C[C_REST_LO]) * _next_uniform(rand, mem)
         return 0.0
     if t - mem[M_T_MARK] > C[C_SETTLE_TIMEOUT]:
-        mem[M_PHASE] = PHASE_REST        # never settled (e.g. restitution 1): move on
+        mem[M_PHASE] = PHASE_REST  # never settled (e.g. restitution 1): move on
         mem[M_T_MARK] = t - C[C_SETTLE_TIMEOUT]
         mem[M_REST] = 0.0
         return 0.0
@@ -228,8 +271,26 @@ def _scan_impacts(ev, n, law, R, gains, n_stored):
 
 
 @kernel
-def drive(S, P, O, kind, C, sched, rand, mem, control_dt, t_end, restart_on_break,
-          sample_impacts, ev, W, S_before, R, gains, bad):
+def drive(
+    S,
+    P,
+    O,
+    kind,
+    C,
+    sched,
+    rand,
+    mem,
+    control_dt,
+    t_end,
+    restart_on_break,
+    sample_impacts,
+    ev,
+    W,
+    S_before,
+    R,
+    gains,
+    bad,
+):
     """Run one rover from S to t_end under controller `kind`, checking every sample.
 
     The control instants are those of `simulate` (k control_dt, the last one clipped to
@@ -250,13 +311,27 @@ def drive(S, P, O, kind, C, sched, rand, mem, control_dt, t_end, restart_on_brea
         bad[k, B_FOUND] = 0.0
     stop_on = float(core.EV_IMPACT) if sample_impacts else -1.0
     S[core.S_STOP_ON] = stop_on
-    drift = R[R_DRIFT:R_DRIFT + N_DRIFT]
+    drift = R[R_DRIFT : R_DRIFT + N_DRIFT]
     mask = check_state(S, P, KINEMATIC_TOL, drift)
     for step in range(n_ctrl):
         t_stop = min((step + 1) * control_dt, t_end)
-        cmd = control_torque(kind, S[core.S_X], S[core.S_Y], S[core.S_TH], S[core.S_VX],
-                             S[core.S_VY], S[core.S_W], int(S[core.S_MODE]), S[core.S_T],
-                             step, P, C, sched, rand, mem)
+        cmd = control_torque(
+            kind,
+            S[core.S_X],
+            S[core.S_Y],
+            S[core.S_TH],
+            S[core.S_VX],
+            S[core.S_VY],
+            S[core.S_W],
+            int(S[core.S_MODE]),
+            S[core.S_T],
+            step,
+            P,
+            C,
+            sched,
+            rand,
+            mem,
+        )
         for i in range(core.N_STATE):
             S_before[i] = S[i]
         t_before = S[core.S_T]
@@ -319,9 +394,9 @@ def drive(S, P, O, kind, C, sched, rand, mem, control_dt, t_end, restart_on_brea
                     for i in range(core.N_STATE):
                         bad[k, B_STATE + i] = S_before[i]
             if mask & ((1 << V_NAN) | (1 << V_BUDGET)):
-                break                   # the state is unusable: end the run here
+                break  # the state is unusable: end the run here
             mask = 0
-            S[core.S_MIN_HEIGHT] = np.inf   # report each penetration once
+            S[core.S_MIN_HEIGHT] = np.inf  # report each penetration once
         if broken:
             if not restart_on_break:
                 break
@@ -339,16 +414,23 @@ def drive(S, P, O, kind, C, sched, rand, mem, control_dt, t_end, restart_on_brea
     return n_stored
 
 
-HOLD_KP, HOLD_KD = 0.15, 0.9        # the attitude PD law: torque = -I (kp theta + kd w)
+HOLD_KP, HOLD_KD = 0.15, 0.9  # the attitude PD law: torque = -I (kp theta + kd w)
 HOPPER_HOLD = "hopper, attitude hold"
 HOPPER_FREE = "hopper, no attitude control"
-TARGET_X = 0.3                      # band crossings add judge events to every family
-GAIN_CAPACITY = 200_000             # energy gains kept per run (for the quantiles)
+TARGET_X = 0.3  # band crossings add judge events to every family
+GAIN_CAPACITY = 200_000  # energy gains kept per run (for the quantiles)
 
 
-def controller_params(hold=True, launch=(0.0, 1.0), rest=(1.0, 20.0), launch_timeout=60.0,
-                      settle_timeout=1500.0, press=0.0, press_time=0.0,
-                      press_height=1e-3) -> np.ndarray:
+def controller_params(
+    hold=True,
+    launch=(0.0, 1.0),
+    rest=(1.0, 20.0),
+    launch_timeout=60.0,
+    settle_timeout=1500.0,
+    press=0.0,
+    press_time=0.0,
+    press_height=1e-3,
+) -> np.ndarray:
     c = np.zeros(N_CTRL)
     c[C_KP], c[C_KD], c[C_HOLD] = HOLD_KP, HOLD_KD, float(hold)
     c[C_LAUNCH_LO], c[C_LAUNCH_HI] = launch
@@ -361,6 +443,7 @@ def controller_params(hold=True, launch=(0.0, 1.0), rest=(1.0, 20.0), launch_tim
 @dataclasses.dataclass
 class RunSpec:
     """Everything one run needs; `state` is a full kernel state vector at t = 0."""
+
     family: str
     integrator: str
     law: str
@@ -373,8 +456,8 @@ class RunSpec:
     control_dt: float
     t_end: float
     euler_dt: float = 1e-3
-    label: str = ""                 # what is special about this run (for reproducers)
-    initial: tuple | None = None    # (x, y, th, vx, vy, w) when make_state accepts it
+    label: str = ""  # what is special about this run (for reproducers)
+    initial: tuple | None = None  # (x, y, th, vx, vy, w) when make_state accepts it
 
     def options(self) -> np.ndarray:
         return make_options(self.integrator, self.law, euler_dt=self.euler_dt)
@@ -395,10 +478,10 @@ class RunSpec:
 @dataclasses.dataclass
 class RunResult:
     spec: RunSpec
-    r: np.ndarray               # R_* counters
-    gains: np.ndarray           # ratio - 1 of the impacts that gained energy
-    bad: np.ndarray             # the first violation of each kind (rows, B_* slots)
-    final: np.ndarray           # the kernel state at the end
+    r: np.ndarray  # R_* counters
+    gains: np.ndarray  # ratio - 1 of the impacts that gained energy
+    bad: np.ndarray  # the first violation of each kind (rows, B_* slots)
+    final: np.ndarray  # the kernel state at the end
     wall: float
 
 
@@ -416,10 +499,26 @@ def execute(spec: RunSpec, restart_on_break=True, sample_impacts=True) -> RunRes
     bad = np.zeros((N_RECORDS, N_BAD))
     ev = np.zeros((core.MAX_EVENTS + 64, core.EV_COLS))
     t0 = time.perf_counter()
-    n = drive(s, spec.params.as_array(), spec.options(), spec.kind, spec.ctrl, spec.sched,
-              spec.rand, spec.fresh_memory(), spec.control_dt, spec.t_end,
-              restart_on_break, sample_impacts, ev, np.zeros(core.N_WORK),
-              np.zeros(core.N_STATE), r, gains, bad)
+    n = drive(
+        s,
+        spec.params.as_array(),
+        spec.options(),
+        spec.kind,
+        spec.ctrl,
+        spec.sched,
+        spec.rand,
+        spec.fresh_memory(),
+        spec.control_dt,
+        spec.t_end,
+        restart_on_break,
+        sample_impacts,
+        ev,
+        np.zeros(core.N_WORK),
+        np.zeros(core.N_STATE),
+        r,
+        gains,
+        bad,
+    )
     return RunResult(spec, r, gains[:n].copy(), bad, s, time.perf_counter() - t0)
 
 
@@ -448,10 +547,23 @@ def contest_controller(spec: RunSpec):
     step = [0]
 
     def control(pos, vel, the, omg, posT, t, smt, state):
-        cmd = control_torque(spec.kind, float(pos[0]), float(pos[1]), float(the),
-                             float(vel[0]), float(vel[1]), float(omg),
-                             core.MODE_LETTERS.index(state), float(t), step[0], pa,
-                             spec.ctrl, spec.sched, spec.rand, mem)
+        cmd = control_torque(
+            spec.kind,
+            float(pos[0]),
+            float(pos[1]),
+            float(the),
+            float(vel[0]),
+            float(vel[1]),
+            float(omg),
+            core.MODE_LETTERS.index(state),
+            float(t),
+            step[0],
+            pa,
+            spec.ctrl,
+            spec.sched,
+            spec.rand,
+            mem,
+        )
         step[0] += 1
         return cmd
 
@@ -467,9 +579,11 @@ def explain_sample(s: np.ndarray, p: RoverParams) -> str:
     ya, yb = s[core.S_Y] + dya, s[core.S_Y] + dyb
     vya, vyb = s[core.S_VY] - s[core.S_W] * dxa, s[core.S_VY] - s[core.S_W] * dxb
     wth = core.wrap_angle(th)
-    return (f"state {mode}, theta {wth:.3e} rad, omega {s[core.S_W]:.3e} rad/s, "
-            f"corner A at {ya:.3e} m moving {vya:+.3e} m/s, corner B at {yb:.3e} m "
-            f"moving {vyb:+.3e} m/s")
+    return (
+        f"state {mode}, theta {wth:.3e} rad, omega {s[core.S_W]:.3e} rad/s, "
+        f"corner A at {ya:.3e} m moving {vya:+.3e} m/s, corner B at {yb:.3e} m "
+        f"moving {vyb:+.3e} m/s"
+    )
 
 
 def replay(spec: RunSpec, record: np.ndarray):
@@ -495,9 +609,11 @@ def replay(spec: RunSpec, record: np.ndarray):
             mask |= 1 << V_BUDGET
         if mask:
             found.append((float(s[core.S_T]), names, mask, explain_sample(s, spec.params)))
-        if not s[core.S_STOPPED] or s[core.S_BROKEN] or s[core.S_ERROR] \
-                or s[core.S_T] >= record[B_TSTOP]:
+        if (
+            not s[core.S_STOPPED]
+            or s[core.S_BROKEN]
+            or s[core.S_ERROR]
+            or s[core.S_T] >= record[B_TSTOP]
+        ):
             break
     return found
-
-

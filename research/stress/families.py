@@ -4,6 +4,7 @@ Each builder takes a numpy Generator and `quick` and returns the RunSpecs of one
 (research/stress/drivers.py runs them); tests/sim/test_rollout.py replays the scheduled ones through
 `simulate`.
 """
+
 from __future__ import annotations
 
 import math
@@ -28,15 +29,43 @@ from research.stress.drivers import (
 DEFAULT = RoverParams()
 T_MAX = DEFAULT.torque_max
 LAWS = ("contest", "dissipative")
-LANDING_TIMES = (1.0, 100.0)        # control dt and horizon of the landing families [s]
+LANDING_TIMES = (1.0, 100.0)  # control dt and horizon of the landing families [s]
 
 
-def variants(family, params, state, kind, ctrl, sched, rand, control_dt, t_end, label="",
-             initial=None, integrators=("event", "euler")) -> list:
+def variants(
+    family,
+    params,
+    state,
+    kind,
+    ctrl,
+    sched,
+    rand,
+    control_dt,
+    t_end,
+    label="",
+    initial=None,
+    integrators=("event", "euler"),
+) -> list:
     """The runs of one set-up (a RunSpec's fields) under each integrator and impact law."""
-    return [RunSpec(family, integrator, law, params, state.copy(), kind, ctrl, sched, rand,
-                    control_dt, t_end, label=label, initial=initial)
-            for integrator in integrators for law in LAWS]
+    return [
+        RunSpec(
+            family,
+            integrator,
+            law,
+            params,
+            state.copy(),
+            kind,
+            ctrl,
+            sched,
+            rand,
+            control_dt,
+            t_end,
+            label=label,
+            initial=initial,
+        )
+        for integrator in integrators
+        for law in LAWS
+    ]
 
 
 def family_long_horizon(rng, quick):
@@ -50,10 +79,20 @@ def family_long_horizon(rng, quick):
         for rep in range(seeds):
             rand = rng.random(4096)
             # Euler: one seed (1e8 steps a run)
-            specs += variants("1 long horizon", DEFAULT, state_from(DEFAULT, upright(DEFAULT)),
-                              CTRL_HOPPER, controller_params(hold=hold), np.zeros(1), rand,
-                              0.1, t_end, f"{name}, seed {rep}", upright(DEFAULT),
-                              ("event", "euler") if rep == 0 else ("event",))
+            specs += variants(
+                "1 long horizon",
+                DEFAULT,
+                state_from(DEFAULT, upright(DEFAULT)),
+                CTRL_HOPPER,
+                controller_params(hold=hold),
+                np.zeros(1),
+                rand,
+                0.1,
+                t_end,
+                f"{name}, seed {rep}",
+                upright(DEFAULT),
+                ("event", "euler") if rep == 0 else ("event",),
+            )
     return specs
 
 
@@ -65,14 +104,25 @@ def family_extreme_torques(rng, quick):
     specs = []
     for dt in periods:
         n = int(math.ceil(t_end / dt))
-        schedules = {"alternating +-Tmax": T_MAX * (1 - 2 * (np.arange(n) % 2)),
-                     "random-sign +-Tmax": T_MAX * rng.choice([-1.0, 1.0], n),
-                     "uniform random": T_MAX * rng.uniform(-1, 1, n)}
+        schedules = {
+            "alternating +-Tmax": T_MAX * (1 - 2 * (np.arange(n) % 2)),
+            "random-sign +-Tmax": T_MAX * rng.choice([-1.0, 1.0], n),
+            "uniform random": T_MAX * rng.uniform(-1, 1, n),
+        }
         for name, sched in schedules.items():
-            specs += variants("2 extreme torques", DEFAULT,
-                              state_from(DEFAULT, upright(DEFAULT)), CTRL_SCHEDULE,
-                              controller_params(hold=False), sched, np.zeros(1), dt, t_end,
-                              label=f"{name}, control dt {dt:g} s", initial=upright(DEFAULT))
+            specs += variants(
+                "2 extreme torques",
+                DEFAULT,
+                state_from(DEFAULT, upright(DEFAULT)),
+                CTRL_SCHEDULE,
+                controller_params(hold=False),
+                sched,
+                np.zeros(1),
+                dt,
+                t_end,
+                label=f"{name}, control dt {dt:g} s",
+                initial=upright(DEFAULT),
+            )
     return specs
 
 
@@ -85,23 +135,35 @@ def family_press_bounces(rng, quick):
     n_hop = 2 if quick else 8
     for rep in range(n_hop):
         dt = (1e-3, 1e-2, 0.1, 1.0)[rep % 4]
-        ctrl = controller_params(launch=(0.05, 0.6), rest=(0.5, 5.0),
-                                 press=rng.uniform(0.2, 1.0),
-                                 press_time=rng.uniform(2.0, 60.0),
-                                 press_height=10 ** rng.uniform(-5, -2))
+        ctrl = controller_params(
+            launch=(0.05, 0.6),
+            rest=(0.5, 5.0),
+            press=rng.uniform(0.2, 1.0),
+            press_time=rng.uniform(2.0, 60.0),
+            press_height=10 ** rng.uniform(-5, -2),
+        )
         rand = rng.random(4096)
-        specs += variants("3 pressed bounces", DEFAULT, state_from(DEFAULT, upright(DEFAULT)),
-                          CTRL_HOPPER, ctrl, np.zeros(1), rand, dt, t_end,
-                          label=f"pressing hopper, control dt {dt:g} s",
-                          initial=upright(DEFAULT))
+        specs += variants(
+            "3 pressed bounces",
+            DEFAULT,
+            state_from(DEFAULT, upright(DEFAULT)),
+            CTRL_HOPPER,
+            ctrl,
+            np.zeros(1),
+            rand,
+            dt,
+            t_end,
+            label=f"pressing hopper, control dt {dt:g} s",
+            initial=upright(DEFAULT),
+        )
     n_drop = 8 if quick else 60
     for _rep in range(n_drop):
         p = DEFAULT
         th = rng.choice([-1, 1]) * rng.uniform(0.005, 0.6)
-        k = 0 if th > 0 else 1          # the lower corner at this attitude
+        k = 0 if th > 0 else 1  # the lower corner at this attitude
         dx, dy = offset(p, k, th)
         h0 = 10 ** rng.uniform(-6, -2.5)
-        vy = -10 ** rng.uniform(-6, -3)
+        vy = -(10 ** rng.uniform(-6, -3))
         vx = rng.uniform(-3e-3, 3e-3)
         initial = (0.0, h0 - dy, th, vx, vy, 0.0)
         dt = 10 ** rng.uniform(-3, 1)
@@ -109,9 +171,19 @@ def family_press_bounces(rng, quick):
         sign = 1.0 if dx > 0 else -1.0
         sched = np.zeros(int(math.ceil(60.0 / dt)) + 1)
         sched[:press_steps] = sign * T_MAX * rng.uniform(0.3, 1.0)
-        specs += variants("3 pressed bounces", p, state_from(p, initial), CTRL_SCHEDULE,
-                          controller_params(hold=False), sched, np.zeros(1), dt, 60.0,
-                          label="drop on a corner, pressed", initial=initial)
+        specs += variants(
+            "3 pressed bounces",
+            p,
+            state_from(p, initial),
+            CTRL_SCHEDULE,
+            controller_params(hold=False),
+            sched,
+            np.zeros(1),
+            dt,
+            60.0,
+            label="drop on a corner, pressed",
+            initial=initial,
+        )
     return specs
 
 
@@ -150,20 +222,29 @@ def family_grazing(rng, quick):
         dx, dy = offset(p, k, th)
         w = rng.choice([0.0, 1.0]) * rng.uniform(-1e-4, 1e-4)
         vx = rng.choice([0.0, 1.0]) * rng.uniform(-3e-3, 3e-3)
-        if rep % 2 == 0:            # at the touchdown instant, moving down slowly
+        if rep % 2 == 0:  # at the touchdown instant, moving down slowly
             v_td = 10 ** rng.uniform(-9, -5)
             height = rng.choice([0.0, 10 ** rng.uniform(-14, -12)])
-            vy = -v_td + w * dx      # the corner's vertical speed is vy - w dx = -v_td
+            vy = -v_td + w * dx  # the corner's vertical speed is vy - w dx = -v_td
             label = f"touchdown, corner speed {v_td:.1e} m/s, height {height:.1e} m"
-        else:                        # at the apex of a tiny fall
+        else:  # at the apex of a tiny fall
             height = 10 ** rng.uniform(-16, -9)
             vy = w * dx
             label = f"apex {height:.1e} m above the ground"
         state = flight_state_at(p, 0.0, height - dy, th, vx, vy, w)
         sched, after = _after_landing_schedule(rng, int(t_end / dt), 1)
-        specs += variants("4a grazing landings", p, state, CTRL_SCHEDULE,
-                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
-                          label=f"{label}, then {after} torques")
+        specs += variants(
+            "4a grazing landings",
+            p,
+            state,
+            CTRL_SCHEDULE,
+            controller_params(hold=False),
+            sched,
+            np.zeros(1),
+            dt,
+            t_end,
+            label=f"{label}, then {after} torques",
+        )
     return specs
 
 
@@ -177,7 +258,7 @@ def family_near_flat(rng, quick):
         th = rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -6)
         w = rng.choice([0.0, 1.0]) * rng.choice([-1, 1]) * 10 ** rng.uniform(-14, -8)
         vx = rng.choice([0.0, 1.0]) * rng.uniform(-3e-3, 3e-3)
-        vy = -10 ** rng.uniform(-6, -2)
+        vy = -(10 ** rng.uniform(-6, -2))
         k = 0 if th > 0 else 1
         _, dy = offset(p, k, th)
         h0 = 10 ** rng.uniform(-8, -3)
@@ -185,11 +266,19 @@ def family_near_flat(rng, quick):
         # no torque until a control instant after the landing: it would tilt the rover
         landed = int(_fall_time(p, h0, vy) / dt) + 1
         sched, after = _after_landing_schedule(rng, int(t_end / dt), landed)
-        specs += variants("4b near-flat landings", p, state_from(p, initial), CTRL_SCHEDULE,
-                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
-                          label=f"theta {th:.1e}, omega {w:.1e}, vy {vy:.1e}, vx {vx:.1e}, "
-                          f"then {after} torques",
-                          initial=initial)
+        specs += variants(
+            "4b near-flat landings",
+            p,
+            state_from(p, initial),
+            CTRL_SCHEDULE,
+            controller_params(hold=False),
+            sched,
+            np.zeros(1),
+            dt,
+            t_end,
+            label=f"theta {th:.1e}, omega {w:.1e}, vy {vy:.1e}, vx {vx:.1e}, then {after} torques",
+            initial=initial,
+        )
     return specs
 
 
@@ -200,7 +289,7 @@ def family_flat(rng, quick):
     n = 30 if quick else 300
     specs, p, (dt, t_end) = [], DEFAULT, LANDING_TIMES
     for rep in range(n):
-        vy = -10 ** rng.uniform(-8, -2)
+        vy = -(10 ** rng.uniform(-8, -2))
         vx = rng.choice([0.0, 1.0]) * rng.choice([-1, 1]) * 10 ** rng.uniform(-7, -2.5)
         h0 = 0.0 if rep % 3 == 0 else 10 ** rng.uniform(-9, -3)
         if h0 == 0.0:
@@ -209,12 +298,21 @@ def family_flat(rng, quick):
         else:
             initial = (0.0, p.half_height + h0, 0.0, vx, vy, 0.0)
             state, label = state_from(p, initial), "falling from a height"
-        landed = int(_fall_time(p, h0, vy) / dt) + 1     # no torque before the landing
+        landed = int(_fall_time(p, h0, vy) / dt) + 1  # no torque before the landing
         sched, after = _after_landing_schedule(rng, int(t_end / dt), landed)
-        specs += variants("5 flat landings", p, state, CTRL_SCHEDULE,
-                          controller_params(hold=False), sched, np.zeros(1), dt, t_end,
-                          label=f"{label}, vy {vy:.1e}, vx {vx:.1e}, then {after}",
-                          initial=initial)
+        specs += variants(
+            "5 flat landings",
+            p,
+            state,
+            CTRL_SCHEDULE,
+            controller_params(hold=False),
+            sched,
+            np.zeros(1),
+            dt,
+            t_end,
+            label=f"{label}, vy {vy:.1e}, vx {vx:.1e}, then {after}",
+            initial=initial,
+        )
     return specs
 
 
@@ -239,11 +337,16 @@ def random_edge_params(rng):
     mu_s = _edge(rng, 0.0, 1.0)
     try:
         return RoverParams(
-            mass=mass, half_width=r, half_height=h,
+            mass=mass,
+            half_width=r,
+            half_height=h,
             inertia=mass * (r * r + h * h) * _edge(rng, 0.02, 1.0, log=True),
             gravity=_edge(rng, 1e-5, 1e-3, log=True),
-            mu_static=mu_s, mu_dynamic=mu_s * _edge(rng, 0.0, 1.0),
-            restitution_x=_edge(rng, 0.0, 1.0), restitution_y=_edge(rng, 0.0, 1.0))
+            mu_static=mu_s,
+            mu_dynamic=mu_s * _edge(rng, 0.0, 1.0),
+            restitution_x=_edge(rng, 0.0, 1.0),
+            restitution_y=_edge(rng, 0.0, 1.0),
+        )
     except ValueError:
         return None
 
@@ -253,8 +356,11 @@ def _hopper_or_random_torques(i, p, rng, t_end, dt):
     for odd i. Returns (kind, schedule, label)."""
     if i % 2 == 0:
         return CTRL_HOPPER, np.zeros(1), "hopper"
-    return (CTRL_SCHEDULE, p.torque_max * rng.uniform(-1, 1, int(t_end / dt)),
-            "uniform random torques")
+    return (
+        CTRL_SCHEDULE,
+        p.torque_max * rng.uniform(-1, 1, int(t_end / dt)),
+        "uniform random torques",
+    )
 
 
 def family_random_params(rng, quick):
@@ -274,14 +380,26 @@ def family_random_params(rng, quick):
         dt = 0.1
         kind, sched, label = _hopper_or_random_torques(i, p, rng, t_end, dt)
         rand = rng.random(4096)
-        desc = (f"{label}; m {p.mass:.3g}, I {p.inertia:.3g}, r {p.half_width:.3g}, "
-                f"h {p.half_height:.3g}, g {p.gravity:.3g}, mu_s {p.mu_static:.3g}, "
-                f"mu_d {p.mu_dynamic:.3g}, e_x {p.restitution_x:.3g}, "
-                f"e_y {p.restitution_y:.3g}")
-        specs += variants("6 edge parameters", p, state_from(p, upright(p)), kind,
-                          controller_params(), sched, rand, dt, t_end, label=desc,
-                          initial=upright(p))
-    family_random_params.skipped = skipped      # reported in the section's text
+        desc = (
+            f"{label}; m {p.mass:.3g}, I {p.inertia:.3g}, r {p.half_width:.3g}, "
+            f"h {p.half_height:.3g}, g {p.gravity:.3g}, mu_s {p.mu_static:.3g}, "
+            f"mu_d {p.mu_dynamic:.3g}, e_x {p.restitution_x:.3g}, "
+            f"e_y {p.restitution_y:.3g}"
+        )
+        specs += variants(
+            "6 edge parameters",
+            p,
+            state_from(p, upright(p)),
+            kind,
+            controller_params(),
+            sched,
+            rand,
+            dt,
+            t_end,
+            label=desc,
+            initial=upright(p),
+        )
+    family_random_params.skipped = skipped  # reported in the section's text
     return specs
 
 
@@ -300,10 +418,19 @@ def family_control_periods(rng, quick):
         rand = rng.random(4096)
         sched = T_MAX * rng.uniform(-1, 1, 4096)
         for kind, label in ((CTRL_HOPPER, "hopper"), (CTRL_SCHEDULE, "random torques")):
-            specs += variants("7 control periods", DEFAULT,
-                              state_from(DEFAULT, upright(DEFAULT)), kind, controller_params(),
-                              sched, rand, dt, t_end, label=f"{label}, control dt {dt:g} s",
-                              initial=upright(DEFAULT))
+            specs += variants(
+                "7 control periods",
+                DEFAULT,
+                state_from(DEFAULT, upright(DEFAULT)),
+                kind,
+                controller_params(),
+                sched,
+                rand,
+                dt,
+                t_end,
+                label=f"{label}, control dt {dt:g} s",
+                initial=upright(DEFAULT),
+            )
     return specs
 
 
@@ -314,34 +441,99 @@ def family_found_cases(rng, quick):
     repeated snaps (a wide, flat, frictionless rover); a pressed bounce that never ends
     (a light, wide, flat rover with e_y = 0.8); Euler micro-bounces that never end
     (contest parameters, a corner pressed down for a 4.2 s control interval)."""
-    deep = RoverParams(mass=7.917033223160445, inertia=0.0007843822739184555,
-                       half_width=0.059897583228545104, half_height=0.01, gravity=0.001,
-                       mu_static=0.0, mu_dynamic=0.0, restitution_x=0.45237039302774695,
-                       restitution_y=0.4083367981428754)
-    endless = RoverParams(mass=0.4, inertia=6.6e-5, half_width=0.08, half_height=0.01,
-                          gravity=1e-3, mu_static=0.1, mu_dynamic=0.0, restitution_x=0.9,
-                          restitution_y=0.8)
+    deep = RoverParams(
+        mass=7.917033223160445,
+        inertia=0.0007843822739184555,
+        half_width=0.059897583228545104,
+        half_height=0.01,
+        gravity=0.001,
+        mu_static=0.0,
+        mu_dynamic=0.0,
+        restitution_x=0.45237039302774695,
+        restitution_y=0.4083367981428754,
+    )
+    endless = RoverParams(
+        mass=0.4,
+        inertia=6.6e-5,
+        half_width=0.08,
+        half_height=0.01,
+        gravity=1e-3,
+        mu_static=0.1,
+        mu_dynamic=0.0,
+        restitution_x=0.9,
+        restitution_y=0.8,
+    )
     th = 1e-3
     cases = [
-        ("wrong tilt: near-flat landing, dissipative", DEFAULT,
-         (0.0, 0.05000414186453813, 1.1672600724199145e-08, -0.0015462824529916227,
-          -6.167918008154045e-05, 3.172066852200424e-13), 0.0, 0.06391457114538655, 1.0),
-        ("deeper than 1e-9 m: repeated snaps", deep,
-         (-4.1210468773629811e-05, 1.0000000726722429e-02, -1.2132750461299240e-08,
-          -1.5395796538378596e-07, -5.8108087961116235e-07, 9.7012408425732076e-06),
-         0.00017767875814184676, 0.1, 10.0),
-        ("endless pressed bounce", endless,
-         (0.0, 0.08 * math.sin(th) + 0.01 * math.cos(th), th, 0.0, 1e-5, 0.0),
-         3e-4, 0.1, 10.0),
-        ("Euler micro-bounces: a drop on a corner, pressed", DEFAULT,
-         (0.0, 0.050667766580636306, -0.013401712023356667, -0.0008537434721861206,
-          -4.256916749950787e-05, 0.0), -0.0002273978004155527, 4.157780733212458,
-         4.157780733212458)]
+        (
+            "wrong tilt: near-flat landing, dissipative",
+            DEFAULT,
+            (
+                0.0,
+                0.05000414186453813,
+                1.1672600724199145e-08,
+                -0.0015462824529916227,
+                -6.167918008154045e-05,
+                3.172066852200424e-13,
+            ),
+            0.0,
+            0.06391457114538655,
+            1.0,
+        ),
+        (
+            "deeper than 1e-9 m: repeated snaps",
+            deep,
+            (
+                -4.1210468773629811e-05,
+                1.0000000726722429e-02,
+                -1.2132750461299240e-08,
+                -1.5395796538378596e-07,
+                -5.8108087961116235e-07,
+                9.7012408425732076e-06,
+            ),
+            0.00017767875814184676,
+            0.1,
+            10.0,
+        ),
+        (
+            "endless pressed bounce",
+            endless,
+            (0.0, 0.08 * math.sin(th) + 0.01 * math.cos(th), th, 0.0, 1e-5, 0.0),
+            3e-4,
+            0.1,
+            10.0,
+        ),
+        (
+            "Euler micro-bounces: a drop on a corner, pressed",
+            DEFAULT,
+            (
+                0.0,
+                0.050667766580636306,
+                -0.013401712023356667,
+                -0.0008537434721861206,
+                -4.256916749950787e-05,
+                0.0,
+            ),
+            -0.0002273978004155527,
+            4.157780733212458,
+            4.157780733212458,
+        ),
+    ]
     specs = []
     for label, p, initial, torque, dt, t_end in cases:
-        specs += variants("8 found cases", p, state_from(p, initial), CTRL_SCHEDULE,
-                          controller_params(hold=False), np.full(1, torque), np.zeros(1), dt,
-                          t_end, label=label, initial=initial)
+        specs += variants(
+            "8 found cases",
+            p,
+            state_from(p, initial),
+            CTRL_SCHEDULE,
+            controller_params(hold=False),
+            np.full(1, torque),
+            np.zeros(1),
+            dt,
+            t_end,
+            label=label,
+            initial=initial,
+        )
     return specs
 
 
@@ -354,20 +546,35 @@ def family_terrain(rng, quick):
     dt = 0.1
     specs = []
     for i in range(n_sets):
-        p = RoverParams(slope=float(rng.uniform(-0.5, 0.5)),
-                        roughness=float(rng.uniform(0.0, 0.3)))
+        p = RoverParams(slope=float(rng.uniform(-0.5, 0.5)), roughness=float(rng.uniform(0.0, 0.3)))
         seed = int(rng.integers(2**63))
         kind, sched, label = _hopper_or_random_torques(i, p, rng, t_end, dt)
         rand = rng.random(4096)
-        specs += variants("9 terrain", p, make_state(p, TARGET_X, upright(p), seed=seed),
-                          kind, controller_params(), sched, rand, dt, t_end,
-                          label=f"{label}; slope {p.slope:.3f} rad, roughness "
-                                f"{p.roughness:.3f} rad, seed {seed}",
-                          initial=upright(p))
+        specs += variants(
+            "9 terrain",
+            p,
+            make_state(p, TARGET_X, upright(p), seed=seed),
+            kind,
+            controller_params(),
+            sched,
+            rand,
+            dt,
+            t_end,
+            label=f"{label}; slope {p.slope:.3f} rad, roughness {p.roughness:.3f} rad, seed {seed}",
+            initial=upright(p),
+        )
     return specs
 
 
-FAMILIES = (family_long_horizon, family_extreme_torques, family_press_bounces,
-            family_grazing, family_near_flat, family_flat, family_random_params,
-            family_control_periods, family_found_cases, family_terrain)
-
+FAMILIES = (
+    family_long_horizon,
+    family_extreme_torques,
+    family_press_bounces,
+    family_grazing,
+    family_near_flat,
+    family_flat,
+    family_random_params,
+    family_control_periods,
+    family_found_cases,
+    family_terrain,
+)

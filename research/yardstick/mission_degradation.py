@@ -12,6 +12,7 @@ seeded with e at every scale, so its ground, actuator and terrain are the same a
 the noise differs. The JSON (written atomically) holds one row per agent and scale, and
 a figure beside it shows the table.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,45 +40,69 @@ def evaluate(spec: str, suite, n: int, scale: float) -> dict:
     rows = suites.run(policy, _head(suite, n), env_kwargs={"noise_scale": scale})
     wall = time.perf_counter() - t0
     s = summarize(spec, np.array([r["score"] for r in rows]))
-    return {"agent": spec, "noise_scale": scale, "episodes": n, "wall_s": wall,
-            "success": s.point["success"], "success_low": s.low["success"],
-            "success_high": s.high["success"], "median_regret": s.point["median_regret"],
-            "median_regret_low": s.low["median_regret"],
-            "median_regret_high": s.high["median_regret"],
-            "broken": int(sum(r["broken"] for r in rows))}
+    return {
+        "agent": spec,
+        "noise_scale": scale,
+        "episodes": n,
+        "wall_s": wall,
+        "success": s.point["success"],
+        "success_low": s.low["success"],
+        "success_high": s.high["success"],
+        "median_regret": s.point["median_regret"],
+        "median_regret_low": s.low["median_regret"],
+        "median_regret_high": s.high["median_regret"],
+        "broken": int(sum(r["broken"] for r in rows)),
+    }
 
 
 def _head(suite, n: int):
     """The suite's first n episodes, as a suite (for `suites.judged`)."""
     import dataclasses
+
     return dataclasses.replace(suite, episodes=suite.episodes[:n])
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| agent | noise x | episodes | success | median regret | broken |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "| agent | noise x | episodes | success | median regret | broken |",
+        "|---|---|---|---|---|---|",
+    ]
     for r in rows:
         reg = r["median_regret"]
-        reg_s = "inf" if not np.isfinite(reg) else \
-            f"{reg:.3f} [{r['median_regret_low']:.3f}, {r['median_regret_high']:.3f}]"
-        lines.append(f"| {r['agent']} | {r['noise_scale']:g} | {r['episodes']} | "
-                     f"{100 * r['success']:.1f} % [{100 * r['success_low']:.1f}, "
-                     f"{100 * r['success_high']:.1f}] | {reg_s} | {r['broken']} |")
+        reg_s = (
+            "inf"
+            if not np.isfinite(reg)
+            else f"{reg:.3f} [{r['median_regret_low']:.3f}, {r['median_regret_high']:.3f}]"
+        )
+        lines.append(
+            f"| {r['agent']} | {r['noise_scale']:g} | {r['episodes']} | "
+            f"{100 * r['success']:.1f} % [{100 * r['success_low']:.1f}, "
+            f"{100 * r['success_high']:.1f}] | {reg_s} | {r['broken']} |"
+        )
     return "\n".join(lines)
 
 
 def figure(rows: list[dict], path: Path) -> None:
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     fig, (a, b) = plt.subplots(1, 2, figsize=(9, 3.4))
     for agent in dict.fromkeys(r["agent"] for r in rows):
         mine = [r for r in rows if r["agent"] == agent]
         x = [r["noise_scale"] for r in mine]
-        a.errorbar(x, [100 * r["success"] for r in mine],
-                   yerr=[[100 * (r["success"] - r["success_low"]) for r in mine],
-                         [100 * (r["success_high"] - r["success"]) for r in mine]],
-                   marker="o", capsize=3, label=agent)
+        a.errorbar(
+            x,
+            [100 * r["success"] for r in mine],
+            yerr=[
+                [100 * (r["success"] - r["success_low"]) for r in mine],
+                [100 * (r["success_high"] - r["success"]) for r in mine],
+            ],
+            marker="o",
+            capsize=3,
+            label=agent,
+        )
         b.plot(x, [min(r["median_regret"], 10.0) for r in mine], marker="o", label=agent)
     a.set(xlabel="noise scale (x the defaults)", ylabel="success [%]", ylim=(0, 102))
     b.set(xlabel="noise scale (x the defaults)", ylabel="median regret (TTRTP / reference)")
@@ -106,8 +131,10 @@ def main(argv=None) -> None:
             done.append(row)
             done.sort(key=lambda r: (r["agent"], r["noise_scale"]))
             print(table([row]).splitlines()[-1], flush=True)
-            atomic_write(args.out, json.dumps({"suite": f"{suite.name}-v{suite.version}",
-                                               "rows": done}, indent=1))
+            atomic_write(
+                args.out,
+                json.dumps({"suite": f"{suite.name}-v{suite.version}", "rows": done}, indent=1),
+            )
     print(table(done))
     figure(done, args.out.with_suffix(".png"))
 

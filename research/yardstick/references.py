@@ -19,6 +19,7 @@ It prints the budget, the candidates simulated per second and the wall time, and
 improvement of each reference over the search at half the budget (`--budget-check`),
 as evidence of how far the search has converged.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -43,10 +44,16 @@ def problems_of(cols: dict) -> list[Problem]:
     for i in range(len(cols["target_x"])):
         p = RoverParams(slope=float(cols["slope"][i]), roughness=float(cols["roughness"][i]))
         seed = int(cols["terrain_seed"][i])
-        out.append(Problem(state=np.array([0.0, p.half_height, 0.0, 0.0, 0.0, 0.0]),
-                           target=float(cols["target_x"][i]), params=p, t0=0.0,
-                           t_total=T_END,
-                           seeds=None if seed == suites.NO_TERRAIN_SEED else (seed,)))
+        out.append(
+            Problem(
+                state=np.array([0.0, p.half_height, 0.0, 0.0, 0.0, 0.0]),
+                target=float(cols["target_x"][i]),
+                params=p,
+                t0=0.0,
+                t_total=T_END,
+                seeds=None if seed == suites.NO_TERRAIN_SEED else (seed,),
+            )
+        )
     return out
 
 
@@ -58,13 +65,19 @@ def seeds_of(cols: dict):
 def plan_schedules(problems, result) -> list[np.ndarray]:
     """The torque each best plan commands per control interval, from a recorded run."""
     plans = np.array([result.plan(i, p) for i, p in enumerate(problems)])
-    b = simulate_batch(plan_controller, np.array([p.target for p in problems]),
-                       t_end=T_END, control_dt=CONTROL_DT,
-                       params=[p.params for p in problems], controller_args=plans,
-                       seed=seeds_of_problems(problems), record=True)
+    b = simulate_batch(
+        plan_controller,
+        np.array([p.target for p in problems]),
+        t_end=T_END,
+        control_dt=CONTROL_DT,
+        params=[p.params for p in problems],
+        controller_args=plans,
+        seed=seeds_of_problems(problems),
+        record=True,
+    )
     out = []
     for i in range(len(problems)):
-        k = int(b.n_samples[i]) - 1                 # control intervals flown
+        k = int(b.n_samples[i]) - 1  # control intervals flown
         out.append(np.array(b.torque_cmd[i, :k], dtype=np.float64))
     return out, b.ttrtp
 
@@ -81,12 +94,19 @@ def replay(cols: dict, schedules: list[np.ndarray]) -> np.ndarray:
     width = max(len(s) for s in schedules)
     sched = np.zeros((n, max(width, 1)))
     for i, s in enumerate(schedules):
-        sched[i, :len(s)] = s
-    b = simulate_batch(sched, np.asarray(cols["target_x"], dtype=float), t_end=T_END,
-                       control_dt=CONTROL_DT,
-                       params=[RoverParams(slope=float(a), roughness=float(r))
-                               for a, r in zip(cols["slope"], cols["roughness"])],
-                       seed=seeds_of(cols), record=False)
+        sched[i, : len(s)] = s
+    b = simulate_batch(
+        sched,
+        np.asarray(cols["target_x"], dtype=float),
+        t_end=T_END,
+        control_dt=CONTROL_DT,
+        params=[
+            RoverParams(slope=float(a), roughness=float(r))
+            for a, r in zip(cols["slope"], cols["roughness"])
+        ],
+        seed=seeds_of(cols),
+        record=False,
+    )
     return b.ttrtp
 
 
@@ -103,11 +123,14 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
     from gymnasium.vector import AutoresetMode
 
     from hoprover_env import vector_env_class
+
     if name == "mpc":
         from hoprover_env.agents.mpc import MPCPolicy
+
         policy = MPCPolicy()
     else:
         from hoprover_env.agents.policies import load_policy
+
         policy = load_policy(name, control_dt=CONTROL_DT)
     if hoprover_env.task(getattr(policy, "env_id", "HopRover-v0")).hops:
         raise ValueError(f"{name}: a hop-level agent's torques are not seen step by step")
@@ -132,8 +155,9 @@ def agent_schedules(name: str, cols: dict, env_id: str) -> list[np.ndarray]:
         for i in np.flatnonzero(~done):
             p = venv.params[i]
             a = min(max(float(action[i]), -1.0), 1.0)
-            torques[i].extend([p.torque_min + 0.5 * (a + 1.0) * (p.torque_max - p.torque_min)]
-                              * reps)
+            torques[i].extend(
+                [p.torque_min + 0.5 * (a + 1.0) * (p.torque_max - p.torque_min)] * reps
+            )
         obs, _, term, trunc, _ = venv.step(action.reshape(n, 1))
         done |= term | trunc
     venv.close()
@@ -146,19 +170,29 @@ def search_references(name, problems, cols, budget, check, entry):
     result = search(problems, budget=budget, starts=3)
     wall = time.perf_counter() - t0
     evals = int(result.evaluations.sum())
-    print(f"[{name}] search: budget {budget} per episode, {evals} candidates in {wall:.0f} s "
-          f"({evals / wall:.0f} episodes simulated per second)", flush=True)
-    entry.update(budget=budget, candidates=evals, search_s=wall, episodes_per_s=evals / wall,
-                 search_ttrtp=result.ttrtp.tolist())
+    print(
+        f"[{name}] search: budget {budget} per episode, {evals} candidates in {wall:.0f} s "
+        f"({evals / wall:.0f} episodes simulated per second)",
+        flush=True,
+    )
+    entry.update(
+        budget=budget,
+        candidates=evals,
+        search_s=wall,
+        episodes_per_s=evals / wall,
+        search_ttrtp=result.ttrtp.tolist(),
+    )
     if check:
         t1 = time.perf_counter()
         half = search(problems, budget=budget // 2, starts=3)
         entry["half_budget_ttrtp"] = half.ttrtp.tolist()
         entry["half_search_s"] = time.perf_counter() - t1
         gain = (half.ttrtp - result.ttrtp) / half.ttrtp
-        print(f"[{name}] budget {budget // 2} -> {budget}: median gain {np.nanmedian(gain):.2%}, "
-              f"largest {np.nanmax(gain):.2%}, {np.sum(gain > 1e-9)} of {len(gain)} improved",
-              flush=True)
+        print(
+            f"[{name}] budget {budget // 2} -> {budget}: median gain {np.nanmedian(gain):.2%}, "
+            f"largest {np.nanmax(gain):.2%}, {np.sum(gain > 1e-9)} of {len(gain)} improved",
+            flush=True,
+        )
     scheds, planned = plan_schedules(problems, result)
     best = replay(cols, scheds)
     same = np.array_equal(best, planned, equal_nan=True)
@@ -178,13 +212,23 @@ def carried_start(name: str, cols: dict) -> dict:
         same = all(np.array_equal(old.column(f), cols[f]) for f in suites.FIELDS[:5])
         if same:
             return old.start_conditions()
-    print(f"[{name}] no stored version with these episodes: the new file carries no frozen "
-          f"start conditions", file=sys.stderr)
+    print(
+        f"[{name}] no stored version with these episodes: the new file carries no frozen "
+        f"start conditions",
+        file=sys.stderr,
+    )
     return {}
 
 
-def build(name: str, budget: int, agents: list[str], version: int, check: bool,
-          report: dict, stored: bool = False) -> None:
+def build(
+    name: str,
+    budget: int,
+    agents: list[str],
+    version: int,
+    check: bool,
+    report: dict,
+    stored: bool = False,
+) -> None:
     """Search (or, with `stored`, take the stored references), let the agents' plans
     compete, trim, verify by replay and save the suite."""
     cols = suites.draw_episodes(name)
@@ -199,8 +243,7 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
         budget, wall, evals = old.meta["budget"], old.meta["search_s"], old.meta["candidates"]
         agents_before = list(old.meta.get("agents", []))
     else:
-        scheds, best, wall, evals = search_references(name, problems, cols, budget, check,
-                                                      entry)
+        scheds, best, wall, evals = search_references(name, problems, cols, budget, check, entry)
         sources = ["search"] * len(best)
         agents_before = []
     for agent in agents:
@@ -211,8 +254,10 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
             continue
         tt = replay(cols, sc)
         better = np.nan_to_num(tt, nan=np.inf) < np.nan_to_num(best, nan=np.inf)
-        print(f"[{name}] {agent}: faster than the references on {int(better.sum())} "
-              f"episodes", flush=True)
+        print(
+            f"[{name}] {agent}: faster than the references on {int(better.sum())} episodes",
+            flush=True,
+        )
         entry[f"{agent}_replayed_ttrtp"] = tt.tolist()
         for i in np.flatnonzero(better):
             scheds[i], best[i], sources[i] = sc[i], tt[i], agent
@@ -223,11 +268,15 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
     if not np.array_equal(final, best):
         raise RuntimeError(f"[{name}] trimmed schedules do not replay their TTRTP")
     cols["reference_ttrtp"] = final
-    meta = {"budget": budget, "agents": sorted(set(agents_before + agents)), "search_s": wall,
-            "candidates": evals, "created": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-            "env_ids": sorted(suites.suite_ids(name))}
-    path = suites.save(name, version, cols, scheds, sources, meta,
-                       start=carried_start(name, cols))
+    meta = {
+        "budget": budget,
+        "agents": sorted(set(agents_before + agents)),
+        "search_s": wall,
+        "candidates": evals,
+        "created": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "env_ids": sorted(suites.suite_ids(name)),
+    }
+    path = suites.save(name, version, cols, scheds, sources, meta, start=carried_start(name, cols))
     entry["reference_ttrtp"] = final.tolist()
     entry["sources"] = sources
     print(f"[{name}] wrote {path}: median reference {np.median(final):.1f} s", flush=True)
@@ -235,18 +284,33 @@ def build(name: str, budget: int, agents: list[str], version: int, check: bool,
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--suite", nargs="+", default=["level", "terrain", "contest"],
-                    choices=["level", "terrain", "contest"])
-    ap.add_argument("--budget", type=int, default=12000,
-                    help="simulated candidates per episode (default 12000)")
-    ap.add_argument("--agents", nargs="*", default=["scripted", "bundled", "scratch", "mpc"],
-                    help="agents whose plans compete with the search's")
+    ap.add_argument(
+        "--suite",
+        nargs="+",
+        default=["level", "terrain", "contest"],
+        choices=["level", "terrain", "contest"],
+    )
+    ap.add_argument(
+        "--budget", type=int, default=12000, help="simulated candidates per episode (default 12000)"
+    )
+    ap.add_argument(
+        "--agents",
+        nargs="*",
+        default=["scripted", "bundled", "scratch", "mpc"],
+        help="agents whose plans compete with the search's",
+    )
     ap.add_argument("--version", type=int, default=1)
-    ap.add_argument("--budget-check", action="store_true",
-                    help="also search at half the budget and report the gain")
+    ap.add_argument(
+        "--budget-check",
+        action="store_true",
+        help="also search at half the budget and report the gain",
+    )
     ap.add_argument("--report", type=str, default=None, help="JSON of every number")
-    ap.add_argument("--stored", action="store_true",
-                    help="no search: improve the stored references with --agents' plans")
+    ap.add_argument(
+        "--stored",
+        action="store_true",
+        help="no search: improve the stored references with --agents' plans",
+    )
     args = ap.parse_args(argv)
     report: dict = {}
     for name in args.suite:

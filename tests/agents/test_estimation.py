@@ -2,6 +2,7 @@
 with its covariance, a rest calibrates the bias, the gyro tells flight from contact, and
 the scripted hopper acting on the estimate reaches hidden targets of HopRoverMission-v0
 (evaluate.py --env HopRoverMission-v0 --policy scripted)."""
+
 import math
 
 import numpy as np
@@ -29,11 +30,21 @@ def _run(seeds, targets, noise_scale=1.0):
         act = policy.act(obs, venv)
         for i in np.flatnonzero(live):
             est = policy.estimators[i]
-            rows.append((venv.S[i, core.S_TH], est.theta, est.P[0, 0],
-                         core.MODE_LETTERS[int(venv.S[i, core.S_MODE])], est.state,
-                         info["attitude_bias"][i], est.bias,
-                         math.atan2(obs[i, mission.OBS_SIN], obs[i, mission.OBS_COS]),
-                         venv.S[i, core.S_W], i, est.P[1, 1]))
+            rows.append(
+                (
+                    venv.S[i, core.S_TH],
+                    est.theta,
+                    est.P[0, 0],
+                    core.MODE_LETTERS[int(venv.S[i, core.S_MODE])],
+                    est.state,
+                    info["attitude_bias"][i],
+                    est.bias,
+                    math.atan2(obs[i, mission.OBS_SIN], obs[i, mission.OBS_COS]),
+                    venv.S[i, core.S_W],
+                    i,
+                    est.P[1, 1],
+                )
+            )
         obs, _, te, tr, info = venv.step(act)
         live &= ~(te | tr)
         if not live.any():
@@ -41,17 +52,17 @@ def _run(seeds, targets, noise_scale=1.0):
     return rows
 
 
-@pytest.mark.slow                # statistics over many episodes
+@pytest.mark.slow  # statistics over many episodes
 def test_the_attitude_estimate_is_consistent_with_its_covariance():
     rows = _run(range(6), [0.6, -0.8, 0.3, 1.0, -0.4, 0.9])
     err = np.array([(e - t + math.pi) % (2 * math.pi) - math.pi for t, e, *_ in rows])
     var = np.array([r[2] for r in rows])
     raw = np.array([(r[7] - r[0] + math.pi) % (2 * math.pi) - math.pi for r in rows])
-    nees = err ** 2 / var
+    nees = err**2 / var
     # the normalised squared error of a consistent 1-D estimate averages about 1, and
     # the estimate beats the raw readings (0.5 deg noise plus the walking bias)
     assert 0.3 < nees.mean() < 3.0, nees.mean()
-    assert np.sqrt(np.mean(err ** 2)) < 0.8 * np.sqrt(np.mean(raw ** 2))
+    assert np.sqrt(np.mean(err**2)) < 0.8 * np.sqrt(np.mean(raw**2))
 
 
 def test_a_rest_calibrates_the_bias():
@@ -68,7 +79,7 @@ def test_a_rest_calibrates_the_bias():
 def test_the_gyro_tells_flight_from_contact():
     rows = _run(range(6), [0.6, -0.8, 0.3, 1.0, -0.4, 0.9])
     flight = np.array([r[3] == "A" for r in rows])
-    turning = np.array([abs(r[8]) > 1e-3 for r in rows])     # 10 x the rate noise
+    turning = np.array([abs(r[8]) > 1e-3 for r in rows])  # 10 x the rate noise
     said = np.array([r[4] == "A" for r in rows])
     rover = np.array([r[9] for r in rows])
     assert (flight & turning).sum() > 200
@@ -90,12 +101,12 @@ def test_the_gyro_tells_flight_from_contact():
     assert not (np.array([r[3] == "F" for r in rows]) & said).any()
 
 
-@pytest.mark.slow                # whole episodes
+@pytest.mark.slow  # whole episodes
 def test_the_scripted_hopper_on_the_estimate_reaches_hidden_targets():
-    rng = np.random.default_rng(20261125)             # targets no one tuned on
+    rng = np.random.default_rng(20261125)  # targets no one tuned on
     targets = rng.uniform(-1.0, 1.0, 16)
     policy = load_policy("scripted")
-    policy.env_id = "HopRoverMission-v0"           # as evaluate.py --env sets it
+    policy.env_id = "HopRoverMission-v0"  # as evaluate.py --env sets it
     res = run_episodes(policy, targets, batch=8)
     success = np.mean([r.success for r in res])
     assert success >= 0.9, [(r.target_x, r.success, r.broken) for r in res]

@@ -1,6 +1,7 @@
 """The mission task decided hop by hop (hoprover_env/agents/mission_hop.py): the training view
 (MissionHopEnv) and the deployed policy (LearnedHopper through ControllerPolicy in the
 mission's vector env) are the same loop, and the hopper's memory is what it says."""
+
 import math
 
 import numpy as np
@@ -25,7 +26,7 @@ def toward(f):
     return math.copysign(0.2 + 0.4 * min(abs(float(f[F_TO_GO])), 1.0), float(f[F_TO_GO]))
 
 
-@pytest.mark.slow                # gymnasium's checker steps many hops
+@pytest.mark.slow  # gymnasium's checker steps many hops
 def test_the_hop_env_passes_the_gymnasium_checker():
     check_env(MissionHopEnv(), skip_render_check=True)
 
@@ -78,7 +79,7 @@ def test_a_non_finite_hop_action_is_refused_by_name(bad):
         env.step([bad])
 
 
-@pytest.mark.slow                # whole suite episodes
+@pytest.mark.slow  # whole suite episodes
 def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
     """The bar of 90 % on the suite, on the suite's first 40 episodes; the whole
     suite's 97.5 % is in docs/studies/mission.md."""
@@ -86,6 +87,7 @@ def test_the_bundled_mission_policy_reaches_its_goal_on_suite_episodes():
 
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation import suites
+
     policy = load_policy("mission")
     assert policy.env_id == "HopRoverMission-v0"
     suite = suites.load("HopRoverMission-v0")
@@ -98,6 +100,7 @@ def test_train_py_points_a_hop_config_to_its_own_trainer():
     from pathlib import Path
 
     from hoprover_env.training.sb3_agents import ConfigError, load_config
+
     path = Path(__file__).resolve().parents[2] / "configs" / "ppo_mission_hop.yaml"
     with pytest.raises(ConfigError, match="research.train_mission"):
         load_config(path)

@@ -1,5 +1,6 @@
 """The benchmark suite's quick mode runs end to end (its numbers are not asserted:
 speed targets live in BENCHMARKS.md, not in timed unit tests)."""
+
 import math
 
 import pytest
@@ -17,10 +18,13 @@ def test_benchmark_suite_quick(tmp_path):
     out = tmp_path / "BENCHMARKS.md"
     assert main(["--quick", "--out", str(out)]) == 0
     text = out.read_text()
-    for title in ("Throughput and scaling", "Training cost",
-                  "Optimal-control reference (best-known hop plans)",
-                  "Whole runs in the kernel: simulate, batches, cold start",
-                  "Threads: simulate_batch and the vector env on 1 to all cores"):
+    for title in (
+        "Throughput and scaling",
+        "Training cost",
+        "Optimal-control reference (best-known hop plans)",
+        "Whole runs in the kernel: simulate, batches, cold start",
+        "Threads: simulate_batch and the vector env on 1 to all cores",
+    ):
         assert f"## {title}" in text
     assert text.count("## ") >= 4
     assert list((tmp_path / "figures").glob("*.png"))
@@ -30,6 +34,7 @@ def test_regenerating_one_section_keeps_every_other_line(tmp_path):
     """BENCHMARKS.md is the generator's alone: a run of one section rewrites that section
     and leaves every other heading and line of the file as it was."""
     from pathlib import Path
+
     original = (Path(__file__).resolve().parents[2] / "BENCHMARKS.md").read_text()
     out = tmp_path / "BENCHMARKS.md"
     out.write_text(original)
@@ -38,11 +43,12 @@ def test_regenerating_one_section_keeps_every_other_line(tmp_path):
     headings = [line for line in original.splitlines() if line.startswith("#")]
     assert headings and all(h in text.splitlines() for h in headings)
     kept = original.split("<!-- section: runs -->")[0]
-    assert text.startswith(kept.split("\n", 3)[0])        # the title line
+    assert text.startswith(kept.split("\n", 3)[0])  # the title line
     for name in ("accuracy", "env", "stress", "training", "oracle", "learning", "runs"):
         block = original.split(f"<!-- section: {name} -->")[1].split(
-            f"<!-- end of section: {name} -->")[0]
-        assert block in text, name                          # not rerun: byte for byte
+            f"<!-- end of section: {name} -->"
+        )[0]
+        assert block in text, name  # not rerun: byte for byte
     assert "## Threads: simulate_batch and the vector env on 1 to all cores" in text
 
 
@@ -71,10 +77,12 @@ def test_cold_compare_times_a_checkout_cold_then_cached(capsys):
     import re
 
     from benchmarks import cold_compare
+
     here = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     cold_compare.main([here, "--rounds", "1", "--one-process"])
     out = capsys.readouterr().out
-    cold, cached = map(float, re.search(r"round 0: .*: cold ([0-9.]+) s, cached ([0-9.]+) s",
-                                        out).groups())
+    cold, cached = map(
+        float, re.search(r"round 0: .*: cold ([0-9.]+) s, cached ([0-9.]+) s", out).groups()
+    )
     assert cold > cached > 0.0
     assert f"{here}: cold" in out and "x base per round 1.000-1.000" in out

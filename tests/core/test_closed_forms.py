@@ -1,4 +1,5 @@
 """The event integrator against closed forms: flight, rest, tipping, slip, G, pivots."""
+
 import math
 
 import numpy as np
@@ -25,19 +26,20 @@ def test_flat_flight_lands_where_the_parabola_says():
     assert sim.state[5] == pytest.approx(0.0, abs=1e-15)
 
 
-@pytest.mark.parametrize("omega0, torque", [(0.01, 0.0), (-0.02, 0.0), (0.0, 2e-5),
-                                            (0.05, -3e-5)])
+@pytest.mark.parametrize("omega0, torque", [(0.01, 0.0), (-0.02, 0.0), (0.0, 2e-5), (0.05, -3e-5)])
 def test_spinning_flight_first_touchdown_matches_root_of_closed_form(omega0, torque):
     x0, y0, th0, vx, vy = 0.0, 0.25, 0.1, -2e-3, 1e-3
     sim = RoverSim(target_x=0.0, initial_state=(x0, y0, th0, vx, vy, omega0))
     sim.advance(torque, 800.0, stop_on="impact")
     beta = torque / P.inertia
 
-    def lowest(t):       # the lowest of the four corners, in closed form
+    def lowest(t):  # the lowest of the four corners, in closed form
         th = th0 + omega0 * t + 0.5 * beta * t * t
         y = y0 + vy * t - 0.5 * G * t * t
-        return min(y - bx * math.sin(th) + by * math.cos(th)
-                   for bx, by in ((R, -H), (-R, -H), (R, H), (-R, H)))
+        return min(
+            y - bx * math.sin(th) + by * math.cos(th)
+            for bx, by in ((R, -H), (-R, -H), (R, H), (-R, H))
+        )
 
     ts = np.linspace(0.0, 800.0, 800001)
     vals = np.array([lowest(t) for t in ts[::10]])
@@ -100,7 +102,7 @@ def test_pivot_conserves_its_energy_integral():
     sim.advance(torque, 1e-9)
     assert sim.mode == "B"
     ell, alpha = P.corner_distance, P.alpha
-    j = P.inertia + M * ell ** 2
+    j = P.inertia + M * ell**2
 
     def integral(s):
         return 0.5 * j * s[5] ** 2 - torque * s[2] + M * G * ell * math.sin(s[2] + alpha)

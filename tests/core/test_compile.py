@@ -3,6 +3,7 @@ on a warm one; what a cold first step compiles, in one process or with the
 parallel-compile helper (a fresh interpreter, never a fork); the fallback to plain numba
 when its internals are missing. (An edited task module compiling afresh:
 tests/tasks/test_task_recompiles.py.)"""
+
 import json
 import os
 import re
@@ -22,8 +23,13 @@ pytestmark = pytest.mark.slow
 def test_one_progress_line_when_compiling_none_when_cached(tmp_path, cold_serial):
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     # importing compiles nothing (declared signatures compile on first use)
-    bare = subprocess.run([sys.executable, "-c", "import hoprover_env"], env=env,
-                          capture_output=True, text=True, check=True)
+    bare = subprocess.run(
+        [sys.executable, "-c", "import hoprover_env"],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     assert MESSAGE not in bare.stderr
     assert not list(tmp_path.rglob("*.nbi"))
     # a cold first step says it compiles, once; the same steps on its cache say nothing
@@ -32,7 +38,7 @@ def test_one_progress_line_when_compiling_none_when_cached(tmp_path, cold_serial
     assert first_steps(tmp_path)["messages"] == 0
 
 
-COMPILED = r'''
+COMPILED = r"""
 import json, sys
 from numba.core import event
 seen = []
@@ -51,17 +57,24 @@ obs, reward, *_ = env.step(np.array([0.5], np.float32))
 for _ in range(30):
     obs, reward, *_ = env.step(np.array([-0.3], np.float32))
 print(json.dumps({"compiled": seen, "obs": obs.tolist(), "reward": reward}))
-'''
+"""
 
 
 def first_steps(cache_dir, env_id="HopRover-v0", parallel="0", **kwargs):
     """What a fresh interpreter compiled for its first steps, and where they ended
     (`parallel`: HOPROVER_PARALLEL_COMPILE)."""
     env = dict(os.environ, NUMBA_CACHE_DIR=str(cache_dir), HOPROVER_PARALLEL_COMPILE=parallel)
-    out = subprocess.run([sys.executable, "-c", COMPILED, env_id, json.dumps(kwargs)],
-                         env=env, capture_output=True, text=True, check=True)
-    return {**json.loads(out.stdout.strip().splitlines()[-1]),
-            "messages": out.stderr.count(MESSAGE)}
+    out = subprocess.run(
+        [sys.executable, "-c", COMPILED, env_id, json.dumps(kwargs)],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return {
+        **json.loads(out.stdout.strip().splitlines()[-1]),
+        "messages": out.stderr.count(MESSAGE),
+    }
 
 
 def compiled_by_first_step(cache_dir, env_id="HopRover-v0", **kwargs):
@@ -72,10 +85,12 @@ STEP_KERNEL = r"hoprover_env\.tasks\.common\.torque_event_smooth_step_[0-9a-f]{1
 
 # the rough ground's own code: its counter-based generator (philox4x64) is not in this list,
 # since every env's episode draws use it too (tasks/draws.py)
-ROUGH_TERRAIN_CODE = ("hoprover_env.core.terrain.impact_tilt",
-                      "hoprover_env.core.terrain.truncated_normal",
-                      "hoprover_env.core.impacts._rotate_velocity",
-                      "hoprover_env.core.impacts._stop_on_mean_plane")
+ROUGH_TERRAIN_CODE = (
+    "hoprover_env.core.terrain.impact_tilt",
+    "hoprover_env.core.terrain.truncated_normal",
+    "hoprover_env.core.impacts._rotate_velocity",
+    "hoprover_env.core.impacts._stop_on_mean_plane",
+)
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +103,7 @@ def cold_serial(tmp_path_factory):
 
 def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path, cold_serial):
     seen = cold_serial[1]["compiled"]
-    shutil.copytree(cold_serial[0], tmp_path, dirs_exist_ok=True)   # its cache, warmed
+    shutil.copytree(cold_serial[0], tmp_path, dirs_exist_ok=True)  # its cache, warmed
     ours = [name for name, _ in seen if name.startswith("hoprover_env.")]
     # the env's step kernel, named for a digest of its sources (jit.compiler.bind)
     assert [n for n in ours if re.fullmatch(STEP_KERNEL, n)] and len(ours) > 40
@@ -107,13 +122,15 @@ def test_a_cold_first_step_compiles_no_euler_code_and_nothing_twice(tmp_path, co
     assert "hoprover_env.core.euler.advance_euler" in [name for name, _ in seen]
 
 
-def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(tmp_path,
-                                                                                cold_serial):
+def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing(
+    tmp_path, cold_serial
+):
     # on a cold cache a helper process (a fresh interpreter; any value of the switch but
     # "0" starts it, "spawn", its old name, too) takes the contact phases off the queue
     # while this process compiles the end of a phase; the env step then loads them from
     # the cache
     from hoprover_env.jit import compiler as pc
+
     if pc._cores() < 2:
         pytest.skip("the helper only starts with two or more cores")
     serial = cold_serial[1]
@@ -122,9 +139,11 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     everything = [name for name, _ in serial["compiled"] if name.startswith("hoprover_env.")]
     # the first of the queue: taken by the helper while this process is at the end of a
     # phase (the rest of the queue goes to whichever process is free first)
-    helper_only = {"hoprover_env.core.contact_phases.contact_phase",
-                   "hoprover_env.core.contact_phases._dop853_step",
-                   "hoprover_env.core.contact_phases._locate"}
+    helper_only = {
+        "hoprover_env.core.contact_phases.contact_phase",
+        "hoprover_env.core.contact_phases._dop853_step",
+        "hoprover_env.core.contact_phases._locate",
+    }
     assert "hoprover_env.core.smooth.after_phase_smooth" in main
     assert helper_only <= set(everything)
     assert not helper_only & set(main), sorted(helper_only & set(main))
@@ -139,26 +158,29 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
 
 def test_each_function_of_the_queue_is_compiled_by_one_process(tmp_path, monkeypatch):
     from hoprover_env.jit import compiler as pc
+
     compiled = []
     monkeypatch.setattr(pc, "_resolve", lambda names: list(names))
     monkeypatch.setattr(pc, "compile_now", compiled.append)
     queue = (str(tmp_path), "m:a", "m:b", "m:c")
-    (tmp_path / "1").touch()                  # the other process took "m:b"
+    (tmp_path / "1").touch()  # the other process took "m:b"
     pc.compile_queue(queue)
     assert compiled == ["m:a", "m:c"]
-    pc.compile_queue(queue)                   # a second taker finds nothing left
+    pc.compile_queue(queue)  # a second taker finds nothing left
     assert compiled == ["m:a", "m:c"]
 
 
 def _no_helper(started):
-    def start(names):                     # records the start; the helper "fails to start"
+    def start(names):  # records the start; the helper "fails to start"
         started.append(1)
+
     return start
 
 
 def test_the_helper_is_skipped_on_a_warm_cache_and_when_switched_off(tmp_path, monkeypatch):
     from hoprover_env.jit import compiler as pc
     from hoprover_env.tasks import torque
+
     started = []
     monkeypatch.setattr(pc, "_start_helper", _no_helper(started))
     monkeypatch.setattr(pc, "_prepared", False)
@@ -196,7 +218,7 @@ def test_one_helper_per_cache_at_a_time(tmp_path, monkeypatch):
     lock.touch()
     monkeypatch.setattr(pc, "_prepared", False)
     pc.prepare()
-    assert started == []                      # another process's helper is at work
+    assert started == []  # another process's helper is at work
     old = time.time() - 2 * pc.HELPER_TIMEOUT
     os.utime(lock, (old, old))
     monkeypatch.setattr(pc, "_prepared", False)
@@ -220,7 +242,8 @@ def hopper(pos, vel, the, omg, posT, t, smt, state):   # launch, hold the attitu
 roll = simulate(hopper, t_end=300.0, control_dt=0.5, target_x=0.3)
 """
 
-HIDDEN = r"""
+HIDDEN = (
+    r"""
 import warnings
 import numba.core.registry, numba.core.caching
 # a numba release that moved the internals hoprover's compile layer uses
@@ -230,18 +253,22 @@ for cls in numba.core.caching.FunctionCache.__mro__:
         delattr(cls, "cache_path")
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
-""" + "\n".join("    " + line for line in RUN.splitlines()) + r"""
+"""
+    + "\n".join("    " + line for line in RUN.splitlines())
+    + r"""
 print(any("falling back to plain numba" in str(w.message) for w in caught))
 print(repr(roll.x[-1]), repr(roll.t[-1]), roll.state[-1], len(roll.events))
 """
+)
 
 
 def test_without_the_numba_internals_it_falls_back_to_plain_numba(tmp_path):
     # the fallback compiles with plain numba.njit(cache=True), warns once, and runs the
     # same physics: the same rollout as the compile layer gives, bit for bit
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), HOPROVER_PARALLEL_COMPILE="0")
-    out = subprocess.run([sys.executable, "-c", HIDDEN], env=env, capture_output=True,
-                         text=True, timeout=900)
+    out = subprocess.run(
+        [sys.executable, "-c", HIDDEN], env=env, capture_output=True, text=True, timeout=900
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     warned, result = out.stdout.strip().splitlines()[-2:]
     assert warned == "True"
@@ -286,7 +313,7 @@ def test_a_helper_that_hangs_is_waited_for_then_killed(tmp_path, monkeypatch):
     pc.prepare()
     assert time.monotonic() - started < 30
     assert len(helpers) == 1 and helpers[0].returncode == -9
-    assert compiled and not list(tmp_path.iterdir())        # the lock is gone
+    assert compiled and not list(tmp_path.iterdir())  # the lock is gone
 
 
 def test_the_layers_tell_the_compiler_what_it_compiles_and_hashes():
@@ -296,13 +323,19 @@ def test_the_layers_tell_the_compiler_what_it_compiles_and_hashes():
     import hoprover_env
     from hoprover_env.core import contact_phases, smooth
     from hoprover_env.jit import compiler as pc
+
     root = os.path.dirname(hoprover_env.__file__)
-    for name in ("core/integrator.py", "tasks/common.py", "jit/compiler.py",
-                 "sim/rollout.py", "sim/controllers.py"):
+    for name in (
+        "core/integrator.py",
+        "tasks/common.py",
+        "jit/compiler.py",
+        "sim/rollout.py",
+        "sim/controllers.py",
+    ):
         assert os.path.join(root, name) in pc.KERNEL_SOURCES
     assert os.path.join(root, "sim/simulate.py") not in pc.KERNEL_SOURCES
     assert pc.AFTER_PHASE[False] is smooth.after_phase_smooth
     assert pc.QUEUE[0] is contact_phases.contact_phase
     assert pc._resolve([pc._reference(d) for d in pc.QUEUE]) == list(pc.QUEUE)
-    with pytest.raises(RuntimeError):          # too late: kernels are built already
+    with pytest.raises(RuntimeError):  # too late: kernels are built already
         pc.add_kernel_sources([__file__])

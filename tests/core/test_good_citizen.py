@@ -3,6 +3,7 @@ stepping every registered env (single and threaded vector), simulate and simulat
 leave numba, llvmlite, OpenMP, torch, the environment, warnings and signal handlers as
 they were (docs/COMPILING.md). Each check runs in a fresh interpreter, so that nothing an
 earlier test did is taken for hoprover's doing."""
+
 import json
 import os
 import subprocess
@@ -21,7 +22,7 @@ pytestmark = pytest.mark.slow
 # imports gymnasium anyway. The user here has started numba's threads
 # (numba.get_num_threads) and set torch to one thread afterwards, as a training script
 # does; numba's OpenMP layer would set it back to numba's count at every threaded launch.
-PROBE = r'''
+PROBE = r"""
 import ctypes, faulthandler, json, logging, os, signal, sys, threading, warnings
 import numpy as np
 import gymnasium as gym
@@ -110,20 +111,22 @@ changed = sorted(k for k in before.keys() | after.keys()
 print(json.dumps({"ran": ran, "changed": changed,
                   "detail": {k: [repr(before.get(k))[:300], repr(after.get(k))[:300]]
                              for k in changed}}))
-'''
+"""
 
 
 def _probe(extra_env=None, code=PROBE, timeout=1800):
     env = {k: v for k, v in os.environ.items() if not k.startswith("HOPROVER_")}
     env.update(extra_env or {})
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, timeout=timeout)
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=timeout
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def test_hoprover_leaves_numba_llvmlite_openmp_torch_env_warnings_and_signals_alone():
     import hoprover_env
+
     result = _probe()
     # the package's own ids (an earlier test in this process may have added a toy task)
     ours = [i for i, task in hoprover_env.ENVS.items() if task.module.startswith("hoprover_env.")]
@@ -131,7 +134,7 @@ def test_hoprover_leaves_numba_llvmlite_openmp_torch_env_warnings_and_signals_al
     assert result["changed"] == [], json.dumps(result["detail"], indent=1)
 
 
-NUMBA_CLASSES = r'''
+NUMBA_CLASSES = r"""
 import json
 from numba.core import codegen, ir, targetconfig
 from llvmlite.binding import ffi
@@ -147,7 +150,7 @@ from hoprover_env.jit.compiler import compile_now
 compile_now(core.corner_offset)              # kernels declared, one compiled
 after = methods()
 print(json.dumps({"replaced": sorted(k for k in before if before[k] != after[k])}))
-'''
+"""
 
 
 def test_numbas_compiler_classes_are_left_as_they_are(tmp_path):
@@ -157,7 +160,7 @@ def test_numbas_compiler_classes_are_left_as_they_are(tmp_path):
     assert result["replaced"] == []
 
 
-FIRST_LAUNCH = r'''
+FIRST_LAUNCH = r"""
 import ctypes, json, os
 import numpy as np
 import torch
@@ -173,7 +176,7 @@ venv = hoprover_env.HopRoverVectorEnv(64, threads=True)
 venv.reset(seed=0)
 venv.step(np.zeros((64, 1)))
 print(json.dumps({"before": before, "after": [torch.get_num_threads(), openmp()]}))
-'''
+"""
 
 
 def test_the_first_threaded_step_leaves_torch_and_openmp_as_they_were():

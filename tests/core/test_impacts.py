@@ -1,4 +1,5 @@
 """The impact laws of MODEL.md section 6, called on hand-built pre-impact states."""
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -51,7 +52,7 @@ def test_single_corner_law_exactly():
     ratio = core.resolve_impact(s, PA, core.LAW_CONTEST, WORK)
     np.testing.assert_allclose(s[3:6], expect[3:6], rtol=1e-13, atol=1e-18)
     np.testing.assert_allclose(point_velocity(s, 0), [EX * vp0[0], -EY * vp0[1]], rtol=1e-12)
-    assert s[core.S_MODE] == core.MODE_A         # it bounces: 0.2 * 3e-3 > v_ymin
+    assert s[core.S_MODE] == core.MODE_A  # it bounces: 0.2 * 3e-3 > v_ymin
     assert ratio == pytest.approx(ke(s) / ke(pre_impact(0.3, 0.02, 2e-3, -3e-3)), rel=1e-12)
 
 
@@ -97,14 +98,15 @@ def test_slow_flat_landing_while_sliding_fast_needs_a_pull():
 
 def test_pulling_law_falls_back_to_frictionless():
     # found by search: the exact law needs a pulling normal impulse here
-    s = pre_impact(0.44186331322589567, 0.188648584799799, -0.004103067777836135,
-                   0.004125459074536548)
+    s = pre_impact(
+        0.44186331322589567, 0.188648584799799, -0.004103067777836135, 0.004125459074536548
+    )
     lam, _ = exact_single_impulse(s, 0)
     vp0 = point_velocity(s, 0)
     assert vp0[1] < 0 and lam[1] < 0
     vx0 = s[core.S_VX]
     core.resolve_impact(s, PA, core.LAW_CONTEST, WORK)
-    assert s[core.S_VX] == vx0                               # no horizontal impulse
+    assert s[core.S_VX] == vx0  # no horizontal impulse
     assert point_velocity(s, 0)[1] == pytest.approx(-EY * vp0[1], rel=1e-12)
 
 
@@ -127,8 +129,9 @@ def test_contest_law_can_gain_energy_dissipative_cannot():
     for _ in range(3000):
         th = rng.uniform(-1.4, 1.4)
         k = 0 if th > 0 else 1
-        s = pre_impact(th, rng.uniform(-0.3, 0.3), rng.uniform(-5e-3, 5e-3),
-                       rng.uniform(-5e-3, 5e-3), corner=k)
+        s = pre_impact(
+            th, rng.uniform(-0.3, 0.3), rng.uniform(-5e-3, 5e-3), rng.uniform(-5e-3, 5e-3), corner=k
+        )
         if point_velocity(s, k)[1] >= 0:
             continue
         e0 = ke(s)
@@ -137,21 +140,31 @@ def test_contest_law_can_gain_energy_dissipative_cannot():
         core.resolve_impact(b, PA, core.LAW_DISSIPATIVE, WORK)
         gained += ke(a) > e0 * (1 + 1e-12)
         assert ke(b) <= e0 * (1 + 1e-12)
-    assert gained > 0          # the contest law is not dissipative (MODEL.md section 6)
+    assert gained > 0  # the contest law is not dissipative (MODEL.md section 6)
 
 
 params_strategy = st.builds(
     RoverParams,
-    mass=st.floats(0.3, 3.0), inertia=st.floats(0.001, 0.01),
-    half_width=st.floats(0.03, 0.08), half_height=st.floats(0.03, 0.08),
-    mu_static=st.floats(0.3, 1.0), mu_dynamic=st.just(0.3),
-    restitution_x=st.floats(0.0, 1.0), restitution_y=st.floats(0.0, 1.0),
+    mass=st.floats(0.3, 3.0),
+    inertia=st.floats(0.001, 0.01),
+    half_width=st.floats(0.03, 0.08),
+    half_height=st.floats(0.03, 0.08),
+    mu_static=st.floats(0.3, 1.0),
+    mu_dynamic=st.just(0.3),
+    restitution_x=st.floats(0.0, 1.0),
+    restitution_y=st.floats(0.0, 1.0),
 )
 
 
-@given(p=params_strategy, th=st.floats(-1.5, 1.5), w=st.floats(-0.5, 0.5),
-       vx=st.floats(-1e-2, 1e-2), vy=st.floats(-1e-2, 1e-2),
-       flat=st.booleans(), law=st.sampled_from([core.LAW_CONTEST, core.LAW_DISSIPATIVE]))
+@given(
+    p=params_strategy,
+    th=st.floats(-1.5, 1.5),
+    w=st.floats(-0.5, 0.5),
+    vx=st.floats(-1e-2, 1e-2),
+    vy=st.floats(-1e-2, 1e-2),
+    flat=st.booleans(),
+    law=st.sampled_from([core.LAW_CONTEST, core.LAW_DISSIPATIVE]),
+)
 def test_impact_postconditions(p, th, w, vx, vy, flat, law):
     pa = p.as_array()
     if flat:
@@ -163,7 +176,7 @@ def test_impact_postconditions(p, th, w, vx, vy, flat, law):
         return
     e0 = ke(s, p.mass, p.inertia)
     if e0 < 1e-30:
-        return                   # a touchdown at a denormal speed: nothing to check
+        return  # a touchdown at a denormal speed: nothing to check
     ratio = core.resolve_impact(s, pa, law, WORK)
     assert np.all(np.isfinite(s[:6]))
     e1 = ke(s, p.mass, p.inertia)
@@ -173,6 +186,6 @@ def test_impact_postconditions(p, th, w, vx, vy, flat, law):
     for c in (0, 1):
         dx, dy = core.corner_offset(pa, c, s[core.S_TH])
         height = s[core.S_Y] + dy
-        assert height >= -1e-12                          # nobody under the ground
-        if height <= 1e-12:                              # nobody on it moving down
+        assert height >= -1e-12  # nobody under the ground
+        if height <= 1e-12:  # nobody on it moving down
             assert point_velocity(s, c, pa)[1] >= -1e-12

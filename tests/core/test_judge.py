@@ -1,4 +1,5 @@
 """The judge of MODEL.md section 8: time to reach the target point."""
+
 import numpy as np
 import pytest
 
@@ -14,15 +15,23 @@ def test_idle_rover_at_target_zero_is_five_seconds_exactly():
 
 @pytest.mark.parametrize("dt", [1e-3, 7e-3, 0.03])
 def test_idle_rover_euler_within_one_step(dt):
-    roll = simulate(np.zeros(100), t_end=10.0, control_dt=0.1, target_x=0.0,
-                    integrator="euler", euler_dt=dt)
+    roll = simulate(
+        np.zeros(100), t_end=10.0, control_dt=0.1, target_x=0.0, integrator="euler", euler_dt=dt
+    )
     assert abs(roll.ttrtp - 5.0) <= dt
 
 
-@pytest.mark.parametrize("target, expect", [
-    (0.1, 5.0),                  # |x_A - x_T| = 0.05: the band is inclusive
-    (-0.1, 5.0),                 # corner B counts too in F
-    (0.1 + 1e-9, None), (-0.1 - 1e-9, None), (0.0731, 5.0), (3.0, None)])
+@pytest.mark.parametrize(
+    "target, expect",
+    [
+        (0.1, 5.0),  # |x_A - x_T| = 0.05: the band is inclusive
+        (-0.1, 5.0),  # corner B counts too in F
+        (0.1 + 1e-9, None),
+        (-0.1 - 1e-9, None),
+        (0.0731, 5.0),
+        (3.0, None),
+    ],
+)
 def test_band_is_inclusive_and_either_corner_counts(target, expect):
     roll = simulate(np.zeros(10), t_end=10.0, control_dt=1.0, target_x=target)
     assert roll.ttrtp == expect
@@ -58,8 +67,14 @@ def hop_there_and_back(torque):
 
 @pytest.mark.parametrize("integrator", ["event", "euler"])
 def test_hop_away_and_back_restarts_the_count(integrator):
-    roll = simulate(hop_there_and_back(1e-5), t_end=400.0, control_dt=0.1, target_x=-0.06,
-                    integrator=integrator, euler_dt=1e-3)
+    roll = simulate(
+        hop_there_and_back(1e-5),
+        t_end=400.0,
+        control_dt=0.1,
+        target_x=-0.06,
+        integrator=integrator,
+        euler_dt=1e-3,
+    )
     kinds = [e[1] for e in roll.events]
     # 3 s in the band at rest is not enough; then out (pivot on A, hops), then back
     first_out = roll.events[kinds.index("band_out")][0]
@@ -68,7 +83,7 @@ def test_hop_away_and_back_restarts_the_count(integrator):
     assert roll.ttrtp is not None and entries
     assert roll.ttrtp == pytest.approx(entries[-1] + 5.0, abs=1e-12)
     assert roll.ttrtp > 100.0
-    assert abs(roll.x[-1]) < 0.01          # the mirrored hop comes back
+    assert abs(roll.x[-1]) < 0.01  # the mirrored hop comes back
 
 
 def test_ttrtp_from_samples_matches_exact_judge():
@@ -76,11 +91,19 @@ def test_ttrtp_from_samples_matches_exact_judge():
     p = RoverParams()
     xa, _, _, _ = roll.corner("A")
     xb, _, _, _ = roll.corner("B")
-    inb = np.where(np.isin(roll.state, list("BC")), np.abs(xa + 0.06) <= 0.05,
-                   np.where(np.isin(roll.state, list("DE")), np.abs(xb + 0.06) <= 0.05,
-                            np.where(np.isin(roll.state, list("FG")),
-                                     (np.abs(xa + 0.06) <= 0.05) | (np.abs(xb + 0.06) <= 0.05),
-                                     False)))
+    inb = np.where(
+        np.isin(roll.state, list("BC")),
+        np.abs(xa + 0.06) <= 0.05,
+        np.where(
+            np.isin(roll.state, list("DE")),
+            np.abs(xb + 0.06) <= 0.05,
+            np.where(
+                np.isin(roll.state, list("FG")),
+                (np.abs(xa + 0.06) <= 0.05) | (np.abs(xb + 0.06) <= 0.05),
+                False,
+            ),
+        ),
+    )
     # the sampled count: first sample after 5 s of consecutive in-band samples
     t_start, t_sample = None, None
     for i in range(len(roll.t)):
@@ -98,8 +121,13 @@ def test_ttrtp_from_samples_matches_exact_judge():
 def test_broken_run_has_no_ttrtp():
     # upside down over the target: it lands on its top corners
     y0 = 0.2
-    roll = simulate(np.zeros(10), t_end=600.0, control_dt=1.0, target_x=0.0,
-                    initial_state=(0.0, y0, np.pi, 0.0, 0.0, 0.0))
+    roll = simulate(
+        np.zeros(10),
+        t_end=600.0,
+        control_dt=1.0,
+        target_x=0.0,
+        initial_state=(0.0, y0, np.pi, 0.0, 0.0, 0.0),
+    )
     assert roll.broken and roll.ttrtp is None
     t_fall = np.sqrt(2 * (y0 - 0.05) / 9.8e-5)
     assert roll.events == [(pytest.approx(t_fall, rel=1e-12), "broken", "A", "A")]

@@ -4,6 +4,7 @@ object it was, whatever submodules are imported after the package (a submodule w
 name matched a public name, or an import hook aliasing old module paths, would replace
 the attribute with a module). The package has no old module paths: each module is
 imported at the one path it lives at, and the documented command lines run as modules."""
+
 import json
 import subprocess
 import sys
@@ -15,7 +16,7 @@ import pytest
 pytestmark = pytest.mark.slow
 
 
-PROBE = r'''
+PROBE = r"""
 import importlib, importlib.util, json, pkgutil, sys
 import hoprover_env
 
@@ -50,21 +51,24 @@ changed = sorted(name for name in names if getattr(hoprover_env, name) is not be
 print(json.dumps({"imported": imported, "missing": missing, "changed": changed,
                   "simulate": repr(type(hoprover_env.simulate)), "old": old,
                   "hooks": hooks, "runnable": runnable}))
-'''
+"""
 
 
 @pytest.fixture(scope="module")
 def probe():
-    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True,
-                         timeout=900)
+    out = subprocess.run([sys.executable, "-c", PROBE], capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def test_importing_every_module_leaves_the_public_names_as_they_were(probe):
     assert len(probe["imported"]) > 60, probe["imported"]
-    for name in ("hoprover_env.sim.simulate", "hoprover_env.envs.env",
-                 "hoprover_env.jit.compiler", "hoprover_env.compile"):
+    for name in (
+        "hoprover_env.sim.simulate",
+        "hoprover_env.envs.env",
+        "hoprover_env.jit.compiler",
+        "hoprover_env.compile",
+    ):
         assert name in probe["imported"] or name in probe["missing"], name
     assert probe["changed"] == []
     assert probe["simulate"] == "<class 'function'>"

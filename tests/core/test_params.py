@@ -10,37 +10,40 @@ from hoprover_env import RoverParams
 def test_contest_defaults():
     p = RoverParams()
     assert (p.mass, p.inertia, p.gravity) == (1.0, 0.0017, 9.8e-5)
-    assert p.corner_distance == pytest.approx(math.sqrt(0.05 ** 2 + 0.05 ** 2))
+    assert p.corner_distance == pytest.approx(math.sqrt(0.05**2 + 0.05**2))
     assert p.alpha == pytest.approx(math.pi / 4)
     assert p.tipping_torque == pytest.approx(4.9e-6)
     assert p.as_array().shape == (19,)
     assert (p.slope, p.roughness) == (0.0, 0.0)
 
 
-@pytest.mark.parametrize("field, value, words", [
-    ("mass", 0.0, "mass must be positive"),
-    ("inertia", -1e-3, "inertia must be positive"),
-    ("half_width", 0.0, "half_width must be positive"),
-    ("half_height", -0.1, "half_height must be positive"),
-    ("gravity", 0.0, "gravity must be positive"),
-    ("mu_static", 1.2, "mu_static must lie in [0, 1]"),
-    ("mu_dynamic", -0.1, "mu_dynamic must lie in [0, 1]"),
-    ("restitution_x", 1.5, "restitution_x must lie in [0, 1]"),
-    ("restitution_y", -0.2, "restitution_y must lie in [0, 1]"),
-    ("v_ymin", -1e-6, "v_ymin must be positive"),
-    ("v_ymin", 0.0, "v_ymin must be positive"),
-    ("v_xmin", -1e-6, "v_xmin must be >= 0"),
-    ("mass", float("nan"), "mass must be finite"),
-    ("torque_max", float("inf"), "torque_max must be finite"),
-    ("gravity", "9.8e-5", "gravity must be a real number"),
-    ("slope", 0.5000001, "slope must lie in"),
-    ("slope", -0.6, "slope must lie in"),
-    ("slope", float("nan"), "slope must be finite"),
-    ("roughness", -1e-3, "roughness must be >= 0"),
-    ("roughness", float("inf"), "roughness must be finite"),
-    ("roughness", float("nan"), "roughness must be finite"),
-    ("roughness", "0.1", "roughness must be a real number"),
-])
+@pytest.mark.parametrize(
+    "field, value, words",
+    [
+        ("mass", 0.0, "mass must be positive"),
+        ("inertia", -1e-3, "inertia must be positive"),
+        ("half_width", 0.0, "half_width must be positive"),
+        ("half_height", -0.1, "half_height must be positive"),
+        ("gravity", 0.0, "gravity must be positive"),
+        ("mu_static", 1.2, "mu_static must lie in [0, 1]"),
+        ("mu_dynamic", -0.1, "mu_dynamic must lie in [0, 1]"),
+        ("restitution_x", 1.5, "restitution_x must lie in [0, 1]"),
+        ("restitution_y", -0.2, "restitution_y must lie in [0, 1]"),
+        ("v_ymin", -1e-6, "v_ymin must be positive"),
+        ("v_ymin", 0.0, "v_ymin must be positive"),
+        ("v_xmin", -1e-6, "v_xmin must be >= 0"),
+        ("mass", float("nan"), "mass must be finite"),
+        ("torque_max", float("inf"), "torque_max must be finite"),
+        ("gravity", "9.8e-5", "gravity must be a real number"),
+        ("slope", 0.5000001, "slope must lie in"),
+        ("slope", -0.6, "slope must lie in"),
+        ("slope", float("nan"), "slope must be finite"),
+        ("roughness", -1e-3, "roughness must be >= 0"),
+        ("roughness", float("inf"), "roughness must be finite"),
+        ("roughness", float("nan"), "roughness must be finite"),
+        ("roughness", "0.1", "roughness must be a real number"),
+    ],
+)
 def test_invalid_field_is_named(field, value, words):
     with pytest.raises(ValueError, match=words.replace("[", r"\[").replace("]", r"\]")):
         RoverParams(**{field: value})
@@ -48,6 +51,7 @@ def test_invalid_field_is_named(field, value, words):
 
 def test_terrain_slots_of_the_kernel_vector():
     from hoprover_env.core.params import P_GC, P_GS, P_ROUGH, P_SLOPE
+
     flat = RoverParams().as_array()
     assert flat[P_GC] == 9.8e-5 and flat[P_GS] == 0.0 and not np.signbit(flat[P_GS])
     assert not np.signbit(RoverParams(slope=-0.0).as_array()[P_GS])
@@ -83,20 +87,26 @@ def brute_force_min_denominator(p, n=200001):
     return min(np.min(p.inertia + m * dx * (dx + s * mu * dy)) for s in (-1.0, 1.0))
 
 
-@pytest.mark.parametrize("kw", [
-    {}, {"mu_dynamic": 1.0, "mu_static": 1.0}, {"half_width": 0.08, "half_height": 0.03},
-    {"half_width": 0.03, "half_height": 0.08, "inertia": 0.01},
-    {"inertia": 5e-3, "mass": 2.0, "mu_dynamic": 0.2},
-])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"mu_dynamic": 1.0, "mu_static": 1.0},
+        {"half_width": 0.08, "half_height": 0.03},
+        {"half_width": 0.03, "half_height": 0.08, "inertia": 0.01},
+        {"inertia": 5e-3, "mass": 2.0, "mu_dynamic": 0.2},
+    ],
+)
 def test_min_slide_denominator_matches_brute_force(kw):
     p = RoverParams(**kw)
-    assert p.min_slide_denominator() == pytest.approx(brute_force_min_denominator(p), rel=1e-8,
-                                                      abs=1e-12)
+    assert p.min_slide_denominator() == pytest.approx(
+        brute_force_min_denominator(p), rel=1e-8, abs=1e-12
+    )
 
 
 def test_slip_torque_closed_form():
     p = RoverParams()
-    j = p.inertia + p.mass * p.corner_distance ** 2
+    j = p.inertia + p.mass * p.corner_distance**2
     # thdd_max = mu_s g / (h - mu_s r) = 2.94e-3 rad/s^2; T = m g r + J thdd_max
     assert p.slip_torque == pytest.approx(4.9e-6 + j * 0.6 * 9.8e-5 / 0.02, rel=1e-12)
     assert p.slip_torque == pytest.approx(2.4598e-5, rel=1e-4)

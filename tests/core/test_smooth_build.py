@@ -1,6 +1,7 @@
 """The smooth-ground build (hoprover_env/core/smooth.py): the envs step rovers on smooth
 ground with an integrator compiled without rough-terrain code, and switch to the general
 one when bumps appear. On smooth ground both give the same trajectories, bit for bit."""
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -35,14 +36,14 @@ def test_smooth_and_general_builds_step_alike_on_smooth_ground(params):
         assert env._step_kernel is env.task.kernels(env.config.integrator, rough=False).step
         assert np.array_equal(smooth, _episode(env, seed, actions, kernel=general))
         impacts += env.unwrapped._s[S_NIMPACT]
-    assert impacts > 0          # the episodes hopped and landed: impacts were resolved
+    assert impacts > 0  # the episodes hopped and landed: impacts were resolved
 
 
 def test_the_envs_choose_the_build_by_the_ground():
     env = HopRoverEnv()
     env.reset(seed=0)
     assert env._step_kernel is env.task.kernels("event", rough=False).step
-    env.reset(seed=0, options={"roughness": 0.05})      # bumps for this episode
+    env.reset(seed=0, options={"roughness": 0.05})  # bumps for this episode
     assert env._step_kernel is env.task.kernels("event", rough=True).step
     venv = HopRoverVectorEnv(3)
     venv.reset(seed=0)
@@ -52,8 +53,9 @@ def test_the_envs_choose_the_build_by_the_ground():
     assert venv._rough is True and venv.P[1, P_ROUGH] == 0.05
     venv.reset(seed=0)
     assert venv._rough is False
-    terrain = gym.make_vec("HopRoverTerrain-v0", num_envs=2,
-                           vectorization_mode="vector_entry_point")
+    terrain = gym.make_vec(
+        "HopRoverTerrain-v0", num_envs=2, vectorization_mode="vector_entry_point"
+    )
     terrain.reset(seed=0)
     assert terrain.unwrapped._rough is True
 
@@ -62,8 +64,9 @@ def test_a_vector_env_that_autoresets_onto_bumps_switches_build():
     venv = HopRoverVectorEnv(2, control_dt=30.0, episode_time=60.0)
     venv.reset(seed=0)
     assert venv._rough is False
-    venv.config = type(venv.config).from_kwargs(            # later episodes on bumps
-        "test", control_dt=30.0, episode_time=60.0, params={"roughness": 0.05})
+    venv.config = type(venv.config).from_kwargs(  # later episodes on bumps
+        "test", control_dt=30.0, episode_time=60.0, params={"roughness": 0.05}
+    )
     for _ in range(3):
         venv.step(np.zeros((2, 1)))
     assert venv._rough is True and (venv.P[:, P_ROUGH] > 0).any()
@@ -77,6 +80,7 @@ def test_the_smooth_kernels_are_found_by_the_name_they_pickle_under():
 
     from hoprover_env.core import smooth
     from hoprover_env.jit.compiler import _module_attribute
+
     kernels = [v for k, v in vars(smooth).items() if k.endswith("_smooth")]
     assert len(kernels) == 6
     for k in kernels:

@@ -1,5 +1,6 @@
 """Rough-terrain bounces (docs/MODEL.md section 11, docs/PHYSICS.md "Terrain"): the
 generator, the tilted impact law, seeds and bit-reproducibility."""
+
 import dataclasses
 import math
 
@@ -16,10 +17,15 @@ U = np.uint64
 ROUGH = RoverParams(roughness=0.1, slope=0.15)
 
 
-@pytest.mark.parametrize("counter, key", [((0, 0, 0, 0), (0, 0)),
-                                          ((10, 3, 0, 0), (5, 7)),
-                                          ((2**64 - 2, 2**64 - 1, 17, 2**63), (2**64 - 1, 12345)),
-                                          ((123456789, 0, 0, 0), (0xDEADBEEFCAFEF00D, 1))])
+@pytest.mark.parametrize(
+    "counter, key",
+    [
+        ((0, 0, 0, 0), (0, 0)),
+        ((10, 3, 0, 0), (5, 7)),
+        ((2**64 - 2, 2**64 - 1, 17, 2**63), (2**64 - 1, 12345)),
+        ((123456789, 0, 0, 0), (0xDEADBEEFCAFEF00D, 1)),
+    ],
+)
 def test_philox_is_numpys_bit_for_bit(counter, key):
     # numpy's Philox (4x64-10) increments its 256-bit counter before the first block
     got = core.philox4x64(*(U(v) for v in counter), U(key[0]), U(key[1]))
@@ -30,8 +36,9 @@ def test_philox_is_numpys_bit_for_bit(counter, key):
 
 
 def test_tilts_are_a_normal_truncated_at_three_sigma():
-    z = np.array([core.truncated_normal(U(2024), U(r), U(n))
-                  for r in range(4) for n in range(5000)])
+    z = np.array(
+        [core.truncated_normal(U(2024), U(r), U(n)) for r in range(4) for n in range(5000)]
+    )
     assert np.max(np.abs(z)) <= 3.0 and np.max(np.abs(z)) > 2.5
     ks = stats.kstest(z, stats.truncnorm(-3.0, 3.0).cdf)
     assert ks.pvalue > 1e-3, ks
@@ -45,15 +52,14 @@ def hop_state(params, seed=None, rover=0):
     ctrl = HopSequence()
     for k in range(3000):
         s = sim.s
-        sim.advance(ctrl(s[0:2], s[3:5], s[2], s[5], None, sim.t, 300.0, sim.mode),
-                    (k + 1) * 0.1)
+        sim.advance(ctrl(s[0:2], s[3:5], s[2], s[5], None, sim.t, 300.0, sim.mode), (k + 1) * 0.1)
     return sim
 
 
 def test_roughness_zero_makes_no_draw_and_rough_ground_one_per_impact():
     smooth = hop_state(RoverParams(slope=0.15), seed=5)
     assert smooth.s[core.S_NIMPACT] > 3 and smooth.s[core.S_NDRAW] == 0
-    assert smooth.seed is None            # nothing was drawn: no seed to record
+    assert smooth.seed is None  # nothing was drawn: no seed to record
     rough = hop_state(ROUGH, seed=5)
     assert rough.s[core.S_NIMPACT] > 3 and rough.s[core.S_NDRAW] == rough.s[core.S_NIMPACT]
     assert rough.seed == 5
@@ -69,15 +75,16 @@ def test_tilt_zero_is_the_flat_law_and_the_law_acts_in_the_tilted_frame():
     s0[:6] = (0.0, -dy, th, vx, vy, w)
     a, b = s0.copy(), s0.copy()
     wa, wb = np.zeros(core.N_WORK), np.zeros(core.N_WORK)
-    assert core.resolve_impact(a, pa, core.LAW_CONTEST, wa) == \
-        core.resolve_impact_tilted(b, pa, core.LAW_CONTEST, wb, 0.0)
+    assert core.resolve_impact(a, pa, core.LAW_CONTEST, wa) == core.resolve_impact_tilted(
+        b, pa, core.LAW_CONTEST, wb, 0.0
+    )
     assert a.tobytes() == b.tobytes()
     psi = 0.25
     c = s0.copy()
     core.resolve_impact_tilted(c, pa, core.LAW_CONTEST, np.zeros(core.N_WORK), psi)
     c_, s_ = math.cos(psi), math.sin(psi)
 
-    def local(v):           # contact-point velocity along / normal to the facet
+    def local(v):  # contact-point velocity along / normal to the facet
         px, py = v[3] + v[5] * dy, v[4] - v[5] * dx
         return c_ * px + s_ * py, -s_ * px + c_ * py
 
@@ -101,7 +108,7 @@ def test_a_corner_the_facet_sends_into_the_mean_plane_meets_it_plastically():
     px0 = s[3]
     ke0 = 0.5 * (s[3] ** 2 + s[4] ** 2)
     psi = -0.3
-    assert -math.sin(psi) * s[3] + math.cos(psi) * s[4] > 0     # leaving the facet
+    assert -math.sin(psi) * s[3] + math.cos(psi) * s[4] > 0  # leaving the facet
     ratio = core.resolve_impact_tilted(s, pa, core.LAW_CONTEST, np.zeros(core.N_WORK), psi)
     vpy = s[4] - s[5] * core.corner_offset(pa, 0, s[2])[0]
     assert vpy == 0.0 and core.MODE_LETTERS[int(s[core.S_MODE])] == "C"
@@ -121,11 +128,12 @@ def test_tilted_impacts_never_leave_a_corner_moving_into_the_mean_plane(law):
         k = 0 if th >= 0 else 1
         dx, dy = core.corner_offset(pa, k, th)
         w = rng.uniform(-0.05, 0.05)
-        s = np.zeros(core.N_STATE)     # the touching corner k moves down at up to 3 mm/s
+        s = np.zeros(core.N_STATE)  # the touching corner k moves down at up to 3 mm/s
         s[:6] = (0.0, -dy, th, rng.uniform(-3e-3, 3e-3), w * dx - rng.uniform(1e-6, 3e-3), w)
         ke0 = 0.5 * (s[3] ** 2 + s[4] ** 2) + 0.5 * p.inertia * s[5] ** 2
-        ratio = core.resolve_impact_tilted(s, pa, law, np.zeros(core.N_WORK),
-                                           rng.uniform(-0.9, 0.9))
+        ratio = core.resolve_impact_tilted(
+            s, pa, law, np.zeros(core.N_WORK), rng.uniform(-0.9, 0.9)
+        )
         for c in range(2):
             dxc, dyc = core.corner_offset(pa, c, s[2])
             if s[1] + dyc <= 1e-9:
@@ -141,18 +149,20 @@ def test_same_seed_same_bits_across_threads_batch_positions_and_simulate():
     rng = np.random.default_rng(0)
     sched = np.zeros((n, 1500))
     for i in range(n):
-        sched[i, :int(rng.integers(8, 30))] = rng.choice([-1, 1]) * rng.uniform(1.5e-4, 4e-4)
+        sched[i, : int(rng.integers(8, 30))] = rng.choice([-1, 1]) * rng.uniform(1.5e-4, 4e-4)
     plist = [dataclasses.replace(ROUGH, slope=float(v)) for v in rng.uniform(-0.3, 0.3, n)]
     targets = np.linspace(-0.5, 0.5, n)
     kw = dict(t_end=150.0, params=plist, seed=2**63 + 12345)
     one, many = batch_on_one_and_all_threads(sched, targets, **kw)
-    prefix = simulate_batch(sched[:3], targets[:3], t_end=150.0, params=plist[:3],
-                            seed=2**63 + 12345)
+    prefix = simulate_batch(
+        sched[:3], targets[:3], t_end=150.0, params=plist[:3], seed=2**63 + 12345
+    )
     assert one.seed == many.seed == 2**63 + 12345
     assert np.sum(one.n_impacts) > 10
     for i in range(n):
-        ref = simulate(sched[i], t_end=150.0, params=plist[i], target_x=targets[i],
-                       seed=2**63 + 12345, rover=i)
+        ref = simulate(
+            sched[i], t_end=150.0, params=plist[i], target_x=targets[i], seed=2**63 + 12345, rover=i
+        )
         assert ref.seed == 2**63 + 12345
         assert_identical(one.rollout(i), ref)
         assert_identical(many.rollout(i), ref)
@@ -161,8 +171,9 @@ def test_same_seed_same_bits_across_threads_batch_positions_and_simulate():
     # the key matters: another rover index or seed bounces differently
     i = int(np.argmax(one.n_impacts))
     for seed, rover in ((2**63 + 12345, i + 1), (2**63 + 12346, i)):
-        other = simulate(sched[i], t_end=150.0, params=plist[i], target_x=targets[i],
-                         seed=seed, rover=rover)
+        other = simulate(
+            sched[i], t_end=150.0, params=plist[i], target_x=targets[i], seed=seed, rover=rover
+        )
         assert not np.array_equal(other.x, one.rollout(i).x)
 
 
@@ -173,22 +184,25 @@ def test_fresh_seed_is_recorded_and_replays():
     assert isinstance(a.seed, int) and 0 <= a.seed < 2**64 and a.seed != b.seed
     again = simulate(sched, t_end=150.0, params=ROUGH, seed=a.seed)
     assert_identical(a, again)
-    assert len(a.impact_energy_ratios) >= 1     # (the first touchdown draws)
+    assert len(a.impact_energy_ratios) >= 1  # (the first touchdown draws)
     batch = simulate_batch(sched[None, :], [0.5], t_end=150.0, params=ROUGH)
     assert isinstance(batch.seed, int)
-    assert_identical(batch.rollout(0), simulate(sched, t_end=150.0, params=ROUGH,
-                                                seed=batch.seed, target_x=0.5))
+    assert_identical(
+        batch.rollout(0), simulate(sched, t_end=150.0, params=ROUGH, seed=batch.seed, target_x=0.5)
+    )
     assert simulate(sched[:5], t_end=1.0).seed is None
 
 
 @pytest.mark.parametrize("seed", [1.5, 3.0, "7", True, -1, 2**64, [1, 2]])
 def test_a_seed_that_is_not_an_integer_is_refused(seed):
     sched = np.zeros(10)
-    for call in (lambda: simulate(sched, t_end=1.0, params=ROUGH, seed=seed),
-                 lambda: simulate(sched, t_end=1.0, seed=seed),
-                 lambda: simulate_batch(sched[None, :], [0.0], t_end=1.0, seed=seed),
-                 lambda: RoverSim(params=ROUGH, seed=seed),
-                 lambda: make_state(ROUGH, 0.0, seed=seed)):
+    for call in (
+        lambda: simulate(sched, t_end=1.0, params=ROUGH, seed=seed),
+        lambda: simulate(sched, t_end=1.0, seed=seed),
+        lambda: simulate_batch(sched[None, :], [0.0], t_end=1.0, seed=seed),
+        lambda: RoverSim(params=ROUGH, seed=seed),
+        lambda: make_state(ROUGH, 0.0, seed=seed),
+    ):
         with pytest.raises(ValueError, match="seed"):
             call()
 

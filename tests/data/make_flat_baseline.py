@@ -7,6 +7,7 @@ the code before terrain (commit 6fc532c) gives them.
 (run from the checkout's root: $OLDPWD is the checkout after the cd)
 
 It refuses to run on code that already knows about terrain (RoverParams.slope)."""
+
 import os
 import sys
 
@@ -26,5 +27,7 @@ path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "flat_baseline.n
 tmp = path + ".tmp.npz"
 np.savez_compressed(tmp, **out)
 os.replace(tmp, path)
-print(f"{len(cases())} cases from {os.path.dirname(hoprover_env.__file__)} -> {path} "
-      f"({os.path.getsize(path) / 1e3:.0f} kB)")
+print(
+    f"{len(cases())} cases from {os.path.dirname(hoprover_env.__file__)} -> {path} "
+    f"({os.path.getsize(path) / 1e3:.0f} kB)"
+)

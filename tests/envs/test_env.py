@@ -1,4 +1,5 @@
 """HopRoverEnv, HopRoverVectorEnv and the SB3 adapter."""
+
 import math
 import os
 
@@ -62,8 +63,9 @@ def run_single(seed, actions, **kw):
 ENV_KW = dict(episode_time=60.0, control_dt=1.0, target_range=(-0.3, 0.3))
 
 
-@pytest.mark.parametrize("threads, integrator", [(False, "event"), (True, "event"),
-                                                 (False, "euler"), (True, "euler")])
+@pytest.mark.parametrize(
+    "threads, integrator", [(False, "event"), (True, "event"), (False, "euler"), (True, "euler")]
+)
 def test_vector_sub_env_equals_single_env_next_step(threads, integrator):
     n, steps = 4, 150
     kw = dict(ENV_KW, integrator=integrator)
@@ -92,18 +94,18 @@ def test_env_steps_with_the_integrator_it_was_made_with(integrator):
     simulate() integrates for the same torques, start and target."""
     from hoprover_env import simulate
     from hoprover_env.core.params import RoverParams
-    env = HopRoverEnv(integrator=integrator, control_dt=0.5, episode_time=60.0,
-                      target_x=0.3)
+
+    env = HopRoverEnv(integrator=integrator, control_dt=0.5, episode_time=60.0, target_x=0.3)
     env.reset(seed=0)
     p = RoverParams()
     acts = rollout_actions(80, 5)
-    torques = [p.torque_min + 0.5 * (float(a) + 1.0) * (p.torque_max - p.torque_min)
-               for a in acts]
+    torques = [p.torque_min + 0.5 * (float(a) + 1.0) * (p.torque_max - p.torque_min) for a in acts]
     for a in acts:
         *_, te, tr, info = env.step(np.array([a], dtype=np.float32))
         assert not (te or tr)
-    roll = simulate(np.array(torques), t_end=40.0, control_dt=0.5, target_x=0.3,
-                    integrator=integrator)
+    roll = simulate(
+        np.array(torques), t_end=40.0, control_dt=0.5, target_x=0.3, integrator=integrator
+    )
     s = env.unwrapped._s
     final = [roll.x[-1], roll.y[-1], roll.theta[-1], roll.vx[-1], roll.vy[-1], roll.omega[-1]]
     assert np.array_equal(s[:6], final)
@@ -142,7 +144,7 @@ def test_vector_max_episode_steps_and_infos():
     assert tr.all() and not te.any()
     for key in ("is_success", "ttrtp", "state", "target_x", "broken", "n_events"):
         assert info[key].shape == (2,) and info["_" + key].all()
-    obs, r, te, tr, info = envs.step(np.zeros((2, 1)))      # NEXT_STEP: the reset
+    obs, r, te, tr, info = envs.step(np.zeros((2, 1)))  # NEXT_STEP: the reset
     assert (r == 0).all() and not tr.any() and (info["state"] == hoprover_env.core.MODE_F).all()
 
 
@@ -160,8 +162,11 @@ def test_reset_options_and_errors():
     with pytest.raises(ValueError, match="unknown reset option"):
         env.reset(options={"tarrget_x": 1.0})
     # Python's own wording (TorchRL's GymEnv relies on it), then the valid names
-    with pytest.raises(TypeError, match=r"got an unexpected keyword argument 'contol_dt'; "
-                                        r"valid environment arguments: \[.*'control_dt'"):
+    with pytest.raises(
+        TypeError,
+        match=r"got an unexpected keyword argument 'contol_dt'; "
+        r"valid environment arguments: \[.*'control_dt'",
+    ):
         HopRoverEnv(contol_dt=0.1)
     with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
         gym.make_vec("HopRover-v0", num_envs=2, frameskip=1)
@@ -169,8 +174,10 @@ def test_reset_options_and_errors():
         HopRoverEnv(control_dt=-1.0)
 
 
-@pytest.mark.parametrize("bad", [np.array([np.nan], np.float32), np.array([np.inf]),
-                                 [float("-inf")], np.array([[0.1, 0.2]])])
+@pytest.mark.parametrize(
+    "bad",
+    [np.array([np.nan], np.float32), np.array([np.inf]), [float("-inf")], np.array([[0.1, 0.2]])],
+)
 def test_bad_actions_raise(bad):
     env = HopRoverEnv()
     env.reset(seed=0)
@@ -204,9 +211,16 @@ def test_observations_stay_in_bounds_and_types_are_strict():
             obs, _ = env.reset()
 
 
-INFO_TYPES = {"is_success": np.bool_, "ttrtp": np.float64, "state": np.int64,
-              "target_x": np.float64, "broken": np.bool_, "n_events": np.int64,
-              "slope": np.float64, "terrain_seed": np.int64}
+INFO_TYPES = {
+    "is_success": np.bool_,
+    "ttrtp": np.float64,
+    "state": np.int64,
+    "target_x": np.float64,
+    "broken": np.bool_,
+    "n_events": np.int64,
+    "slope": np.float64,
+    "terrain_seed": np.int64,
+}
 
 
 @pytest.mark.parametrize("env_id", ["HopRover-v0", "HopRoverHop-v0", "HopRoverTerrain-v0"])
@@ -254,8 +268,8 @@ def test_idle_at_target_succeeds_at_five_seconds_with_bonus():
 def test_reward_is_the_documented_shaping():
     env = HopRoverEnv(control_dt=1.0, gamma=0.9, time_cost=0.01, dist_weight=2.0)
     env.reset(seed=0, options={"target_x": 0.8})
-    obs, r, te, tr, info = env.step(np.zeros(1, np.float32))       # at rest: Phi unchanged
-    phi = -2.0 * abs(0.05 - 0.8) - 0.5          # out of the band: - band_weight
+    obs, r, te, tr, info = env.step(np.zeros(1, np.float32))  # at rest: Phi unchanged
+    phi = -2.0 * abs(0.05 - 0.8) - 0.5  # out of the band: - band_weight
     assert r == pytest.approx(0.9 * phi - phi - 0.01 * 1.0, rel=1e-12)
 
 
@@ -283,11 +297,11 @@ def test_domain_randomisation_ranges():
             cap = 1.0 if key.startswith(("mu", "rest")) else np.inf
             assert v0 * (1 - r) - 1e-15 <= v <= min(v0 * (1 + r), cap)
         assert p.mu_dynamic <= p.mu_static
-    assert np.std(seen) > 0.05 * base.gravity       # really random
+    assert np.std(seen) > 0.05 * base.gravity  # really random
     env.reset(seed=3)
     p3 = env.params
     env.reset(seed=3)
-    assert env.params == p3                           # from the env's own seeded RNG
+    assert env.params == p3  # from the env's own seeded RNG
     with pytest.raises(ValueError, match="unknown parameter 'friction'"):
         HopRoverEnv(randomize={"friction": 0.1})
     with pytest.raises(ValueError, match=r"relative half-range in \[0, 1\)"):
@@ -315,8 +329,13 @@ def test_rgb_render_and_human_render():
 
 def test_record_video(tmp_path):
     from gymnasium.wrappers import RecordVideo
-    env = RecordVideo(gym.make("HopRover-v0", render_mode="rgb_array", episode_time=20.0),
-                      str(tmp_path), episode_trigger=lambda e: True, disable_logger=True)
+
+    env = RecordVideo(
+        gym.make("HopRover-v0", render_mode="rgb_array", episode_time=20.0),
+        str(tmp_path),
+        episode_trigger=lambda e: True,
+        disable_logger=True,
+    )
     env.reset(seed=0)
     done = False
     while not done:
@@ -336,6 +355,7 @@ def test_rendering_is_off_unless_asked():
 
 def test_sb3_adapter_contract():
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+
     venv = HopRoverSB3VecEnv(3, seed=0, **ENV_KW)
     obs = venv.reset()
     assert obs.shape == (3, 19)
@@ -352,25 +372,30 @@ def test_sb3_adapter_contract():
     assert venv.get_attr("render_mode") == [None] * 3
 
 
-@pytest.mark.slow                # trains PPO
+@pytest.mark.slow  # trains PPO
 def test_sb3_ppo_trains_on_the_adapter(tmp_path):
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+
     venv = VecNormalize(VecMonitor(HopRoverSB3VecEnv(8, seed=0, **ENV_KW)), norm_reward=False)
     model = PPO("MlpPolicy", venv, n_steps=64, batch_size=128, n_epochs=2, seed=0, verbose=0)
     model.learn(3000)
     assert model.num_timesteps >= 3000
-    assert len(model.ep_info_buffer) > 0            # VecMonitor saw whole episodes
+    assert len(model.ep_info_buffer) > 0  # VecMonitor saw whole episodes
     model.save(tmp_path / "m")
     venv.save(str(tmp_path / "vn.pkl"))
     assert (tmp_path / "m.zip").exists()
 
 
 # ---- counter draws (tasks/draws.py): vector == single at any position --------------
-DRAW_TASKS = {"HopRover-v0": {"randomize": {"mass": 0.2, "mu_static": 0.3, "restitution_y": 0.5}},
-              "HopRoverHop-v0": {}, "HopRoverTerrain-v0": {}, "HopRoverMission-v0": {}}
+DRAW_TASKS = {
+    "HopRover-v0": {"randomize": {"mass": 0.2, "mu_static": 0.3, "restitution_y": 0.5}},
+    "HopRoverHop-v0": {},
+    "HopRoverTerrain-v0": {},
+    "HopRoverMission-v0": {},
+}
 
 
 @pytest.mark.parametrize("threads", [False, True])
@@ -381,6 +406,7 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
     seeds at random positions, and an unseeded reset of all: the counter draws depend on
     the rover's seed and episode number only."""
     from hoprover_env.envs.registry import env_class, vector_env_class
+
     n, seed = 7, 11
     kw = dict(DRAW_TASKS[env_id], episode_time=4.0, info_level="full")
     mode = "NextStep" if threads else "SameStep"
@@ -400,7 +426,7 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
     pending = np.zeros(n, bool)
     ended = 0
     for k in range(40):
-        if k == 15:                             # new seeds at random positions
+        if k == 15:  # new seeds at random positions
             mask = rng.random(n) < 0.5
             mask[rng.integers(n)] = True
             seeds = [int(rng.integers(1000)) if rng.random() < 0.7 else None for _ in range(n)]
@@ -408,7 +434,7 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
             for i in np.flatnonzero(mask):
                 check_reset(i, *singles[i].reset(seed=seeds[i]))
                 pending[i] = False
-        if k == 30:                             # the next episode of every rover
+        if k == 30:  # the next episode of every rover
             obs, info = venv.reset()
             for i, e in enumerate(singles):
                 check_reset(i, *e.reset())
@@ -416,7 +442,7 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
         a = rng.uniform(-1, 1, (n,) + venv.single_action_space.shape).astype(np.float32)
         obs, r, te, tr, info = venv.step(a.astype(np.float64))
         for i, e in enumerate(singles):
-            if pending[i]:                      # NextStep: this step was its reset
+            if pending[i]:  # NextStep: this step was its reset
                 o, inf = e.reset()
                 check_reset(i, o, inf)
                 assert r[i] == 0.0
@@ -424,9 +450,12 @@ def test_vector_equals_single_through_resets_and_autoresets(env_id, threads):
                 continue
             o, rr, t1, t2, inf = e.step(a[i])
             assert rr == r[i] and t1 == te[i] and t2 == tr[i]
-            assert np.array_equal(info["contact_forces"][i] if mode == "NextStep" or not
-                                  (t1 or t2) else info["final_info"]["contact_forces"][i],
-                                  inf["contact_forces"])
+            assert np.array_equal(
+                info["contact_forces"][i]
+                if mode == "NextStep" or not (t1 or t2)
+                else info["final_info"]["contact_forces"][i],
+                inf["contact_forces"],
+            )
             if t1 or t2:
                 ended += 1
                 if mode == "SameStep":
@@ -458,16 +487,22 @@ def test_counter_draws_seed_episode_and_one_draw_path():
     assert np.array_equal(obs[0], env.reset(seed=4)[0]) and venv.params[0] == env.params
     unseeded = HopRoverVectorEnv(3)
     a, b = unseeded.reset()[1]["target_x"], HopRoverVectorEnv(3).reset()[1]["target_x"]
-    assert len(set(a)) == 3 and not np.array_equal(a, b)     # fresh OS entropy per call
+    assert len(set(a)) == 3 and not np.array_equal(a, b)  # fresh OS entropy per call
 
 
 def test_counter_randomisation_redraws_painleve_rows():
     """A draw in the Painleve regime is drawn again (the next attempt of that rover's
     counter), row by row; every row is valid and equals the single env's."""
     from hoprover_env.tasks import draws
+
     # a thin, light-inertia rover with high friction: many draws are Painleve
-    base = {"inertia": 2.5e-4, "mu_static": 1.0, "mu_dynamic": 0.3, "half_width": 0.05,
-            "half_height": 0.05}
+    base = {
+        "inertia": 2.5e-4,
+        "mu_static": 1.0,
+        "mu_dynamic": 0.3,
+        "half_width": 0.05,
+        "half_height": 0.05,
+    }
     rel = {"inertia": 0.9, "mu_dynamic": 0.9}
     n = 64
     venv = HopRoverVectorEnv(n, params=base, randomize=rel)
@@ -492,14 +527,20 @@ def test_counter_randomisation_redraws_painleve_rows():
     assert np.array_equal(draws.invalid_rows(P), painleve)
 
 
-@pytest.mark.parametrize("rl_id, base", [("HopRoverRL-v0", "HopRover-v0"),
-                                         ("HopRoverTerrainRL-v0", "HopRoverTerrain-v0"),
-                                         ("HopRoverHopRL-v0", "HopRoverHop-v0")])
+@pytest.mark.parametrize(
+    "rl_id, base",
+    [
+        ("HopRoverRL-v0", "HopRover-v0"),
+        ("HopRoverTerrainRL-v0", "HopRoverTerrain-v0"),
+        ("HopRoverHopRL-v0", "HopRoverHop-v0"),
+    ],
+)
 def test_rl_ids_are_their_task_with_the_rl_settings_as_defaults(rl_id, base):
     """An RL id is its task, scored on the same suite, with the settings RL trains with
     as defaults: the same bits as the task given those settings, and still overridable."""
     from hoprover_env.envs.registry import task
     from hoprover_env.evaluation.suites import suite_of
+
     settings = task(rl_id).kwargs
     assert settings and suite_of(rl_id) == suite_of(base)
     assert task(rl_id).hops == task(base).hops

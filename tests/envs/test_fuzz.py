@@ -9,6 +9,7 @@ nopython code cannot be interrupted, so each case runs in a worker process; a ca
 does not answer within CASE_TIMEOUT seconds kills the worker and fails the test. One
 worker serves all cases (it imports hoprover once); it is restarted after a hang.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,7 +22,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-CASE_TIMEOUT = 60.0      # s: generous for a loaded 2-core CI machine; real hangs are forever
+CASE_TIMEOUT = 60.0  # s: generous for a loaded 2-core CI machine; real hangs are forever
 
 
 # ---------------------------------------------------------------------------------
@@ -69,8 +70,9 @@ def _run_case(case):
         assert np.all(np.isfinite(obs)) and math.isfinite(rew)
         return "step"
     if kind == "vstep":
-        envs = gym.make_vec("HopRover-v0", num_envs=args["num_envs"],
-                            vectorization_mode="vector_entry_point")
+        envs = gym.make_vec(
+            "HopRover-v0", num_envs=args["num_envs"], vectorization_mode="vector_entry_point"
+        )
         envs.reset(seed=0)
         obs, rew, term, trunc, info = envs.step(args["actions"])
         assert np.all(np.isfinite(obs)) and np.all(np.isfinite(rew))
@@ -81,6 +83,7 @@ def _run_case(case):
 
 def _worker(conn):
     import warnings
+
     warnings.simplefilter("ignore")
     while True:
         case = conn.recv()
@@ -139,11 +142,33 @@ def pool():
 # ---------------------------------------------------------------------------------
 # Values: good ones of each kind, and bad ones of every type, sign and magnitude
 # ---------------------------------------------------------------------------------
-BAD_SCALARS = st.sampled_from([
-    float("nan"), float("inf"), -float("inf"), 0.0, -1.0, 1e300, -1e300, 1e-300, 5e-324,
-    True, False, None, "1", "abc", 1 + 2j, [1.0], [], (1.0, 2.0), {"a": 1},
-    np.float32(np.nan), np.bool_(True), np.array([1.0, 2.0]), object(),
-])
+BAD_SCALARS = st.sampled_from(
+    [
+        float("nan"),
+        float("inf"),
+        -float("inf"),
+        0.0,
+        -1.0,
+        1e300,
+        -1e300,
+        1e-300,
+        5e-324,
+        True,
+        False,
+        None,
+        "1",
+        "abc",
+        1 + 2j,
+        [1.0],
+        [],
+        (1.0, 2.0),
+        {"a": 1},
+        np.float32(np.nan),
+        np.bool_(True),
+        np.array([1.0, 2.0]),
+        object(),
+    ]
+)
 
 
 def mixed(good):
@@ -151,8 +176,9 @@ def mixed(good):
 
 
 def positive(lo, hi):
-    return st.one_of(st.floats(lo, hi),
-                     st.sampled_from([np.float32(lo * 2), np.int64(max(1, hi // 2))]))
+    return st.one_of(
+        st.floats(lo, hi), st.sampled_from([np.float32(lo * 2), np.int64(max(1, hi // 2))])
+    )
 
 
 def names_an_argument(message, names):
@@ -164,17 +190,38 @@ def check_outcome(outcome, names, case):
     if status == "ok":
         return
     assert status == "error", f"{outcome[1]}: {outcome[2]} (not ValueError/TypeError) for {case!r}"
-    assert names_an_argument(outcome[2], names), \
+    assert names_an_argument(outcome[2], names), (
         f"message does not name the argument: {outcome[1]}: {outcome[2]} for {case!r}"
+    )
 
 
-PARAM_FIELDS = ["mass", "inertia", "half_width", "half_height", "gravity", "mu_static",
-                "mu_dynamic", "restitution_x", "restitution_y", "v_xmin", "v_ymin",
-                "torque_min", "torque_max", "band_half_width", "dwell_time"]
-GOOD_PARAM = {"mass": positive(0.1, 10.0), "inertia": positive(1e-3, 1e-2),
-              "mu_static": st.floats(0.5, 1.0), "mu_dynamic": st.floats(0.0, 0.5),
-              "restitution_x": st.floats(0.0, 1.0), "restitution_y": st.floats(0.0, 1.0),
-              "torque_max": st.floats(1e-5, 1e-2), "gravity": positive(1e-5, 1e-3)}
+PARAM_FIELDS = [
+    "mass",
+    "inertia",
+    "half_width",
+    "half_height",
+    "gravity",
+    "mu_static",
+    "mu_dynamic",
+    "restitution_x",
+    "restitution_y",
+    "v_xmin",
+    "v_ymin",
+    "torque_min",
+    "torque_max",
+    "band_half_width",
+    "dwell_time",
+]
+GOOD_PARAM = {
+    "mass": positive(0.1, 10.0),
+    "inertia": positive(1e-3, 1e-2),
+    "mu_static": st.floats(0.5, 1.0),
+    "mu_dynamic": st.floats(0.0, 0.5),
+    "restitution_x": st.floats(0.0, 1.0),
+    "restitution_y": st.floats(0.0, 1.0),
+    "torque_max": st.floats(1e-5, 1e-2),
+    "gravity": positive(1e-5, 1e-3),
+}
 
 
 @st.composite
@@ -192,18 +239,36 @@ def test_fuzz_rover_params(pool, kw):
 
 @st.composite
 def simulate_cases(draw):
-    controller = draw(st.one_of(
-        st.lists(mixed(st.floats(-1e-3, 1e-3)), min_size=0, max_size=4),
-        st.sampled_from([np.zeros((2, 2)), np.array(["1e-4"]), np.array([True]),
-                         np.array([1e-4 + 1j]), np.full(3, 1e10), np.full(2, -1e300)]),
-        st.sampled_from(["1e-4", None, 3.0])))
+    controller = draw(
+        st.one_of(
+            st.lists(mixed(st.floats(-1e-3, 1e-3)), min_size=0, max_size=4),
+            st.sampled_from(
+                [
+                    np.zeros((2, 2)),
+                    np.array(["1e-4"]),
+                    np.array([True]),
+                    np.array([1e-4 + 1j]),
+                    np.full(3, 1e10),
+                    np.full(2, -1e300),
+                ]
+            ),
+            st.sampled_from(["1e-4", None, 3.0]),
+        )
+    )
     kw = {"controller": controller}
-    for key, good in (("t_end", positive(0.5, 200.0)), ("control_dt", positive(0.05, 50.0)),
-                      ("target_x", st.floats(-2.0, 2.0)), ("sample_dt", positive(0.1, 10.0)),
-                      ("initial_state", st.sampled_from([(0.0, 0.05, 0.0, 0.0, 0.0, 0.0),
-                                                         (0.0, 0.05, 0.0, 1e-3, 0.0, 0.0)])),
-                      ("params", st.builds(dict)), ("impact_law", st.sampled_from(
-                          ["contest", "dissipative"])), ("rtol", st.floats(1e-12, 1e-8))):
+    for key, good in (
+        ("t_end", positive(0.5, 200.0)),
+        ("control_dt", positive(0.05, 50.0)),
+        ("target_x", st.floats(-2.0, 2.0)),
+        ("sample_dt", positive(0.1, 10.0)),
+        (
+            "initial_state",
+            st.sampled_from([(0.0, 0.05, 0.0, 0.0, 0.0, 0.0), (0.0, 0.05, 0.0, 1e-3, 0.0, 0.0)]),
+        ),
+        ("params", st.builds(dict)),
+        ("impact_law", st.sampled_from(["contest", "dissipative"])),
+        ("rtol", st.floats(1e-12, 1e-8)),
+    ):
         if draw(st.booleans()):
             v = draw(mixed(good))
             if key == "params" and isinstance(v, dict):
@@ -216,8 +281,12 @@ def simulate_cases(draw):
 @given(kw=simulate_cases())
 def test_fuzz_simulate(pool, kw):
     case = ("simulate", dict(kw))
-    names = [k for k in kw if k != "controller"] + ["torque", "schedule", "controller",
-                                                     "t_end / control_dt"]
+    names = [k for k in kw if k != "controller"] + [
+        "torque",
+        "schedule",
+        "controller",
+        "t_end / control_dt",
+    ]
     check_outcome(pool.call(case), names, case)
 
 
@@ -226,10 +295,12 @@ def advance_cases(draw):
     init = {}
     if draw(st.booleans()):
         init["target_x"] = draw(mixed(st.floats(-2.0, 2.0)))
-    return {"init": init, "torque": draw(mixed(st.floats(-1e-3, 1e-3))),
-            "t_stop": draw(mixed(st.floats(0.0, 300.0))),
-            "stop_on": draw(st.sampled_from([None, "liftoff", "impact", "ttrtp", "liftof",
-                                             3, None]))}
+    return {
+        "init": init,
+        "torque": draw(mixed(st.floats(-1e-3, 1e-3))),
+        "t_stop": draw(mixed(st.floats(0.0, 300.0))),
+        "stop_on": draw(st.sampled_from([None, "liftoff", "impact", "ttrtp", "liftof", 3, None])),
+    }
 
 
 @settings(max_examples=2 * settings.default.max_examples)
@@ -239,13 +310,21 @@ def test_fuzz_rover_sim_advance(pool, kw):
     check_outcome(pool.call(case), ["target_x", "torque", "t_stop", "stop_on"], case)
 
 
-ENV_KEYS = {"control_dt": positive(0.1, 5.0), "episode_time": positive(10.0, 600.0),
-            "target_x": st.floats(-1.0, 1.0), "target_range": st.sampled_from([(-1, 1), (0, 0.5)]),
-            "randomize": st.sampled_from([{"mass": 0.1}, {}]), "time_cost": st.floats(0, 0.1),
-            "gamma": st.floats(0.5, 1.0), "action_map": st.sampled_from(["linear", "cubic"]),
-            "action_scale": st.floats(0.1, 1.0), "shaping": st.sampled_from(["landing", "none"]),
-            "params": st.sampled_from([{"mass": 2.0}, {"mass": -1.0}, {"massive": 1.0}]),
-            "integrator": st.sampled_from(["event", "euler", "rk4"]), "nonsense_key": st.just(1)}
+ENV_KEYS = {
+    "control_dt": positive(0.1, 5.0),
+    "episode_time": positive(10.0, 600.0),
+    "target_x": st.floats(-1.0, 1.0),
+    "target_range": st.sampled_from([(-1, 1), (0, 0.5)]),
+    "randomize": st.sampled_from([{"mass": 0.1}, {}]),
+    "time_cost": st.floats(0, 0.1),
+    "gamma": st.floats(0.5, 1.0),
+    "action_map": st.sampled_from(["linear", "cubic"]),
+    "action_scale": st.floats(0.1, 1.0),
+    "shaping": st.sampled_from(["landing", "none"]),
+    "params": st.sampled_from([{"mass": 2.0}, {"mass": -1.0}, {"massive": 1.0}]),
+    "integrator": st.sampled_from(["event", "euler", "rk4"]),
+    "nonsense_key": st.just(1),
+}
 
 
 @st.composite
@@ -262,11 +341,25 @@ def test_fuzz_gym_make(pool, kw):
 
 
 ACTIONS = st.one_of(
-    st.floats(allow_nan=True, allow_infinity=True), BAD_SCALARS,
-    st.sampled_from([np.zeros(1), np.zeros((1, 1)), np.zeros(2), np.array([0.5 + 1j]),
-                     np.array(["0.5"]), np.array([True]), np.zeros(1, np.float32),
-                     np.full(1, 1e300), np.array([np.nan]), np.zeros(1, np.int64), [0.2],
-                     np.zeros(0)]))
+    st.floats(allow_nan=True, allow_infinity=True),
+    BAD_SCALARS,
+    st.sampled_from(
+        [
+            np.zeros(1),
+            np.zeros((1, 1)),
+            np.zeros(2),
+            np.array([0.5 + 1j]),
+            np.array(["0.5"]),
+            np.array([True]),
+            np.zeros(1, np.float32),
+            np.full(1, 1e300),
+            np.array([np.nan]),
+            np.zeros(1, np.int64),
+            [0.2],
+            np.zeros(0),
+        ]
+    ),
+)
 
 
 @settings(max_examples=2 * settings.default.max_examples)
@@ -280,12 +373,27 @@ def test_fuzz_env_step(pool, action):
 def vector_cases(draw):
     n = draw(st.sampled_from([1, 4, 4, True, 0, -2, 2.5, "4"]))
     m = n if isinstance(n, int) and not isinstance(n, bool) and n > 0 else 4
-    actions = draw(st.one_of(
-        st.sampled_from([np.zeros((m, 1)), np.zeros(m), np.zeros((1, m)), np.zeros((m, 2)),
-                         np.zeros((m, 1), np.float32), np.full((m, 1), np.nan),
-                         np.zeros((m, 1), complex), np.zeros((m, 1), bool), [[0.1]] * m,
-                         np.zeros((2, 2)), "0.5", None]),
-        BAD_SCALARS))
+    actions = draw(
+        st.one_of(
+            st.sampled_from(
+                [
+                    np.zeros((m, 1)),
+                    np.zeros(m),
+                    np.zeros((1, m)),
+                    np.zeros((m, 2)),
+                    np.zeros((m, 1), np.float32),
+                    np.full((m, 1), np.nan),
+                    np.zeros((m, 1), complex),
+                    np.zeros((m, 1), bool),
+                    [[0.1]] * m,
+                    np.zeros((2, 2)),
+                    "0.5",
+                    None,
+                ]
+            ),
+            BAD_SCALARS,
+        )
+    )
     return {"num_envs": n, "actions": actions}
 
 

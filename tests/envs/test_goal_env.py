@@ -1,5 +1,6 @@
 """HopRoverGoal-v1: the goal-conditioned torque task, its batch reward against the env's
 own on real transitions, keep_going, and SB3's hindsight replay on it."""
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -11,8 +12,11 @@ def rollout(env, seed, steps, rng):
     obs, _ = env.reset(seed=seed)
     out = []
     for _ in range(steps):
-        a = rng.uniform(-1, 1, 1).astype(np.float32) if rng.random() < 0.3 \
+        a = (
+            rng.uniform(-1, 1, 1).astype(np.float32)
+            if rng.random() < 0.3
             else np.zeros(1, np.float32)
+        )
         nxt, r, term, trunc, info = env.step(a)
         out.append((obs, nxt, r, term, trunc, info))
         obs = nxt
@@ -27,8 +31,9 @@ def test_the_goal_is_the_only_place_the_target_appears():
     b, _ = env.reset(seed=0, options={"target_x": -0.4})
     np.testing.assert_array_equal(a["observation"], b["observation"])
     np.testing.assert_array_equal(a["achieved_goal"], b["achieved_goal"])
-    assert a["desired_goal"][0] == pytest.approx(0.7) and b["desired_goal"][0] == \
-        pytest.approx(-0.4)
+    assert a["desired_goal"][0] == pytest.approx(0.7) and b["desired_goal"][0] == pytest.approx(
+        -0.4
+    )
     assert env.observation_space.contains(a)
 
 
@@ -44,8 +49,9 @@ def test_compute_reward_terminated_truncated_equal_the_env_on_real_transitions()
     ag = np.stack([s[1]["achieved_goal"] for s in steps])
     dg = np.stack([s[1]["desired_goal"] for s in steps])
     infos = np.array([s[5] for s in steps])
-    np.testing.assert_array_equal(goal.compute_reward(ag, dg, infos),
-                                  np.array([s[2] for s in steps]))
+    np.testing.assert_array_equal(
+        goal.compute_reward(ag, dg, infos), np.array([s[2] for s in steps])
+    )
     # the goal-free part is the v1 reward's goal-free terms: relabelling moves only the rest
     far = goal.compute_reward(ag, dg + 3.0, infos)
     assert (far != goal.compute_reward(ag, dg, infos)).any()
@@ -56,14 +62,25 @@ def test_success_at_rest_in_the_band_and_keep_going():
     stop = gym.make("HopRoverGoal-v1")
     go = gym.make("HopRoverGoal-v1", keep_going=True)
     for env in (stop, go):
-        obs, _ = env.reset(seed=0, options={"target_x": 0.06})     # a corner in the band
-        assert env.unwrapped.compute_reward(obs["achieved_goal"], obs["desired_goal"], {
-            "previous_achieved_goal": 0.0, "goal_free_reward": 0.0, "broken": False,
-            "at_rest": True, "goal_radius": 0.1}) > 5.0
+        obs, _ = env.reset(seed=0, options={"target_x": 0.06})  # a corner in the band
+        assert (
+            env.unwrapped.compute_reward(
+                obs["achieved_goal"],
+                obs["desired_goal"],
+                {
+                    "previous_achieved_goal": 0.0,
+                    "goal_free_reward": 0.0,
+                    "broken": False,
+                    "at_rest": True,
+                    "goal_radius": 0.1,
+                },
+            )
+            > 5.0
+        )
     _, r, term, _, info = stop.step(np.zeros(1, np.float32))
     assert term and info["is_goal_success"] and r > 5.0
     total = 0.0
-    for _ in range(10):                       # past the judge's 5 s: the episode goes on
+    for _ in range(10):  # past the judge's 5 s: the episode goes on
         _, r, term, trunc, info = go.step(np.zeros(1, np.float32))
         assert not term and not trunc and info["is_goal_success"]
         total += r
@@ -73,23 +90,33 @@ def test_success_at_rest_in_the_band_and_keep_going():
         gym.make("HopRoverGoal-v1", band_weight=0.5)
 
 
-@pytest.mark.slow                # trains SAC with hindsight replay
+@pytest.mark.slow  # trains SAC with hindsight replay
 @pytest.mark.parametrize("n_envs", [1, 2])
 def test_sb3_her_trains_on_the_goal_env(n_envs):
     torch = pytest.importorskip("torch")
     from stable_baselines3 import SAC, HerReplayBuffer
     from stable_baselines3.common.env_util import make_vec_env
+
     torch.set_num_threads(1)
-    env = make_vec_env("HopRoverGoal-v1", n_envs=n_envs, seed=0,
-                       env_kwargs={"keep_going": True})
-    model = SAC("MultiInputPolicy", env, replay_buffer_class=HerReplayBuffer,
-                replay_buffer_kwargs={"n_sampled_goal": 4, "goal_selection_strategy": "future",
-                                      "copy_info_dict": True},
-                learning_starts=300, batch_size=64, gamma=0.995, seed=0,
-                policy_kwargs={"net_arch": [32, 32]})
+    env = make_vec_env("HopRoverGoal-v1", n_envs=n_envs, seed=0, env_kwargs={"keep_going": True})
+    model = SAC(
+        "MultiInputPolicy",
+        env,
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs={
+            "n_sampled_goal": 4,
+            "goal_selection_strategy": "future",
+            "copy_info_dict": True,
+        },
+        learning_starts=300,
+        batch_size=64,
+        gamma=0.995,
+        seed=0,
+        policy_kwargs={"net_arch": [32, 32]},
+    )
     model.learn(1500)
     assert model.num_timesteps >= 1500
     batch = model.replay_buffer.sample(256, env=None)
     rewards = batch.rewards.numpy().ravel()
     assert np.isfinite(rewards).all()
-    assert len(np.unique(rewards)) > 10          # relabelled goals change the reward
+    assert len(np.unique(rewards)) > 10  # relabelled goals change the reward

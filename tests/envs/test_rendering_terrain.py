@@ -1,5 +1,6 @@
 """Frames and figures draw the inclined ground, the target on it, and the
 judge's contact point beside the c.m."""
+
 import math
 
 import gymnasium as gym
@@ -12,11 +13,11 @@ from tests.helpers import launch_then_hold
 
 pytest.importorskip("pygame")
 
-GROUND_LINE = (90, 80, 60)       # hoprover_env/envs/rendering.py's colours
+GROUND_LINE = (90, 80, 60)  # hoprover_env/envs/rendering.py's colours
 BAND = (120, 200, 120)
 TARGET_MARK = (40, 120, 40)
 CORNER_A, CORNER_B = (20, 20, 20), (255, 255, 255)
-TEXT_ROWS = 70                   # the overlay text (and its box) lies above this row
+TEXT_ROWS = 70  # the overlay text (and its box) lies above this row
 
 
 def _pixels(frame, colour, below=TEXT_ROWS):
@@ -38,6 +39,7 @@ def _ground_fit(frame):
 
 def _draw(slope, target=0.6, state=None, letter="F"):
     from hoprover_env.envs.rendering import Renderer
+
     params = RoverParams(slope=slope)
     state = (0.0, params.half_height, 0.0) if state is None else state
     return Renderer().draw(state, params, target, [tuple(state[:2])], 3.0, letter, 0.0)
@@ -55,9 +57,12 @@ def test_frame_ground_band_target_and_rover_follow_the_slope(slope):
     rows, cols = _pixels(frame, BAND)
     assert rows.size > 20
     line_rows, line_cols = _pixels(frame, GROUND_LINE)
-    across = [rows[cols == c].min() < line_rows[line_cols == c].min()
-              and rows[cols == c].max() > line_rows[line_cols == c].max()
-              for c in np.unique(cols) if np.any(line_cols == c)]
+    across = [
+        rows[cols == c].min() < line_rows[line_cols == c].min()
+        and rows[cols == c].max() > line_rows[line_cols == c].max()
+        for c in np.unique(cols)
+        if np.any(line_cols == c)
+    ]
     assert len(across) > 10 and np.mean(across) > 0.8
     assert np.polyfit(cols, rows, 1)[0] == pytest.approx(-math.tan(slope), abs=0.1)
     # the target mark stands along the ground's normal: d col / d row = tan(slope)
@@ -92,8 +97,9 @@ def test_env_frames_draw_the_slope_of_their_params():
     env.close()
     for frame in (frames[0], frames[-1]):
         assert _ground_fit(frame)[0] == pytest.approx(-math.tan(0.2), abs=0.01)
-    venv = hoprover_env.vector_env_class("HopRover-v0")(2, render_mode="rgb_array",
-                                                        params={"slope": -0.25})
+    venv = hoprover_env.vector_env_class("HopRover-v0")(
+        2, render_mode="rgb_array", params={"slope": -0.25}
+    )
     venv.reset(seed=0)
     for frame in venv.render():
         assert _ground_fit(frame)[0] == pytest.approx(math.tan(0.25), abs=0.01)
@@ -103,6 +109,7 @@ def test_env_frames_draw_the_slope_of_their_params():
 # ------------------------------------------------------------------ the figures
 def _recording(roll, policy="test"):
     from hoprover_env.evaluation.replay import Recording
+
     return Recording(policy, roll.target_x, roll.ttrtp, roll.broken, 0.5, roll)
 
 
@@ -118,8 +125,15 @@ def test_position_figure_shows_the_contact_point_in_the_band_beside_the_cm():
     import matplotlib.pyplot as plt
 
     from hoprover_env.evaluation.plots import position_figure
-    roll = simulate([0.0], t_end=8.0, control_dt=0.5, target_x=0.09,
-                    params=RoverParams(slope=0.2), sample_dt=0.25)
+
+    roll = simulate(
+        [0.0],
+        t_end=8.0,
+        control_dt=0.5,
+        target_x=0.09,
+        params=RoverParams(slope=0.2),
+        sample_dt=0.25,
+    )
     assert roll.ttrtp == pytest.approx(5.0)
     fig = position_figure(_recording(roll))
     try:
@@ -143,8 +157,15 @@ def test_contact_point_follows_the_judge_through_a_hop():
     # launch, fly, land, slide: the plotted contact point is in the band exactly when the
     # kernel's judge says so (its band_in / band_out events), and absent in flight
     from hoprover_env.evaluation.plots import contact_point_x
-    roll = simulate(launch_then_hold(2e-4), t_end=250.0, control_dt=0.5, target_x=0.35,
-                    params=RoverParams(slope=0.1), sample_dt=0.5)
+
+    roll = simulate(
+        launch_then_hold(2e-4),
+        t_end=250.0,
+        control_dt=0.5,
+        target_x=0.35,
+        params=RoverParams(slope=0.1),
+        sample_dt=0.5,
+    )
     letters = set(roll.state)
     assert {"A", "C"} <= letters and letters & {"F", "G"}, letters
     xc = contact_point_x(roll)
@@ -152,25 +173,33 @@ def test_contact_point_follows_the_judge_through_a_hop():
     assert np.all(np.isnan(xc[flight])) and np.all(np.isfinite(xc[~flight]))
     on_a = np.isin(roll.state, ("B", "C"))
     np.testing.assert_array_equal(xc[on_a], roll.corner("A")[0][on_a])
-    band = [(t, kind == "band_in") for t, kind, *_ in roll.events
-            if kind in ("band_in", "band_out")]
+    band = [
+        (t, kind == "band_in") for t, kind, *_ in roll.events if kind in ("band_in", "band_out")
+    ]
     assert any(inside for _, inside in band), "the run reaches the band"
     in_band = np.abs(xc - roll.target_x) <= roll.params.band_half_width
     checked = 0
     for i, t in enumerate(roll.t):
         if any(abs(t - te) < 1e-6 for te, _ in band):
-            continue                      # a sample on a crossing: either side is right
+            continue  # a sample on a crossing: either side is right
         judge = ([inside for te, inside in band if te < t] or [False])[-1]
         assert bool(in_band[i]) == judge, (t, roll.state[i], xc[i])
         checked += 1
     assert checked > 0.9 * len(roll.t)
 
 
-@pytest.mark.slow                # draws nine matplotlib figures
+@pytest.mark.slow  # draws nine matplotlib figures
 def test_nine_figures_on_a_slope(tmp_path):
     from hoprover_env.evaluation.plots import nine_figures
-    roll = simulate(launch_then_hold(2e-4), t_end=200.0, control_dt=0.5, target_x=0.35,
-                    params=RoverParams(slope=-0.2), sample_dt=0.5)
+
+    roll = simulate(
+        launch_then_hold(2e-4),
+        t_end=200.0,
+        control_dt=0.5,
+        target_x=0.35,
+        params=RoverParams(slope=-0.2),
+        sample_dt=0.5,
+    )
     paths = nine_figures(_recording(roll), str(tmp_path))
     assert [p.rsplit("/", 1)[1] for p in paths][:1] == ["1_position.png"] and len(paths) == 9
 
@@ -180,8 +209,10 @@ def test_replay_meets_the_episodes_bumps():
     # flies the episode the env judged (not one with fresh bumps)
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.replay import record_episode
-    rec = record_episode(load_policy("scripted"), -0.5,
-                         env_kwargs={"params": {"slope": 0.1, "roughness": 0.1}})
+
+    rec = record_episode(
+        load_policy("scripted"), -0.5, env_kwargs={"params": {"slope": 0.1, "roughness": 0.1}}
+    )
     assert rec.ttrtp is not None and rec.rollout.seed is not None
     assert len(rec.rollout.impact_energy_ratios) > 0
     assert rec.rollout.ttrtp == pytest.approx(rec.ttrtp, abs=1e-6)
@@ -194,8 +225,8 @@ def test_record_episode_flies_the_ground_it_is_given():
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.plots import contact_point_x
     from hoprover_env.evaluation.replay import record_episode
-    rec = record_episode(load_policy("scripted"), 0.6,
-                         terrain={"slope": -0.15, "roughness": 0.05})
+
+    rec = record_episode(load_policy("scripted"), 0.6, terrain={"slope": -0.15, "roughness": 0.05})
     roll = rec.rollout
     assert (roll.params.slope, roll.params.roughness) == (-0.15, 0.05)
     assert rec.ttrtp is not None and roll.seed is not None

@@ -4,6 +4,7 @@ ParallelEnv; Tianshou's PPO with its collectors on DummyVectorEnv and SubprocVec
 skrl's wrap_env on the native vector env and its PPO. The PPO runs are the examples'
 own code at a tiny budget. Skipped, with the reason, where a library is not installed
 (pip install -e ".[rl]"); CI installs them."""
+
 from __future__ import annotations
 
 import sys
@@ -24,8 +25,14 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))
 WHY = "pip install -e '.[rl]'"
 TASKS = ["HopRover-v0", "HopRoverHop-v0"]
-INFO_DTYPES = {"is_success": torch.bool, "ttrtp": torch.float64, "state": torch.int64,
-               "broken": torch.bool, "target_x": torch.float64, "n_events": torch.int64}
+INFO_DTYPES = {
+    "is_success": torch.bool,
+    "ttrtp": torch.float64,
+    "state": torch.int64,
+    "broken": torch.bool,
+    "target_x": torch.float64,
+    "n_events": torch.int64,
+}
 
 
 def changed(before: dict, module: torch.nn.Module) -> bool:
@@ -44,6 +51,7 @@ def spy_on_build(monkeypatch, example, pick) -> dict:
         out = build(*args, **kwargs)
         seen["before"] = snapshot(pick(out))
         return out
+
     monkeypatch.setattr(example, "build", spy)
     return seen
 
@@ -59,6 +67,7 @@ def first_model(monkeypatch, example, pick, **train_kwargs):
 
     def spy(*args, **kwargs):
         raise Built(pick(build(*args, **kwargs)))
+
     monkeypatch.setattr(example, "build", spy)
     with pytest.raises(Built) as built:
         example.train(**train_kwargs)
@@ -66,8 +75,9 @@ def first_model(monkeypatch, example, pick, **train_kwargs):
 
 
 def start_states(env_kwargs, n: int = 256) -> torch.Tensor:
-    venv = gym.make_vec("HopRoverHop-v0", num_envs=n, autoreset_mode="SameStep",
-                        threads=False, **env_kwargs)
+    venv = gym.make_vec(
+        "HopRoverHop-v0", num_envs=n, autoreset_mode="SameStep", threads=False, **env_kwargs
+    )
     obs = torch.as_tensor(venv.reset(seed=123)[0])
     venv.close()
     return obs
@@ -90,7 +100,8 @@ def torchrl():
 def test_torchrl_gym_env(torchrl, env_id):
     from torchrl.envs import GymEnv
     from torchrl.envs.utils import check_env_specs
-    env = GymEnv(env_id)               # TorchRL passes frameskip=1 and drops it on our TypeError
+
+    env = GymEnv(env_id)  # TorchRL passes frameskip=1 and drops it on our TypeError
     check_env_specs(env, seed=0)
     # every info value becomes a tensor of the dtype of the first step's value
     env = env.auto_register_info_dict()
@@ -108,6 +119,7 @@ def test_torchrl_gym_env(torchrl, env_id):
 def test_torchrl_num_envs_path(torchrl):
     from torchrl.envs import GymEnv
     from torchrl.envs.utils import check_env_specs
+
     # gymnasium's AsyncVectorEnv of two envs in spawned processes: "module:id" imports
     # hoprover_env there, which registers the ids
     env = GymEnv("hoprover_env:HopRover-v0", num_envs=2)
@@ -116,7 +128,7 @@ def test_torchrl_num_envs_path(torchrl):
         check_env_specs(env, seed=0)
         td = env.rollout(5, break_when_any_done=False)
         assert td.shape == (2, 5) and td["next", "ttrtp"].dtype == torch.float64
-        assert (td["next", "ttrtp"] == -1.0).all()      # 2.5 s: no TTRTP yet
+        assert (td["next", "ttrtp"] == -1.0).all()  # 2.5 s: no TTRTP yet
     finally:
         env.close()
 
@@ -128,8 +140,9 @@ def test_torchrl_wraps_the_native_vector_env_in_same_step_mode(torchrl):
     target, so that every episode starts alike whatever seeds TorchRL's resets use)."""
     from torchrl.envs import GymWrapper
     from torchrl.envs.utils import check_env_specs
+
     kw = {"num_envs": 4, "autoreset_mode": "SameStep", "control_dt": 2.0, "target_x": 0.4}
-    with pytest.raises(RuntimeError, match="SAME_STEP"):      # gymnasium's default mode
+    with pytest.raises(RuntimeError, match="SAME_STEP"):  # gymnasium's default mode
         GymWrapper(gym.make_vec("HopRoverHop-v0", num_envs=2))
     check_env_specs(GymWrapper(gym.make_vec("HopRoverHop-v0", **kw)), seed=0)
     # a fresh wrapper: after check_env_specs, TorchRL 0.14's first rollout starts from a
@@ -147,7 +160,7 @@ def test_torchrl_wraps_the_native_vector_env_in_same_step_mode(torchrl):
     assert np.array_equal(obs, td["observation"][:, 0].numpy())
     for k in range(12):
         if k:
-            assert np.array_equal(obs, td["observation"][:, k].numpy())   # reset obs included
+            assert np.array_equal(obs, td["observation"][:, k].numpy())  # reset obs included
         obs, _, term, trunc, info = native.step(td["action"][:, k].numpy().astype(np.float64))
         for i in range(4):
             if term[i] or trunc[i]:
@@ -164,6 +177,7 @@ def test_torchrl_wraps_the_native_vector_env_in_same_step_mode(torchrl):
 def test_torchrl_serial_and_parallel_env(torchrl):
     from torchrl.envs import EnvCreator, GymEnv, ParallelEnv, SerialEnv
     from torchrl.envs.utils import check_env_specs
+
     make = EnvCreator(lambda: GymEnv("hoprover_env:HopRover-v0"))
     for cls in (SerialEnv, ParallelEnv):
         env = cls(2, make)
@@ -185,10 +199,16 @@ def test_torchrl_ppo_example_starts_hopping_both_ways(torchrl, seed):
     Tianshou and skrl gave 100 %."""
     import torchrl_ppo
     from tensordict import TensorDict
+
     torch.manual_seed(seed)
     actor, _ = torchrl_ppo.build(torchrl_ppo.make_env(2, seed))
-    venv = gym.make_vec("HopRoverHop-v0", num_envs=256, autoreset_mode="SameStep",
-                        threads=False, **torchrl_ppo.ENV_KWARGS)
+    venv = gym.make_vec(
+        "HopRoverHop-v0",
+        num_envs=256,
+        autoreset_mode="SameStep",
+        threads=False,
+        **torchrl_ppo.ENV_KWARGS,
+    )
     obs = torch.as_tensor(venv.reset(seed=123)[0])
     with torch.no_grad():
         td = actor.module[0](TensorDict({"observation": obs}, [256]))
@@ -199,6 +219,7 @@ def test_torchrl_ppo_example_starts_hopping_both_ways(torchrl, seed):
 
 def test_torchrl_ppo_example_trains(torchrl, monkeypatch):
     import torchrl_ppo
+
     seen = spy_on_build(monkeypatch, torchrl_ppo, lambda out: out[0])
     lines = []
     actor = torchrl_ppo.train(256, num_envs=4, rollout=16, minibatch=32, log=lines.append)
@@ -213,13 +234,14 @@ def test_torchrl_ppo_example_learns_as_the_other_libraries_do(torchrl):
     # mean's output layer starts as SB3's (before that, 50-56 % throughout)
     import torch
     import torchrl_ppo
+
     lines = []
     before = torch.get_num_threads()
-    torch.set_num_threads(1)                 # as the example's main does
+    torch.set_num_threads(1)  # as the example's main does
     try:
         actor = torchrl_ppo.train(81_920, seed=0, log=lines.append)
     finally:
-        torch.set_num_threads(before)        # the rest of the suite keeps its own setting
+        torch.set_num_threads(before)  # the rest of the suite keeps its own setting
     last = [float(line.split()[-1]) for line in lines[-5:]]
     assert min(last) >= 0.9, lines[-5:]
     assert torchrl_ppo.judge(actor, 40)["success_rate"] >= 0.95
@@ -230,14 +252,16 @@ def test_torchrl_ppo_example_learns_as_the_other_libraries_do(torchrl):
 def test_tianshou_ppo_trains_with_its_collectors(venv, monkeypatch):
     tianshou = pytest.importorskip("tianshou", reason=f"Tianshou is not installed: {WHY}")
     import tianshou_ppo
+
     venv_class = getattr(tianshou.env, venv)
     seen = spy_on_build(monkeypatch, tianshou_ppo, lambda out: out[1])
     # a few hundred steps; Tianshou checks the whole buffer, infos included, for missing
     # values after each collection (a None or NaN TTRTP stopped it at step 0)
-    actor, buffer = tianshou_ppo.train(320, num_envs=2, collect=64, minibatch=64,
-                                       venv_class=venv_class, progress=False)
+    actor, buffer = tianshou_ppo.train(
+        320, num_envs=2, collect=64, minibatch=64, venv_class=venv_class, progress=False
+    )
     assert changed(seen["before"], actor)
-    info = buffer.info              # the last collection (on-policy: emptied, not erased)
+    info = buffer.info  # the last collection (on-policy: emptied, not erased)
     assert info["ttrtp"].shape == (64,) and not np.isnan(info["ttrtp"]).any()
     for key, dtype in INFO_DTYPES.items():
         assert str(info[key].dtype) == str(dtype).replace("torch.", ""), key
@@ -250,8 +274,10 @@ def test_tianshou_ppo_example_starts_hopping_both_ways(monkeypatch, seed):
     policy's mean is about 0 in every start state, whatever the seed draws."""
     pytest.importorskip("tianshou", reason=f"Tianshou is not installed: {WHY}")
     import tianshou_ppo
-    actor = first_model(monkeypatch, tianshou_ppo, lambda out: out[1], steps=200_000,
-                        seed=seed, progress=False)
+
+    actor = first_model(
+        monkeypatch, tianshou_ppo, lambda out: out[1], steps=200_000, seed=seed, progress=False
+    )
     with torch.no_grad():
         (loc, scale), _ = actor(start_states(tianshou_ppo.ENV_KWARGS).numpy())
     assert_starts_hopping_both_ways(loc, scale)
@@ -263,6 +289,7 @@ def test_skrl_wraps_the_native_vector_env(env_id):
     pytest.importorskip("skrl", reason=f"skrl is not installed: {WHY}")
     from skrl.envs.wrappers.torch import wrap_env
     from skrl.envs.wrappers.torch.gymnasium_envs import GymnasiumWrapper
+
     env = wrap_env(gym.make_vec(env_id, num_envs=3, autoreset_mode="SameStep"), verbose=False)
     assert isinstance(env, GymnasiumWrapper) and env.num_envs == 3
     assert env.observation_space.shape == (19,) and env.action_space.shape == (1,)
@@ -277,6 +304,7 @@ def test_skrl_wraps_the_native_vector_env(env_id):
 def test_skrl_ppo_example_trains(monkeypatch):
     pytest.importorskip("skrl", reason=f"skrl is not installed: {WHY}")
     import skrl_ppo
+
     seen = spy_on_build(monkeypatch, skrl_ppo, lambda out: out["policy"])
     policy = skrl_ppo.train(256, num_envs=4, rollout=16, minibatch=32, progress=False)
     assert changed(seen["before"], policy)
@@ -290,8 +318,10 @@ def test_skrl_ppo_example_starts_hopping_both_ways(monkeypatch, seed):
     policy's mean is about 0 in every start state, whatever the seed draws."""
     pytest.importorskip("skrl", reason=f"skrl is not installed: {WHY}")
     import skrl_ppo
-    policy = first_model(monkeypatch, skrl_ppo, lambda out: out["policy"], steps=200_000,
-                         seed=seed, progress=False)
+
+    policy = first_model(
+        monkeypatch, skrl_ppo, lambda out: out["policy"], steps=200_000, seed=seed, progress=False
+    )
     with torch.no_grad():
         loc = policy.net(start_states(skrl_ppo.ENV_KWARGS))
     assert_starts_hopping_both_ways(loc, policy.log_std.exp().expand_as(loc))

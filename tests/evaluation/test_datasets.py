@@ -1,6 +1,7 @@
 """Offline-RL datasets (hoprover_env.evaluation.datasets): built by the command into an empty
 directory, loaded with Minari, every episode replayed in the env bit for bit from its
 recorded seed (for any number of sub-envs), the reference scores, and bad input."""
+
 import os
 
 import numpy as np
@@ -34,18 +35,41 @@ def _replay_all(ds):
         for k, a in enumerate(ep.actions):
             obs, r, te, tr, _ = env.step(a)
             assert np.array_equal(obs, ep.observations[k + 1]), (ep.id, k)
-            assert r == ep.rewards[k] and te == ep.terminations[k] and \
-                tr == ep.truncations[k], (ep.id, k)
+            assert r == ep.rewards[k] and te == ep.terminations[k] and tr == ep.truncations[k], (
+                ep.id,
+                k,
+            )
     return len(ids)
 
 
-@pytest.mark.parametrize("task, level, num_envs", [
-    ("HopRover-v0", "expert", 7), ("HopRover-v0", "random", 1), ("HopRover-v0", "mixed", 4),
-    ("HopRoverHop-v0", "expert", 3), ("HopRoverTerrain-v0", "expert", 5)])
-def test_a_built_dataset_loads_and_every_episode_replays_bit_for_bit(root, task, level,
-                                                                      num_envs):
-    assert datasets.main(["--task", task, "--level", level, "--steps", "400", "--out",
-                          str(root), "--num-envs", str(num_envs)]) == 0
+@pytest.mark.parametrize(
+    "task, level, num_envs",
+    [
+        ("HopRover-v0", "expert", 7),
+        ("HopRover-v0", "random", 1),
+        ("HopRover-v0", "mixed", 4),
+        ("HopRoverHop-v0", "expert", 3),
+        ("HopRoverTerrain-v0", "expert", 5),
+    ],
+)
+def test_a_built_dataset_loads_and_every_episode_replays_bit_for_bit(root, task, level, num_envs):
+    assert (
+        datasets.main(
+            [
+                "--task",
+                task,
+                "--level",
+                level,
+                "--steps",
+                "400",
+                "--out",
+                str(root),
+                "--num-envs",
+                str(num_envs),
+            ]
+        )
+        == 0
+    )
     ds = minari.load_dataset(datasets.dataset_id(task, level))
     assert ds.total_steps >= 400
     assert _replay_all(ds) == ds.total_episodes
@@ -70,18 +94,24 @@ def test_reference_scores_normalise_random_and_expert(root):
 
 
 def test_bad_input_is_refused_by_name_and_nothing_is_overwritten(root, capsys):
-    assert datasets.main(["--task", "HopRover-v9", "--level", "expert", "--out",
-                          str(root)]) == 2
+    assert datasets.main(["--task", "HopRover-v9", "--level", "expert", "--out", str(root)]) == 2
     assert "unknown task 'HopRover-v9'" in capsys.readouterr().err
-    assert datasets.main(["--task", "HopRover-v0", "--level", "pro", "--out",
-                          str(root)]) == 2
+    assert datasets.main(["--task", "HopRover-v0", "--level", "pro", "--out", str(root)]) == 2
     assert "unknown level 'pro'" in capsys.readouterr().err
-    assert datasets.main(["--task", "HopRover-v0", "--level", "random", "--steps", "200",
-                          "--out", str(root)]) == 0
+    assert (
+        datasets.main(
+            ["--task", "HopRover-v0", "--level", "random", "--steps", "200", "--out", str(root)]
+        )
+        == 0
+    )
     where = root / "hoprover" / "HopRover-v0" / "random-v0"
     before = {p: p.stat().st_mtime_ns for p in where.rglob("*") if p.is_file()}
-    assert datasets.main(["--task", "HopRover-v0", "--level", "random", "--steps", "200",
-                          "--out", str(root)]) == 2
+    assert (
+        datasets.main(
+            ["--task", "HopRover-v0", "--level", "random", "--steps", "200", "--out", str(root)]
+        )
+        == 2
+    )
     assert "holds hoprover/HopRover-v0/random-v0 already" in capsys.readouterr().err
     assert {p: p.stat().st_mtime_ns for p in where.rglob("*") if p.is_file()} == before
     assert os.listdir(root) == ["hoprover"]

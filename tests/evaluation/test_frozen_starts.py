@@ -1,4 +1,5 @@
 """Frozen episode starts: a suite's start conditions as reset options, and their checks."""
+
 import json
 
 import numpy as np
@@ -15,12 +16,11 @@ GROUND = ("mu_dynamic", "mu_static", "restitution_x", "restitution_y")
 def test_the_terrain_suite_freezes_the_missions_starts():
     suite = suites.load(MISSION)
     assert suite.meta["format"] == suites.FORMAT and suite.start_ids() == [MISSION]
-    assert sorted(suite.meta["start"][MISSION]) == sorted(GROUND + ("actuator_draw",
-                                                                    "sensor_seed"))
+    assert sorted(suite.meta["start"][MISSION]) == sorted(GROUND + ("actuator_draw", "sensor_seed"))
     cond = suite.conditions(MISSION)
     assert cond["sensor_seed"].dtype == np.int64 and cond["sensor_seed"].max() > 2**53
     assert np.all(np.abs(cond["actuator_draw"]) <= 1.0)
-    for key, rel in mission.MISSION_GROUND.items():    # within the ranges drawn from
+    for key, rel in mission.MISSION_GROUND.items():  # within the ranges drawn from
         base = getattr(suite[0].params, key)
         assert np.all(np.abs(cond[key] / base - 1.0) <= rel + 1e-12), key
     # the ids that draw nothing beyond the episode's columns have no conditions
@@ -63,23 +63,29 @@ def test_start_options_replace_the_draws_only():
     _, info = b.reset(seed=4)
     assert a._m[mission.M_ACT_SCALE] == 1.0 - 0.05 * 0.5
     assert a.params.mu_static == 1.0 and a.params.restitution_x == b.params.restitution_x
-    assert np.array_equal(a._m[:2], b._m[:2])               # the sensor seed: drawn
+    assert np.array_equal(a._m[:2], b._m[:2])  # the sensor seed: drawn
     assert a.reset()[1]["target_x"] == b.reset()[1]["target_x"]
     assert np.array_equal(a._m, b._m) and a.params == b.params
 
 
-@pytest.mark.parametrize("options, words", [
-    ({"sensor_seed": -1}, r"options\['sensor_seed'\] must be an integer in \[0, 2\*\*63\)"),
-    ({"sensor_seed": 2**63}, r"options\['sensor_seed'\]"),
-    ({"sensor_seed": 1.5}, r"options\['sensor_seed'\] must be integers"),
-    ({"actuator_draw": 1.5}, r"options\['actuator_draw'\] must be in \[-1, 1\]"),
-    ({"actuator_draw": np.nan}, r"options\['actuator_draw'\] must be in \[-1, 1\]"),
-    ({"mu_static": np.inf}, r"options\['mu_static'\] must be finite"),
-    ({"mass": "heavy"}, r"options\['mass'\] must be real numbers"),
-    ({"mu_static": 0.1, "mu_dynamic": 0.3}, "mu_dynamic"),       # RoverParams' own check
-    ({"actuator_drew": 0.1}, r"unknown reset option\(s\) \['actuator_drew'\]; valid: .*"
-                             r"'actuator_draw'"),
-])
+@pytest.mark.parametrize(
+    "options, words",
+    [
+        ({"sensor_seed": -1}, r"options\['sensor_seed'\] must be an integer in \[0, 2\*\*63\)"),
+        ({"sensor_seed": 2**63}, r"options\['sensor_seed'\]"),
+        ({"sensor_seed": 1.5}, r"options\['sensor_seed'\] must be integers"),
+        ({"actuator_draw": 1.5}, r"options\['actuator_draw'\] must be in \[-1, 1\]"),
+        ({"actuator_draw": np.nan}, r"options\['actuator_draw'\] must be in \[-1, 1\]"),
+        ({"mu_static": np.inf}, r"options\['mu_static'\] must be finite"),
+        ({"mass": "heavy"}, r"options\['mass'\] must be real numbers"),
+        ({"mu_static": 0.1, "mu_dynamic": 0.3}, "mu_dynamic"),  # RoverParams' own check
+        (
+            {"actuator_drew": 0.1},
+            r"unknown reset option\(s\) \['actuator_drew'\]; valid: .*"
+            r"'actuator_draw'",
+        ),
+    ],
+)
 def test_bad_start_options_are_refused_by_name(options, words):
     with pytest.raises(ValueError, match=words):
         env_class(MISSION)().reset(seed=0, options=options)
@@ -91,27 +97,32 @@ def test_start_options_are_the_tasks_own():
     with pytest.raises(ValueError, match=r"unknown reset option\(s\) \['sensor_seed'\]"):
         env_class("HopRoverTerrain-v0")().reset(seed=0, options={"sensor_seed": 3})
     venv = vector_env_class(MISSION)(2)
-    with pytest.raises(ValueError, match=r"options\['sensor_seed'\] must have shape "
-                                         r"\(\) or \(2,\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"options\['sensor_seed'\] must have shape "
+        r"\(\) or \(2,\)",
+    ):
         venv.reset(seed=0, options={"sensor_seed": np.arange(3)})
-    venv.reset(seed=0, options={"sensor_seed": np.array([5, 2**62]),
-                                "actuator_draw": [0.25, -1.0]})
+    venv.reset(seed=0, options={"sensor_seed": np.array([5, 2**62]), "actuator_draw": [0.25, -1.0]})
     assert venv.M[1, mission.M_SEED_HI] == 2**30 and venv.M[0, mission.M_SEED_LO] == 5
     assert list(venv.M[:, mission.M_ACT_SCALE]) == [1.0 + 0.05 * 0.25, 1.0 - 0.05]
 
 
 def test_a_suite_run_refuses_to_redraw_the_frozen_ground():
     from hoprover_env.agents.policies import load_policy
+
     suite = suites.load(MISSION)
-    head = suites.Suite(suite.name, suite.version, suite.checksum, suite.episodes[:2],
-                        suite.meta)
+    head = suites.Suite(suite.name, suite.version, suite.checksum, suite.episodes[:2], suite.meta)
     policy = load_policy("scripted")
     policy.env_id = MISSION
     with pytest.raises(ValueError, match="randomize.*HopRoverMission-v0's own"):
         suites.run(policy, head, env_kwargs={"randomize": {"mass": 0.1}})
     with pytest.raises(ValueError, match="randomize"):
-        suites.run(load_policy("scripted"), suites.load("HopRover-v0"),
-                   env_kwargs={"randomize": {"gravity": 0.1}})
+        suites.run(
+            load_policy("scripted"),
+            suites.load("HopRover-v0"),
+            env_kwargs={"randomize": {"gravity": 0.1}},
+        )
     # its own ranges, given again, change nothing: accepted
     suites.check_frozen(MISSION, {"randomize": dict(mission.MISSION_GROUND)})
 
@@ -121,12 +132,12 @@ def test_modified_start_conditions_fail_their_checksum(tmp_path):
     with np.load(src) as z:
         data = {k: z[k] for k in z.files}
     key = f"start/{MISSION}/actuator_draw"
-    data[key] = data[key] * 0.5                           # a kinder actuator
+    data[key] = data[key] * 0.5  # a kinder actuator
     np.savez(tmp_path / "bad.npz", **data)
     with pytest.raises(ValueError, match="checksum mismatch of the start conditions"):
         suites._read(tmp_path / "bad.npz", "terrain", 1)
     data[key] = data[key] * 2.0
-    data[f"start/{MISSION}/mass"] = np.ones(len(data["target_x"]))    # an unlisted one
+    data[f"start/{MISSION}/mass"] = np.ones(len(data["target_x"]))  # an unlisted one
     np.savez(tmp_path / "stray.npz", **data)
     with pytest.raises(ValueError, match="checksum mismatch of the start conditions"):
         suites._read(tmp_path / "stray.npz", "terrain", 1)
@@ -135,10 +146,10 @@ def test_modified_start_conditions_fail_their_checksum(tmp_path):
 def test_save_and_read_back_start_conditions(tmp_path):
     cols = suites.draw_episodes("level", n=3)
     cols["reference_ttrtp"] = np.full(3, 10.0)
-    start = {MISSION: {"sensor_seed": np.array([1, 2**62, 3]),
-                       "mu_static": np.array([0.3, 0.31, 0.32])}}
-    path = suites.save("level", 9, cols, [np.zeros(2)] * 3, ["x"] * 3, {}, tmp_path,
-                       start=start)
+    start = {
+        MISSION: {"sensor_seed": np.array([1, 2**62, 3]), "mu_static": np.array([0.3, 0.31, 0.32])}
+    }
+    path = suites.save("level", 9, cols, [np.zeros(2)] * 3, ["x"] * 3, {}, tmp_path, start=start)
     s = suites._read(path, "level", 9)
     assert s[1].start == {MISSION: {"sensor_seed": 2**62, "mu_static": 0.31}}
     assert json.loads(json.dumps(s.meta))["start"] == {MISSION: ["mu_static", "sensor_seed"]}
@@ -150,9 +161,16 @@ def test_a_new_version_of_the_same_episodes_carries_the_start_conditions_over(tm
     suite = suites.load(MISSION)
     cols = {f: suite.column(f) for f in suites.FIELDS}
     meta = {k: v for k, v in suite.meta.items() if k not in ("sha256", "start_sha256")}
-    path = suites.save(suite.name, 9, cols, [e.reference_schedule for e in suite],
-                       [e.reference_source for e in suite], meta, directory=tmp_path,
-                       start=suite.start_conditions())
+    path = suites.save(
+        suite.name,
+        9,
+        cols,
+        [e.reference_schedule for e in suite],
+        [e.reference_source for e in suite],
+        meta,
+        directory=tmp_path,
+        start=suite.start_conditions(),
+    )
     again = suites._read(path, suite.name, 9)
     assert again.meta["start_sha256"] == suite.meta["start_sha256"]
     for k, v in suite.conditions(MISSION).items():

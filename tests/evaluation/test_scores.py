@@ -1,4 +1,5 @@
 """Normalised scores and their bootstrap intervals (hoprover_env/evaluation/scores.py)."""
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -32,7 +33,7 @@ def test_bad_reference_is_refused():
 def test_point_estimates_match_their_definitions():
     rng = np.random.default_rng(3)
     s = rng.uniform(0.7, 1.0, 200)
-    s[:10] = 0.0                                   # ten failures
+    s[:10] = 0.0  # ten failures
     out = summarize("a", s, reps=200)
     assert out.point["success"] == pytest.approx(0.95)
     assert out.point["mean_score"] == pytest.approx(s.mean())
@@ -53,8 +54,9 @@ def test_intervals_shrink_with_more_seeds_and_are_reproducible():
     ten = np.array([base * rng.uniform(0.9, 1.0, 100) for _ in range(10)])
     a, b = summarize("2", two, reps=500), summarize("10", ten, reps=500)
     assert a.runs == 2 and b.runs == 10 and a.episodes == 100
-    assert ((b.high["mean_score"] - b.low["mean_score"])
-            < (a.high["mean_score"] - a.low["mean_score"]))
+    assert (b.high["mean_score"] - b.low["mean_score"]) < (
+        a.high["mean_score"] - a.low["mean_score"]
+    )
     again = summarize("10", ten, reps=500)
     assert again.low == b.low and again.high == b.high
 
@@ -78,12 +80,12 @@ def test_failures_make_the_median_regret_infinite_never_nan():
     """A failure's regret is infinite: a median regret that is a failure's, or a
     bootstrap bound that reaches one, is inf, not NaN."""
     s = np.zeros((3, 200))
-    s[:, :50] = 0.5                                    # 75 % failures in every run
+    s[:, :50] = 0.5  # 75 % failures in every run
     out = summarize("mostly failing", s, reps=200)
     assert out.point["median_regret"] == np.inf
     assert out.low["median_regret"] == out.high["median_regret"] == np.inf
     mixed = np.full(200, 0.5)
-    mixed[:100] = 0.0                                  # exactly half: the median straddles
+    mixed[:100] = 0.0  # exactly half: the median straddles
     out = summarize("half", mixed, reps=500)
     assert out.low["median_regret"] == pytest.approx(2.0) and out.high["median_regret"] == np.inf
     for m in ("success", "median_regret", "mean_score", "iqm_score"):

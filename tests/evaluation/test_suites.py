@@ -1,4 +1,5 @@
 """The frozen test suites and their replayable best-known references."""
+
 import shutil
 
 import numpy as np
@@ -67,7 +68,7 @@ def test_a_modified_file_fails_its_checksum(tmp_path):
     src = suites.path_of("contest", suites.versions("contest")[-1])
     with np.load(src) as z:
         data = {k: z[k] for k in z.files}
-    data["reference_ttrtp"] = data["reference_ttrtp"] - 1.0      # a "better" reference
+    data["reference_ttrtp"] = data["reference_ttrtp"] - 1.0  # a "better" reference
     bad = tmp_path / src.name
     np.savez(bad, **data)
     with pytest.raises(ValueError, match="checksum mismatch"):
@@ -80,20 +81,35 @@ def test_evaluate_suite_prints_scores_and_writes_the_fields(tmp_path, capsys):
     import json
 
     from hoprover_env.training import evaluate
+
     out = tmp_path / "rows.json"
-    assert evaluate.main(["--suite", "--env", "HopRoverContest-v0", "--policy", "scripted",
-                          "--no-progress", "--json", str(out)]) == 0
+    assert (
+        evaluate.main(
+            [
+                "--suite",
+                "--env",
+                "HopRoverContest-v0",
+                "--policy",
+                "scripted",
+                "--no-progress",
+                "--json",
+                str(out),
+            ]
+        )
+        == 0
+    )
     text = capsys.readouterr().out
     assert "contest-v1 suite" in text and "median regret" in text and "IQM score" in text
     row = json.loads(out.read_text())["episodes"][0]
     ref = suites.load("HopRoverContest-v0")[0].reference_ttrtp
     assert row["reference_ttrtp"] == ref
     assert row["regret"] == row["ttrtp"] / ref and row["score"] == ref / row["ttrtp"]
-    assert row["ttrtp"] >= ref                      # the reference beats the scripted hopper
+    assert row["ttrtp"] >= ref  # the reference beats the scripted hopper
 
 
 def test_evaluate_suite_bad_input(capsys):
     from hoprover_env.training import evaluate
+
     assert evaluate.main(["--suite", "7", "--policy", "scripted"]) == 2
     assert "unknown version 7" in capsys.readouterr().err
     assert evaluate.main(["--suite", "--policy", "no-such-agent"]) == 2
@@ -116,7 +132,7 @@ def test_agents_play_the_references_ground(env_id):
     eps = [suite[i] for i in pick]
     steps = {"k": 0}
 
-    class Schedule:                       # the reference plan, one interval per step
+    class Schedule:  # the reference plan, one interval per step
         env_kwargs = {"control_dt": 0.5}
         env_id = suites.task_of(suite.name)
 
@@ -136,8 +152,9 @@ def test_agents_play_the_references_ground(env_id):
     ground = {k: v[pick] for k, v in suite.terrain().items()}
     if suite.name == "terrain":
         assert ground["terrain_seed"].dtype.kind == "i" and ground["terrain_seed"].max() > 2**53
-    res = run_episodes(Schedule(), suite.targets[pick], env_kwargs={"episode_time": 600.0},
-                       terrain=ground)
+    res = run_episodes(
+        Schedule(), suite.targets[pick], env_kwargs={"episode_time": 600.0}, terrain=ground
+    )
     for r, ep in zip(res, eps):
         assert r.success
         assert r.ttrtp == pytest.approx(ep.reference_ttrtp, rel=1e-6, abs=1e-6)

@@ -1,5 +1,6 @@
 """research/baselines.py: seeds trained one after another, resumed, and scored on the
 suite with intervals over seeds."""
+
 import json
 
 import pytest
@@ -12,7 +13,11 @@ from research import baselines
 pytestmark = pytest.mark.slow
 
 TINY = {
-    "algo": "ppo", "env_id": "HopRoverHop-v0", "n_envs": 4, "timesteps": 512, "seed": 0,
+    "algo": "ppo",
+    "env_id": "HopRoverHop-v0",
+    "n_envs": 4,
+    "timesteps": 512,
+    "seed": 0,
     "env": {"control_dt": 0.5},
     # gamma: the hop task's shaping discount (train.py refuses a learner's other than it)
     "hyperparams": {"n_steps": 64, "batch_size": 128, "n_epochs": 1, "gamma": 0.98},
@@ -21,8 +26,10 @@ TINY = {
 }
 
 
-@pytest.mark.parametrize("text, seeds", [("0-4", [0, 1, 2, 3, 4]), ("3", [3]),
-                                         ("0,2,5", [0, 2, 5]), ("1-2,7", [1, 2, 7])])
+@pytest.mark.parametrize(
+    "text, seeds",
+    [("0-4", [0, 1, 2, 3, 4]), ("3", [3]), ("0,2,5", [0, 2, 5]), ("1-2,7", [1, 2, 7])],
+)
 def test_seed_specs(text, seeds):
     assert baselines.parse_seeds(text) == seeds
 
@@ -37,8 +44,12 @@ def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
     cfg = tmp_path / "tiny.yaml"
     cfg.write_text(yaml.safe_dump(TINY))
     out = tmp_path / "runs"
-    assert baselines.main(["--config", str(cfg), "--seeds", "0-1", "--out", str(out),
-                           "--name", "tiny"]) == 0
+    assert (
+        baselines.main(
+            ["--config", str(cfg), "--seeds", "0-1", "--out", str(out), "--name", "tiny"]
+        )
+        == 0
+    )
     for seed in (0, 1):
         assert (out / f"s{seed}" / "done").exists()
         assert yaml.safe_load((out / f"s{seed}" / "config.yaml").read_text())["seed"] == seed
@@ -52,8 +63,12 @@ def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
     assert (out / "curves.png").stat().st_size > 0 and "| 1 |" in (out / "summary.md").read_text()
     # a second call trains nothing (both done) and scores the same
     capsys.readouterr()
-    assert baselines.main(["--config", str(cfg), "--seeds", "0-1", "--out", str(out),
-                           "--name", "tiny"]) == 0
+    assert (
+        baselines.main(
+            ["--config", str(cfg), "--seeds", "0-1", "--out", str(out), "--name", "tiny"]
+        )
+        == 0
+    )
     assert "done already" in capsys.readouterr().out
     assert json.loads((out / "summary.json").read_text())["summary"] == summary["summary"]
 
@@ -61,7 +76,7 @@ def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
 def test_torch_threads_reach_train_py_and_a_custom_trainer_refuses_them(tmp_path, monkeypatch):
     calls = []
 
-    def fake_call(cmd, **kwargs):          # train.py would make the run directory
+    def fake_call(cmd, **kwargs):  # train.py would make the run directory
         calls.append(cmd)
         (tmp_path / "runs" / f"s{cmd[cmd.index('--seed') + 1]}").mkdir()
         return 0

@@ -1,4 +1,5 @@
 """research.plan_clone.features: inputs at fine scales, part of the network."""
+
 import pickle
 
 import numpy as np
@@ -43,19 +44,27 @@ def test_a_clone_without_them_loads_with_zero_weights_on_the_new_inputs(tmp_path
     venv.obs_rms.var = rng.uniform(0.5, 2.0, size=19)
     path = tmp_path / "plain.pkl"
     with open(path, "wb") as f:
-        pickle.dump({"policy": model.policy.state_dict(), "mean": venv.obs_rms.mean,
-                     "var": venv.obs_rms.var}, f)
+        pickle.dump(
+            {
+                "policy": model.policy.state_dict(),
+                "mean": venv.obs_rms.mean,
+                "var": venv.obs_rms.var,
+            },
+            f,
+        )
     cfg2, venv2, model2 = _model("linear", activation="relu", features="micro")
     _load(path, venv2, model2)
     w = model2.policy.mlp_extractor.policy_net[0].weight.detach().numpy()
     assert w.shape == (256, 19 + n_features())
     assert not w[:, 19:].any()
     obs = rng.normal(size=(8, 19)).astype(np.float32)
-    np.testing.assert_allclose(_policy(cfg2, venv2, model2).act(obs, None),
-                               _policy(cfg, venv, model).act(obs, None), atol=1e-6)
+    np.testing.assert_allclose(
+        _policy(cfg2, venv2, model2).act(obs, None),
+        _policy(cfg, venv, model).act(obs, None),
+        atol=1e-6,
+    )
     ext = model2.policy.features_extractor
-    np.testing.assert_allclose(ext.std.numpy(), np.sqrt(venv.obs_rms.var + venv.epsilon),
-                               rtol=1e-6)
+    np.testing.assert_allclose(ext.std.numpy(), np.sqrt(venv.obs_rms.var + venv.epsilon), rtol=1e-6)
 
 
 def test_an_exported_clone_with_them_keeps_its_statistics_in_the_weights(tmp_path):
@@ -64,7 +73,7 @@ def test_an_exported_clone_with_them_keeps_its_statistics_in_the_weights(tmp_pat
     venv.obs_rms.mean = rng.normal(size=19)
     venv.obs_rms.var = rng.uniform(0.5, 2.0, size=19)
     set_statistics(model.policy, venv)
-    with torch.no_grad():     # weights on the new inputs, so that they matter
+    with torch.no_grad():  # weights on the new inputs, so that they matter
         model.policy.mlp_extractor.policy_net[0].weight[:, 19:].normal_()
     export(cfg, venv, model, tmp_path / "run")
     loaded = load_policy(str(tmp_path / "run"))

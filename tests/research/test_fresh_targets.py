@@ -1,4 +1,5 @@
 """research/yardstick/fresh_targets.py: a policy against a reference on freshly drawn targets."""
+
 import json
 import math
 
@@ -15,7 +16,7 @@ def test_draw_is_seeded_in_range_and_puts_the_edge_set_beyond_the_band():
     assert np.all(np.abs(a[:50]) <= 1.0)
     edge = np.abs(a[50:])
     assert np.all((edge >= 0.1) & (edge <= 0.125))
-    assert {-1.0, 1.0} <= set(np.sign(a[50:]))      # both sides (20 draws)
+    assert {-1.0, 1.0} <= set(np.sign(a[50:]))  # both sides (20 draws)
 
 
 def test_summary_counts_misses_as_inf_and_a_rover_tipped_out_of_the_band():
@@ -23,7 +24,7 @@ def test_summary_counts_misses_as_inf_and_a_rover_tipped_out_of_the_band():
     policy = [5.0, 13.0, 40.0, math.inf, math.inf, 30.0, 20.0]
     reference = [5.0, 10.0, 40.0, 50.0, math.inf, 10.0, 5.0]
     s = fresh_targets.summarise(targets, policy, reference, bound=1.30)
-    assert s["in_band"] == 2                         # 0.05 and -0.07 m start in the band
+    assert s["in_band"] == 2  # 0.05 and -0.07 m start in the band
     assert s["policy_success"] == 5 / 7 and s["reference_success"] == 6 / 7
     # ratios: 1.0 (both stay still), 1.3 (not above), 1.0, inf (a miss), 1.0 (both
     # miss), 3.0, and 4.0 where the policy tipped the rover out of the band
@@ -32,11 +33,15 @@ def test_summary_counts_misses_as_inf_and_a_rover_tipped_out_of_the_band():
     assert s["worst_ratio"] == math.inf and s["median_ratio"] == 1.3
 
 
-@pytest.mark.slow                # whole episodes of two agents
+@pytest.mark.slow  # whole episodes of two agents
 def test_the_same_agent_as_its_own_reference_is_at_one(tmp_path, capsys):
     out = tmp_path / "fresh.json"
-    assert fresh_targets.main(["--policy", "scripted", "--seed", "3", "--n", "6",
-                               "--edge", "2", "--out", str(out)]) == 0
+    assert (
+        fresh_targets.main(
+            ["--policy", "scripted", "--seed", "3", "--n", "6", "--edge", "2", "--out", str(out)]
+        )
+        == 0
+    )
     # the scripted hopper against mpc is a real comparison; against itself it must be 1
     saved = json.loads(out.read_text())
     targets, t = saved["targets"], saved["policy_ttrtp"]
@@ -55,6 +60,7 @@ def test_a_missing_policy_file_is_a_clear_error(tmp_path, capsys):
 
 def test_terrain_episodes_are_drawn_as_the_suites_are():
     from hoprover_env.evaluation import suites
+
     suite = suites.load("HopRoverTerrain-v0")
     same = fresh_targets.draw_terrain(suites.SUITE_SEEDS["terrain"], len(suite))
     np.testing.assert_array_equal(same["targets"], suite.targets)
@@ -65,11 +71,26 @@ def test_terrain_episodes_are_drawn_as_the_suites_are():
     assert np.all(np.abs(other["terrain"]["slope"]) <= 0.2)
 
 
-@pytest.mark.slow                # whole episodes of two agents
+@pytest.mark.slow  # whole episodes of two agents
 def test_terrain_task_flies_both_agents_on_each_episodes_ground(tmp_path, capsys):
     out = tmp_path / "fresh.json"
-    assert fresh_targets.main(["--task", "terrain", "--policy", "terrain", "--seed", "5",
-                               "--n", "2", "--out", str(out)]) == 0
+    assert (
+        fresh_targets.main(
+            [
+                "--task",
+                "terrain",
+                "--policy",
+                "terrain",
+                "--seed",
+                "5",
+                "--n",
+                "2",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     saved = json.loads(out.read_text())
     assert saved["task"] == "terrain" and "edge" not in saved
     np.testing.assert_array_equal(saved["targets"], fresh_targets.draw_terrain(5, 2)["targets"])
@@ -77,9 +98,11 @@ def test_terrain_task_flies_both_agents_on_each_episodes_ground(tmp_path, capsys
     # without the drawn grounds the task draws its own, and the times differ: the
     # episodes were flown on the grounds drawn
     from hoprover_env.agents.policies import load_policy
+
     level = fresh_targets.times(load_policy("terrain"), np.array(saved["targets"]))
     assert not np.array_equal(level, saved["policy_ttrtp"])
-    with pytest.raises(SystemExit):       # edge targets are a level-ground set
-        fresh_targets.main(["--task", "terrain", "--policy", "terrain", "--seed", "5",
-                            "--edge", "3"])
+    with pytest.raises(SystemExit):  # edge targets are a level-ground set
+        fresh_targets.main(
+            ["--task", "terrain", "--policy", "terrain", "--seed", "5", "--edge", "3"]
+        )
     assert "--edge is for level ground" in capsys.readouterr().err

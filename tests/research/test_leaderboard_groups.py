@@ -1,6 +1,7 @@
 """The leaderboard groups its agents by how they were made (research/yardstick/leaderboard.py):
 every row of benchmarks/results/leaderboard.json carries one of four groups, read from
 the bundled models' .json files, and an imitation names its hand-written parts."""
+
 import json
 from pathlib import Path
 
@@ -10,8 +11,12 @@ from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR, BUNDLED_NETS
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "benchmarks" / "results" / "leaderboard.json"
-GROUPS = ("RL from reward", "Imitation of a planner",
-          "Planners that use the simulator as their model", "References")
+GROUPS = (
+    "RL from reward",
+    "Imitation of a planner",
+    "Planners that use the simulator as their model",
+    "References",
+)
 MODEL_FILES = {**BUNDLED, **BUNDLED_NETS}
 
 
@@ -58,6 +63,7 @@ def test_every_bundled_model_says_its_group_and_the_rows_agree(results):
 
 def test_the_page_has_one_heading_per_group_in_order():
     from research.yardstick.leaderboard import GROUPS as BUILDER
+
     assert tuple(BUILDER) == GROUPS
     page = (ROOT / "docs" / "leaderboard.md").read_text()
     at = [page.index(f"### {heading}\n") for heading, _ in BUILDER.values()]

@@ -1,5 +1,6 @@
 """The plan table (research/plan_clone/plan_table.py): plans made alike keep their cost, and the
 teacher flies them as the search did."""
+
 import numpy as np
 import pytest
 
@@ -12,8 +13,7 @@ from research.plan_clone import plan_table as pt
 def table():
     # a coarse grid (0.25, 0.55, 0.85 m on each side) and small budgets
     raw = pt.sweep(0.3, budget=200, passes=1, log=lambda m: None)
-    return raw, pt.make_alike(raw, local_budget=40, keep=0.005, tol=0.001,
-                              log=lambda m: None)
+    return raw, pt.make_alike(raw, local_budget=40, keep=0.005, tol=0.001, log=lambda m: None)
 
 
 def test_the_grid_starts_beyond_the_band_on_both_sides():
@@ -27,7 +27,7 @@ def test_plans_made_alike_cost_at_most_the_tolerances(table):
     # step 2 keeps a change within 0.5 %, step 3's three changes each within 0.1 %, and
     # step 4 mirrors a negative short hop within 3 %
     neg_short = (alike["targets"] < 0) & (np.abs(alike["targets"]) <= pt.LONG_HOP)
-    limit = raw["ttrtp"] * 1.005 * 1.001 ** 3 * np.where(neg_short, 1.03, 1.0)
+    limit = raw["ttrtp"] * 1.005 * 1.001**3 * np.where(neg_short, 1.03, 1.0)
     assert np.all(alike["ttrtp"] <= limit + 1e-9)
     long_hop = np.abs(alike["targets"]) > pt.LONG_HOP
     gains = alike["u"][long_hop][:, [pt.KP, pt.KD]]
@@ -35,17 +35,21 @@ def test_plans_made_alike_cost_at_most_the_tolerances(table):
     changed = np.any(alike["u"] != raw["u"], axis=1)
     assert changed.any()
     # a plan that kept its own gains is the raw one, apart from step 3's simplifications
-    assert np.all(kept | (alike["u"][long_hop][:, [pt.KP, pt.KD]] ==
-                          raw["u"][long_hop][:, [pt.KP, pt.KD]]).all(axis=1))
+    assert np.all(
+        kept
+        | (alike["u"][long_hop][:, [pt.KP, pt.KD]] == raw["u"][long_hop][:, [pt.KP, pt.KD]]).all(
+            axis=1
+        )
+    )
 
 
 def test_mirrored_plans_take_the_same_time_on_level_ground(table):
     # the physics is symmetric: a plan mirrored (launch direction, landing attitude and
     # correction torques) to the other side reaches the mirrored target as fast
     _, alike = table
-    mirrored = pt.mirror_short_hops({**alike, "targets": alike["targets"]}, 0.0,
-                                    log=lambda m: None)
+    mirrored = pt.mirror_short_hops({**alike, "targets": alike["targets"]}, 0.0, log=lambda m: None)
     from hoprover_env.agents.planning import evaluate
+
     start, params = pt.start_state()
     u = alike["u"][::-1].copy()
     u[:, pt.SIGNED] = 1.0 - u[:, pt.SIGNED]
@@ -56,8 +60,14 @@ def test_mirrored_plans_take_the_same_time_on_level_ground(table):
 
 def test_targets_within_cells_get_their_own_row_s_plan():
     targets = pt.grid(0.003)
-    teacher = pt.PlanTableTeacher({"targets": targets, "u": np.arange(len(targets))[:, None],
-                                   "ttrtp": np.ones(len(targets)), "start": np.zeros(3)})
+    teacher = pt.PlanTableTeacher(
+        {
+            "targets": targets,
+            "u": np.arange(len(targets))[:, None],
+            "ttrtp": np.ones(len(targets)),
+            "start": np.zeros(3),
+        }
+    )
     drawn = pt.within_cells(targets, np.random.default_rng(3))
     assert np.all(np.sign(drawn) == np.sign(targets)) and np.all(drawn != targets)
     assert np.abs(drawn).min() > pt.BAND_EDGE and np.abs(drawn).max() <= np.abs(targets).max()
@@ -70,6 +80,7 @@ def test_targets_within_cells_get_their_own_row_s_plan():
 
 def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
     import hoprover_env.training.warm_start as imitation
+
     seen = []
     monkeypatch.setattr(imitation, "collect", lambda *a, targets, **k: seen.append(targets))
     monkeypatch.setattr(pt, "PlanTableTeacher", lambda *a, **k: None)
@@ -78,50 +89,74 @@ def test_collect_table_flies_the_grid_or_targets_within_its_cells(monkeypatch):
         pt.collect_table(table, 0.0, 5, 2, cells=cells)
     grid_run, cell_run = seen
     np.testing.assert_array_equal(grid_run[:6], table["targets"])
-    np.testing.assert_array_equal(cell_run[6:], grid_run[6:])     # the same starts in band
+    np.testing.assert_array_equal(cell_run[6:], grid_run[6:])  # the same starts in band
     assert np.all(np.abs(cell_run[:6] - table["targets"]) <= 0.15) and np.all(
-        cell_run[:6] != table["targets"])
+        cell_run[:6] != table["targets"]
+    )
 
 
 def test_the_teacher_flies_the_table_plans(table):
     _, alike = table
     teacher = pt.PlanTableTeacher(alike, budget=200)
-    targets = np.append(alike["targets"][[1, 4]], 0.03)      # -0.55, 0.55 and in the band
+    targets = np.append(alike["targets"][[1, 4]], 0.03)  # -0.55, 0.55 and in the band
     res = run_episodes(teacher, targets, {"control_dt": 0.5}, batch=1)
-    assert teacher.table_plans == 2 and teacher.decisions == 0   # no search, no replan
+    assert teacher.table_plans == 2 and teacher.decisions == 0  # no search, no replan
     # the env flies the plan the search simulated (actions pass through float32, so the
     # times agree to a small fraction of a control period, not bit for bit)
     for r, want in zip(res[:2], alike["ttrtp"][[1, 4]]):
         assert r.success and r.ttrtp == pytest.approx(want, abs=0.25)
-    assert res[2].success and res[2].ttrtp == 5.0          # in the band: do nothing
+    assert res[2].success and res[2].ttrtp == 5.0  # in the band: do nothing
 
 
-@pytest.mark.slow                # the whole plan-table pipeline from a config
+@pytest.mark.slow  # the whole plan-table pipeline from a config
 def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path, monkeypatch):
     import yaml
 
     import research.plan_clone.clone_study as cs
     from hoprover_env.agents.policies import load_policy
+
     judged = []
     # the real judge runs 300 episodes per fit: a stand-in that records the call
-    monkeypatch.setattr(cs, "judge", lambda policy: judged.append(policy) or {
-        "validation_success": 0.0, "validation_median": float("nan"), "suite_success": 0.0,
-        "median_regret": float("inf"), "worst_regret": float("inf"), "by_distance": []})
+    monkeypatch.setattr(
+        cs,
+        "judge",
+        lambda policy: (
+            judged.append(policy)
+            or {
+                "validation_success": 0.0,
+                "validation_median": float("nan"),
+                "suite_success": 0.0,
+                "median_regret": float("inf"),
+                "worst_regret": float("inf"),
+                "by_distance": [],
+            }
+        ),
+    )
     import research.plan_clone.nudge as nudge
+
     # a nudge family searched on a tiny grid at two offsets
     monkeypatch.setattr(nudge, "PUSH_GRID", np.array([0.06, 0.07]))
     monkeypatch.setattr(nudge, "TILT_GRID", np.array([1.17e-3]))
     monkeypatch.setattr(nudge, "BRAKE_GRID", np.array([0.05, 0.06]))
     monkeypatch.setattr(nudge, "OFFSETS", (0.102, 0.104))
-    cfg = {"table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
-           "nudge": {"margin": 1}, "symmetric": True, "in_band": 2, "cells": True,
-           "demonstrations": [{"noise": 0.0, "seed": 1}],
-           "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1,
-                   "features": "micro"},
-           "dagger": [{"seed": 2}], "dagger_fit": {"epochs": 1, "lr": 1e-4},
-           "deadzone": 0.0, "flight": True, "hold": True, "rest": True,
-           "edge_dagger": [{"seed": 3, "n": 4, "reach": 0.11, "inside": 0.002,
-                            "refit_main": {"epochs": 1}}]}
+    cfg = {
+        "table": {"step": 0.3, "budget": 200, "passes": 0, "local_budget": 20},
+        "nudge": {"margin": 1},
+        "symmetric": True,
+        "in_band": 2,
+        "cells": True,
+        "demonstrations": [{"noise": 0.0, "seed": 1}],
+        "fit": {"activation": "relu", "net_arch": [32, 32], "epochs": 1, "features": "micro"},
+        "dagger": [{"seed": 2}],
+        "dagger_fit": {"epochs": 1, "lr": 1e-4},
+        "deadzone": 0.0,
+        "flight": True,
+        "hold": True,
+        "rest": True,
+        "edge_dagger": [
+            {"seed": 3, "n": 4, "reach": 0.11, "inside": 0.002, "refit_main": {"epochs": 1}}
+        ],
+    }
     path = tmp_path / "plan.yaml"
     path.write_text(yaml.safe_dump(cfg))
     out = tmp_path / "run"
@@ -130,6 +165,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     def spy(table, learner, *a, **k):
         drivers.append((learner.net.flight, learner.net.hold, learner.net.rest))
         return collect_edge(table, learner, *a, **k)
+
     monkeypatch.setattr(nudge, "collect_edge", spy)
     pt.pipeline(path, out, log=lambda m: None)
     # the network that drove the edge round had the ground gate on the c.m.'s offset and
@@ -139,15 +175,20 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     # the gated network
     assert len(judged) == 4
     kept = sorted(p.name for p in out.glob("*.npz"))
-    assert kept == ["dagger_1_seed2.npz", "demo_noise0.0_seed1.npz", "edge_1_seed3.npz",
-                    "table.npz", "table_nudge.npz"]
-    with np.load(out / "edge_1_seed3.npz") as d:       # four episodes at the edge
+    assert kept == [
+        "dagger_1_seed2.npz",
+        "demo_noise0.0_seed1.npz",
+        "edge_1_seed3.npz",
+        "table.npz",
+        "table_nudge.npz",
+    ]
+    with np.load(out / "edge_1_seed3.npz") as d:  # four episodes at the edge
         offset = -d["obs"][:, OBS_DX] * POS_SCALE
     # the first episode starts in 0.098-0.11 m (up to 2 mm within the band), and the
     # targets alternate sides
     assert 0.098 < abs(offset[0]) < 0.11 and offset.min() < -0.098 and offset.max() > 0.098
     assert sorted(pt.load_table(out / "table_nudge.npz")["nudge_offsets"]) == [0.102, 0.104]
-    with np.load(out / "demo_noise0.0_seed1.npz") as d:     # `cells`: off the grid's rows
+    with np.load(out / "demo_noise0.0_seed1.npz") as d:  # `cells`: off the grid's rows
         starts = -d["obs"][d["obs"][:, OBS_TIME] == 0.0, OBS_DX] * POS_SCALE
     beyond = np.sort(starts[np.abs(starts) > pt.BAND_EDGE])
     rows = pt.grid(0.3)
@@ -157,6 +198,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     assert type(policy.model.policy.mlp_extractor.policy_net[1]).__name__ == "ReLU"
     assert type(policy.model.policy.features_extractor).__name__ == "MicroStateFeatures"
     from research.plan_clone.gated import load_policy as gated_load
+
     gated = gated_load(out / "plan_clone.pt")
     assert type(gated.net.nudge.features).__name__ == "MicroStateFeatures"
     assert gated.net.symmetric and gated.net.flight and gated.net.hold and gated.net.rest
@@ -164,7 +206,8 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     import torch
 
     from research.plan_clone.gated import Branch
-    refit = Branch.from_sb3(load_policy(str(out / "main_edge_1")))   # what it was made of
+
+    refit = Branch.from_sb3(load_policy(str(out / "main_edge_1")))  # what it was made of
     obs = torch.as_tensor(np.random.default_rng(0).normal(size=(8, 19)), dtype=torch.float32)
     assert torch.equal(gated.net.main(obs), refit(obs))
     assert judged[-1] is not None and type(judged[-1]).__name__ == "GatedPolicy"
@@ -174,10 +217,10 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     monkeypatch.setattr(pt, "sweep", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(nudge, "collect_edge", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(nudge, "search", lambda *a, **k: calls.append(a))
-    monkeypatch.setattr(cs, "fit", lambda *a, **k: calls.append(a))    # clones are kept
-    monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)   # the branch is redone
+    monkeypatch.setattr(cs, "fit", lambda *a, **k: calls.append(a))  # clones are kept
+    monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)  # the branch is redone
     monkeypatch.setattr(nudge, "assemble", lambda *a, **k: None)
-    pt.pipeline(path, out, log=lambda m: None)     # again: nothing collected or fitted
+    pt.pipeline(path, out, log=lambda m: None)  # again: nothing collected or fitted
     assert calls == [] and stamps == {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))
     with pytest.raises(SystemExit, match="fit_typo"):
@@ -195,6 +238,7 @@ def _fly_then_rest(plan, target, teacher=None):
     from hoprover_env.agents.planning import plan_torque
     from hoprover_env.agents.policies import torque_to_action
     from hoprover_env.envs.vector_env import HopRoverVectorEnv
+
     venv = HopRoverVectorEnv(1, control_dt=0.5)
     obs, _ = venv.reset(seed=0, options={"target_x": np.array([target])})
     flew, rest, at_rest = False, None, None
@@ -207,8 +251,13 @@ def _fly_then_rest(plan, target, teacher=None):
             teacher.reset(1)
         if rest is None:
             flew |= int(s[core.S_MODE]) == core.MODE_A
-            torque = plan_torque(plan, float(s[core.S_TH]), float(s[core.S_W]),
-                                 float(s[core.S_T]), int(s[core.S_MODE]))
+            torque = plan_torque(
+                plan,
+                float(s[core.S_TH]),
+                float(s[core.S_W]),
+                float(s[core.S_T]),
+                int(s[core.S_MODE]),
+            )
             act = np.array([[torque_to_action(float(torque), venv.params[0], venv.config)]])
         else:
             act = teacher.act(obs, venv)
@@ -225,23 +274,23 @@ def test_the_teacher_flies_the_table_plan_again_from_a_rest_state_off_target(tab
     # the teacher flies the table plan for the remaining offset at once, with no search,
     # and reaches the target in the table's time after the rest
     from hoprover_env.agents.planning import plans_from_points
+
     _, alike = table
     _, params = pt.start_state()
     first = plans_from_points(alike["u"][[3]], np.array([1.0]), np.array([0.0]), params)[0]
-    rest, _, _ = _fly_then_rest(first, -0.9)            # the 0.25 m plan: where it rests
+    rest, _, _ = _fly_then_rest(first, -0.9)  # the 0.25 m plan: where it rests
     assert rest[0] > 0.1 and rest[6] > 0.0
-    offset = float(alike["targets"][4])                 # 0.55 m further on
+    offset = float(alike["targets"][4])  # 0.55 m further on
     teacher = pt.PlanTableTeacher(alike, budget=200)
     rest2, ttrtp, plan = _fly_then_rest(first, rest[0] + offset, teacher)
     np.testing.assert_array_equal(rest2[:7], rest[:7])  # the same hop: x ... t
-    want = plans_from_points(alike["u"][[4]], np.array([1.0]), np.array([rest[6]]),
-                             params)[0]
+    want = plans_from_points(alike["u"][[4]], np.array([1.0]), np.array([rest[6]]), params)[0]
     np.testing.assert_array_equal(plan, want)
     assert teacher.decisions == 0 and teacher.table_plans == 1
     assert ttrtp == pytest.approx(rest[6] + alike["ttrtp"][4], abs=0.25)
     assert teacher.rest_offset(rest2, params) == pytest.approx(offset, abs=1e-12)
     moving = rest2.copy()
-    moving[3] = 1e-4                                    # sliding: not a shifted start
+    moving[3] = 1e-4  # sliding: not a shifted start
     assert teacher.rest_offset(moving, params) is None
 
 
@@ -250,8 +299,11 @@ def test_just_beyond_the_band_edge_the_teacher_takes_the_next_row_out():
     # ends in the band. Farther out the nearest row, as before
     targets = np.array([-0.2, -0.1015, -0.1004, 0.1004, 0.1015, 0.2])
     u = np.repeat(np.arange(6.0)[:, None], 11, axis=1) / 10
-    teacher = pt.PlanTableTeacher({"targets": targets, "u": u, "ttrtp": np.ones(6),
-                                   "start": pt.start_state()[0]})
-    rows = [teacher.point(x)[0] * 10 for x in (0.1003, 0.1005, 0.1015, -0.1009, -0.1003,
-                                              0.16, 0.14, -0.17)]
+    teacher = pt.PlanTableTeacher(
+        {"targets": targets, "u": u, "ttrtp": np.ones(6), "start": pt.start_state()[0]}
+    )
+    rows = [
+        teacher.point(x)[0] * 10
+        for x in (0.1003, 0.1005, 0.1015, -0.1009, -0.1003, 0.16, 0.14, -0.17)
+    ]
     assert rows == pytest.approx([3, 4, 4, 1, 2, 5, 4, 0])

@@ -17,8 +17,10 @@ def test_euler_converges_to_event_at_first_order(torque, capsys):
     errs = np.array(errs)
     orders = np.log(errs[:-1] / errs[1:]) / np.log(np.array(dts[:-1]) / np.array(dts[1:]))[:, None]
     with capsys.disabled():
-        print(f"\n  first landing, launch torque {torque:g} N m: event t = {t_ref:.9f} s, "
-              f"x = {x_ref:.9f} m")
+        print(
+            f"\n  first landing, launch torque {torque:g} N m: event t = {t_ref:.9f} s, "
+            f"x = {x_ref:.9f} m"
+        )
         for dt, (et, ex) in zip(dts, errs):
             print(f"    euler dt {dt:7.0e}: |dt_land| {et:9.2e} s  |dx_land| {ex:9.2e} m")
         print(f"    observed orders (time, point): {np.round(orders, 2).tolist()}")

@@ -1,5 +1,6 @@
 """hoprover_env.sim.invariants's checks flag what they must: the property tests and the stress
 benchmark trust an empty list from them."""
+
 import dataclasses
 
 import numpy as np
@@ -20,7 +21,7 @@ from hoprover_env.sim.invariants import (
 
 def hop():
     roll = simulate(launch_then_hold(3e-4), t_end=200.0, control_dt=0.1, target_x=0.3)
-    assert set("ACF") <= set(roll.state)          # rest, launch slide, flight
+    assert set("ACF") <= set(roll.state)  # rest, launch slide, flight
     return roll
 
 
@@ -41,9 +42,11 @@ def test_a_simulated_hop_is_consistent():
 def test_spoiled_samples_are_flagged_where_they_are():
     roll = hop()
     letters = list(roll.state)
-    for letter, change in (("C", {"y": 1e-8}),          # the contact corner off the ground
-                           ("F", {"theta": 1e-15}),     # at rest but tilted
-                           ("A", {"y": -1.0})):         # flying under the ground
+    for letter, change in (
+        ("C", {"y": 1e-8}),  # the contact corner off the ground
+        ("F", {"theta": 1e-15}),  # at rest but tilted
+        ("A", {"y": -1.0}),
+    ):  # flying under the ground
         i = letters.index(letter)
         assert [v[0] for v in kinematic_violations(spoiled(roll, i, **change))] == [i]
 

@@ -1,4 +1,5 @@
 """Contact phases against an independent scipy DOP853 solution (hoprover_env.sim.reference.Ref)."""
+
 import numpy as np
 import pytest
 
@@ -14,20 +15,21 @@ def ref():
 
 
 def modes_of(events):
-    return "".join([events[0][2]] + [e[3] for e in events
-                                     if e[1] in ("tip", "slip", "stick", "liftoff")])
+    return "".join(
+        [events[0][2]] + [e[3] for e in events if e[1] in ("tip", "slip", "stick", "liftoff")]
+    )
 
 
 @pytest.mark.parametrize("torque", TORQUES)
 def test_launch_matches_scipy(ref, torque):
     t_ref, s_ref, modes = ref.launch(torque)
-    sim = RoverSim(target_x=0.5)                 # default rtol
+    sim = RoverSim(target_x=0.5)  # default rtol
     ev = sim.advance(torque, 300.0, stop_on="liftoff")
     assert modes_of(ev) == "".join(modes)
     assert abs(sim.t - t_ref) <= 1e-9
     st = sim.state
-    assert np.max(np.abs(st[3:] - s_ref[3:])) <= 1e-10      # m/s, rad/s
-    assert np.max(np.abs(st[:3] - s_ref[:3])) <= 1e-10      # m, rad
+    assert np.max(np.abs(st[3:] - s_ref[3:])) <= 1e-10  # m/s, rad/s
+    assert np.max(np.abs(st[:3] - s_ref[:3])) <= 1e-10  # m, rad
 
 
 @pytest.mark.parametrize("torque", [3e-5, 4e-4])
@@ -41,8 +43,15 @@ def test_mirror_symmetry(torque):
 
 
 def test_other_parameters_match_scipy():
-    kw = dict(mass=1.7, inertia=0.004, half_width=0.07, half_height=0.04, gravity=2e-4,
-              mu_static=0.4, mu_dynamic=0.3)
+    kw = dict(
+        mass=1.7,
+        inertia=0.004,
+        half_width=0.07,
+        half_height=0.04,
+        gravity=2e-4,
+        mu_static=0.4,
+        mu_dynamic=0.3,
+    )
     p = RoverParams(**kw)
     ref = Ref(m=1.7, I=0.004, r=0.07, h=0.04, g=2e-4, mus=0.4, mud=0.3)
     for torque in (5e-5, 3e-4):

@@ -1,5 +1,6 @@
 """Cases found by the stability stress benchmark (benchmarks/bench_stress.py), kept as
 regression tests. Each once violated an invariant; see docs/PHYSICS.md."""
+
 import math
 
 import numpy as np
@@ -13,25 +14,56 @@ from hoprover_env.sim.invariants import kinematic_violations
 def test_near_flat_impact_leaves_no_corner_under_the_ground():
     # both corners within H_IMPACT; one ends at rest, the other bounces: the snap onto
     # the resting corner used to leave the other 1.6e-10 m under the ground (theta < 0 in C)
-    init = (0.0, 0.05000414186453813, 1.1672600724199145e-08, -0.0015462824529916227,
-            -6.167918008154045e-05, 3.172066852200424e-13)
+    init = (
+        0.0,
+        0.05000414186453813,
+        1.1672600724199145e-08,
+        -0.0015462824529916227,
+        -6.167918008154045e-05,
+        3.172066852200424e-13,
+    )
     dt = 0.06391457114538655
     for law in ("dissipative", "contest"):
-        roll = simulate(np.zeros(2), t_end=2 * dt, control_dt=dt, target_x=0.3,
-                        impact_law=law, initial_state=init)
+        roll = simulate(
+            np.zeros(2),
+            t_end=2 * dt,
+            control_dt=dt,
+            target_x=0.3,
+            impact_law=law,
+            initial_state=init,
+        )
         assert kinematic_violations(roll) == []
         assert roll.min_corner_height >= -1e-12
 
 
 def test_repeated_near_flat_impacts_do_not_sink():
-    p = RoverParams(mass=7.917033223160445, inertia=0.0007843822739184555,
-                    half_width=0.059897583228545104, half_height=0.01, gravity=0.001,
-                    mu_static=0.0, mu_dynamic=0.0, restitution_x=0.45237039302774695,
-                    restitution_y=0.4083367981428754)
-    init = (-4.1210468773629811e-05, 1.0000000726722429e-02, -1.2132750461299240e-08,
-            -1.5395796538378596e-07, -5.8108087961116235e-07, 9.7012408425732076e-06)
-    roll = simulate(np.array([0.00017767875814184676]), t_end=0.1, control_dt=0.1, params=p,
-                    target_x=0.3, initial_state=init)
+    p = RoverParams(
+        mass=7.917033223160445,
+        inertia=0.0007843822739184555,
+        half_width=0.059897583228545104,
+        half_height=0.01,
+        gravity=0.001,
+        mu_static=0.0,
+        mu_dynamic=0.0,
+        restitution_x=0.45237039302774695,
+        restitution_y=0.4083367981428754,
+    )
+    init = (
+        -4.1210468773629811e-05,
+        1.0000000726722429e-02,
+        -1.2132750461299240e-08,
+        -1.5395796538378596e-07,
+        -5.8108087961116235e-07,
+        9.7012408425732076e-06,
+    )
+    roll = simulate(
+        np.array([0.00017767875814184676]),
+        t_end=0.1,
+        control_dt=0.1,
+        params=p,
+        target_x=0.3,
+        initial_state=init,
+    )
     assert roll.min_corner_height >= -1e-9
 
 
@@ -39,33 +71,76 @@ def test_repeated_near_flat_impacts_do_not_sink():
 def test_pressed_bounce_dies_out(law):
     # a hard torque presses a bouncing corner down (e_y = 0.8): detected 1e-12 m low, each
     # bounce gained energy and the sequence never ended (event budget exhausted)
-    p = RoverParams(mass=0.4, inertia=6.6e-5, half_width=0.08, half_height=0.01,
-                    gravity=1e-3, mu_static=0.1, mu_dynamic=0.0, restitution_x=0.9,
-                    restitution_y=0.8)
+    p = RoverParams(
+        mass=0.4,
+        inertia=6.6e-5,
+        half_width=0.08,
+        half_height=0.01,
+        gravity=1e-3,
+        mu_static=0.1,
+        mu_dynamic=0.0,
+        restitution_x=0.9,
+        restitution_y=0.8,
+    )
     th = 1e-3
-    roll = simulate(np.array([3e-4]), t_end=0.1, control_dt=0.1, params=p, impact_law=law,
-                    initial_state=(0, 0.08 * math.sin(th) + 0.01 * math.cos(th), th, 0, 1e-5, 0))
+    roll = simulate(
+        np.array([3e-4]),
+        t_end=0.1,
+        control_dt=0.1,
+        params=p,
+        impact_law=law,
+        initial_state=(0, 0.08 * math.sin(th) + 0.01 * math.cos(th), th, 0, 1e-5, 0),
+    )
     assert roll.n_events < 100
     assert np.all(roll.impact_energy_ratios <= 1.0 + 1e-12) or law == "contest"
 
 
 def test_euler_pressed_micro_bounces_fit_the_budget():
-    roll = simulate(np.array([-0.0002273978004155527]), t_end=4.157780733212458,
-                    control_dt=4.157780733212458, integrator="euler",
-                    initial_state=(0.0, 0.050667766580636306, -0.013401712023356667,
-                                   -0.0008537434721861206, -4.256916749950787e-05, 0.0))
+    roll = simulate(
+        np.array([-0.0002273978004155527]),
+        t_end=4.157780733212458,
+        control_dt=4.157780733212458,
+        integrator="euler",
+        initial_state=(
+            0.0,
+            0.050667766580636306,
+            -0.013401712023356667,
+            -0.0008537434721861206,
+            -4.256916749950787e-05,
+            0.0,
+        ),
+    )
     assert roll.t[-1] == pytest.approx(4.157780733212458)
 
 
 def test_euler_breaking_step_leaves_no_bottom_corner_under_the_ground():
-    p = RoverParams(mass=10.0, inertia=0.00018834480037759906, half_width=0.01,
-                    half_height=0.02901248010577509, gravity=0.001,
-                    mu_static=0.46532751652347326, mu_dynamic=0.0, restitution_x=0.0,
-                    restitution_y=0.648218349547975)
-    init = (-0.10737519629590697, 0.010310367351709489, -1.560081357406534,
-            -0.0018562368757420386, -0.0051583149325933825, -0.17811210532669478)
-    roll = simulate(np.array([7.426682180536331e-05]), t_end=0.1, control_dt=0.1, params=p,
-                    integrator="euler", initial_state=init)
+    p = RoverParams(
+        mass=10.0,
+        inertia=0.00018834480037759906,
+        half_width=0.01,
+        half_height=0.02901248010577509,
+        gravity=0.001,
+        mu_static=0.46532751652347326,
+        mu_dynamic=0.0,
+        restitution_x=0.0,
+        restitution_y=0.648218349547975,
+    )
+    init = (
+        -0.10737519629590697,
+        0.010310367351709489,
+        -1.560081357406534,
+        -0.0018562368757420386,
+        -0.0051583149325933825,
+        -0.17811210532669478,
+    )
+    roll = simulate(
+        np.array([7.426682180536331e-05]),
+        t_end=0.1,
+        control_dt=0.1,
+        params=p,
+        integrator="euler",
+        initial_state=init,
+    )
     assert roll.broken and roll.min_corner_height >= -1e-9
 
 
@@ -108,8 +183,13 @@ def test_slide_at_the_old_painleve_margin_returns_instead_of_hanging(h_carried):
     kernel rejects the step, ends on its bounds and returns (here: an error state)."""
     import subprocess
     import sys
-    out = subprocess.run([sys.executable, "-c", HANG_SCRIPT, "1e-12", str(h_carried)],
-                         capture_output=True, text=True, timeout=300)
+
+    out = subprocess.run(
+        [sys.executable, "-c", HANG_SCRIPT, "1e-12", str(h_carried)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     t, err = map(float, out.stdout.split()[-2:])
     assert t == 1.0 or err == 3.0
@@ -117,9 +197,10 @@ def test_slide_at_the_old_painleve_margin_returns_instead_of_hanging(h_carried):
 
 def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
     from hoprover_env.core.params import PAINLEVE_MARGIN
+
     base = RoverParams(mu_static=1.0, mu_dynamic=1.0)
-    j = lambda i: i + base.mass * base.corner_distance ** 2     # noqa: E731
-    shift = base.min_slide_denominator() - base.inertia          # D_min = I + shift
+    j = lambda i: i + base.mass * base.corner_distance**2  # noqa: E731
+    shift = base.min_slide_denominator() - base.inertia  # D_min = I + shift
     at_old_limit = -shift + 1e-11 * j(-shift)
     with pytest.raises(ValueError, match="Painleve"):
         RoverParams(mu_static=1.0, mu_dynamic=1.0, inertia=at_old_limit)
@@ -128,8 +209,14 @@ def test_painleve_margin_refuses_parameters_the_integrator_cannot_handle():
     p = RoverParams(mu_static=1.0, mu_dynamic=1.0, inertia=ok)
     th = 0.3927
     dy = -p.half_width * math.sin(th) - p.half_height * math.cos(th)
-    roll = simulate(np.zeros(1), t_end=1.0, control_dt=1.0, params=p, target_x=5.0,
-                    initial_state=(0.0, -dy, th, 1e-3, 0.0, 0.0))
+    roll = simulate(
+        np.zeros(1),
+        t_end=1.0,
+        control_dt=1.0,
+        params=p,
+        target_x=5.0,
+        initial_state=(0.0, -dy, th, 1e-3, 0.0, 0.0),
+    )
     assert roll.t[-1] == 1.0 and roll.events and roll.events[0][1] == "stick"
 
 
@@ -141,8 +228,7 @@ def test_run_reaches_t_end_exactly_past_a_multiple_of_control_dt():
         assert roll.t[-1] == t_end
 
 
-@pytest.mark.parametrize("kw", [dict(t_end=1e300), dict(control_dt=1e-300),
-                                dict(sample_dt=1e-300)])
+@pytest.mark.parametrize("kw", [dict(t_end=1e300), dict(control_dt=1e-300), dict(sample_dt=1e-300)])
 def test_grids_that_would_never_finish_are_refused(kw):
     args = dict(t_end=10.0, control_dt=1.0)
     args.update(kw)
@@ -158,6 +244,7 @@ def test_an_euler_step_that_would_never_finish_is_refused():
 # ---- numpy scalars accepted, strings / booleans / complex refused by name ----------------
 def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
     from hoprover_env.envs.env import HopRoverEnv
+
     roll = simulate(np.zeros(2), t_end=np.float32(1.0), control_dt=np.int64(1))
     assert roll.t[-1] == 1.0
     env = HopRoverEnv(control_dt=np.float32(0.5), episode_time=np.int64(60))
@@ -172,6 +259,7 @@ def test_numpy_scalars_are_accepted_and_strings_booleans_refused():
 # ---- TTRTP is logged when it happens -----------------------------------------------------
 def test_ttrtp_is_logged_in_time_order_and_stop_on_ttrtp_stops_there():
     from hoprover_env import RoverSim
+
     roll = simulate(np.full(1, 2e-5), t_end=20.0, control_dt=20.0, target_x=0.0)
     times = [e[0] for e in roll.events]
     assert times == sorted(times)
@@ -183,6 +271,7 @@ def test_ttrtp_is_logged_in_time_order_and_stop_on_ttrtp_stops_there():
 
 def _lowest_corner_height(sim_or_state, params):
     from hoprover_env import core
+
     s = sim_or_state
     return min(s[core.S_Y] + core.corner_offset(params, k, s[core.S_TH])[1] for k in range(4))
 
@@ -198,11 +287,12 @@ def test_no_impact_is_logged_in_mid_air_over_a_long_control_interval():
     assert not any(e[1] == "impact" and e[0] < t_lift + 10.0 for e in roll.events)
 
 
-@pytest.mark.slow                # the closed form sampled on millions of points
+@pytest.mark.slow  # the closed form sampled on millions of points
 def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
     # RoverSim stopped at t = 140.87 s with every corner 0.32 m up. Checked
     # against the closed-form flight sampled every 1e-5 s.
     from hoprover_env import RoverSim, core
+
     sim = RoverSim(target_x=1e3)
     sim.advance(3.7e-4, 200, stop_on="liftoff")
     s0, p, t0 = sim.s.copy(), sim.p, sim.t
@@ -211,10 +301,15 @@ def test_stop_on_impact_stops_where_a_corner_really_meets_the_ground():
     assert abs(_lowest_corner_height(sim.s, p)) < 1e-9
     x, y, th, vx, vy, w = s0[:6]
     tt = np.arange(0.0, sim.t - t0 + 1.0, 1e-5)
-    thh = th + w * tt + 0.5 * 3.7e-4 / p[params.P_I] * tt ** 2
-    yy = y + vy * tt - 0.5 * p[params.P_G] * tt ** 2
-    h = np.min([yy - bx * np.sin(thh) + by * np.cos(thh)
-                for bx, by in (core.corner_body(p, k) for k in range(4))], axis=0)
+    thh = th + w * tt + 0.5 * 3.7e-4 / p[params.P_I] * tt**2
+    yy = y + vy * tt - 0.5 * p[params.P_G] * tt**2
+    h = np.min(
+        [
+            yy - bx * np.sin(thh) + by * np.cos(thh)
+            for bx, by in (core.corner_body(p, k) for k in range(4))
+        ],
+        axis=0,
+    )
     first = t0 + tt[np.argmax(h[10:] <= 0.0) + 10]
     assert abs(sim.t - first) < 2e-5
 
@@ -224,6 +319,7 @@ def _return_time_exact(s0, p, torque, k=0):
     in 40-digit arithmetic (independent of the kernel's stepping and round-off)."""
     mp = pytest.importorskip("mpmath")
     from hoprover_env import core
+
     mp.mp.dps = 40
     y, th, vy, w = (mp.mpf(float(s0[i])) for i in (core.S_Y, core.S_TH, core.S_VY, core.S_W))
     g, beta = mp.mpf(float(p[params.P_G])), mp.mpf(torque) / mp.mpf(float(p[params.P_I]))
@@ -232,6 +328,7 @@ def _return_time_exact(s0, p, torque, k=0):
     def h(t):
         a = th + w * t + beta * t * t / 2
         return y + vy * t - g * t * t / 2 - bx * mp.sin(a) + by * mp.cos(a)
+
     lo = mp.mpf(0)
     for i in range(1, 100_000):
         hi = mp.mpf(i) * mp.mpf("1e-8")
@@ -244,13 +341,15 @@ def _return_time_exact(s0, p, torque, k=0):
     return float(hi)
 
 
-@pytest.mark.parametrize("delay,t1,t2", [(2e-4, 1e-4, 5e-4), (1e-4, 1e-4, 5e-4),
-                                         (2e-4, 3e-4, 4e-4)])
+@pytest.mark.parametrize(
+    "delay,t1,t2", [(2e-4, 1e-4, 5e-4), (1e-4, 1e-4, 5e-4), (2e-4, 3e-4, 4e-4)]
+)
 def test_slow_return_after_lift_off_is_located_whatever_the_horizon(delay, t1, t2):
     # a corner lifts off, a torque change `delay` later drives it back within
     # microseconds at ~1e-9 m/s. A Newton polish dividing by that speed reported the
     # return up to 4e-5 s late, and later for longer `advance` horizons.
     from hoprover_env import RoverSim
+
     found = []
     for horizon in (1e-3, 1.0, 5.0, 20.0, 100.0):
         sim = RoverSim(target_x=1e3)
@@ -272,6 +371,7 @@ def test_a_flight_towards_a_huge_t_stop_still_lands():
     # found by tests/envs/test_fuzz.py: with t_stop = 1e300 the flight's curvature bound was
     # infinite, every step NaN, and the rover flew through the ground to t = 1e300
     from hoprover_env import RoverSim
+
     ends = []
     for t_stop in (100.0, 1e5, 1e300):
         sim = RoverSim()

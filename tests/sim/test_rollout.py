@@ -5,6 +5,7 @@ A torque schedule or a compiled controller runs in one kernel call; a plain Pyth
 callable runs the Python loop. Replaying a schedule through a Python callable therefore
 exercises the old path on the same torques, and the two Rollouts must agree bit for bit.
 """
+
 import math
 
 import numba
@@ -16,19 +17,23 @@ from hoprover_env import RoverParams, simulate
 from hoprover_env.sim.controllers import attitude_hold
 
 
-@pytest.mark.parametrize("kw", [
-    dict(t_end=60.0, control_dt=0.7, sample_dt=0.05),          # samples between instants
-    dict(t_end=7, control_dt=2),                                # ints, a short last interval
-    dict(t_end=40.0, control_dt=0.5, integrator="euler", euler_dt=1e-3),
-])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(t_end=60.0, control_dt=0.7, sample_dt=0.05),  # samples between instants
+        dict(t_end=7, control_dt=2),  # ints, a short last interval
+        dict(t_end=40.0, control_dt=0.5, integrator="euler", euler_dt=1e-3),
+    ],
+)
 def test_compiled_loop_equals_python_loop_variants(kw):
     sched = 4e-4 * np.sin(np.arange(200) * 0.37)
-    assert_identical(simulate(sched, target_x=0.1, **kw),
-                     simulate(replay(sched), target_x=0.1, **kw))
+    assert_identical(
+        simulate(sched, target_x=0.1, **kw), simulate(replay(sched), target_x=0.1, **kw)
+    )
 
 
 def test_broken_run_stops_like_the_python_loop():
-    sched = 1e-5 * np.ones(10)             # a spinning drop lands on a top corner
+    sched = 1e-5 * np.ones(10)  # a spinning drop lands on a top corner
     kw = dict(t_end=600.0, control_dt=0.5, target_x=0.5, initial_state=(0, 0.3, 0, 0, 0, 0.5))
     fast = simulate(sched, **kw)
     assert fast.broken and fast.t[-1] < 600.0
@@ -37,16 +42,27 @@ def test_broken_run_stops_like_the_python_loop():
 
 @numba.njit
 def hold_then_launch(pos, vel, the, omg, posT, t, smt, state_code):
-    if state_code == 0:                        # flight: PD attitude hold
+    if state_code == 0:  # flight: PD attitude hold
         return attitude_hold(the, omg, 0.0017, 0.15, 0.9)
     if t < 8.0:
         return 3e-4 if posT[0] > pos[0] else -3e-4
     return 0.0
 
 
-@pytest.mark.parametrize("kw", [dict(t_end=300.0, control_dt=0.1, target_x=-0.4),
-                                dict(t_end=120.0, control_dt=0.5, sample_dt=0.2, target_x=0.3,
-                                     integrator="euler", euler_dt=2e-3)])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(t_end=300.0, control_dt=0.1, target_x=-0.4),
+        dict(
+            t_end=120.0,
+            control_dt=0.5,
+            sample_dt=0.2,
+            target_x=0.3,
+            integrator="euler",
+            euler_dt=2e-3,
+        ),
+    ],
+)
 def test_compiled_controller_equals_its_python_twin(kw):
     fast = simulate(hold_then_launch, **kw)
 
@@ -60,13 +76,13 @@ def test_compiled_controller_equals_its_python_twin(kw):
 def test_compiled_controller_sees_copies_and_the_contest_arguments():
     @numba.njit
     def scribble(pos, vel, the, omg, posT, t, smt, state_code):
-        pos[0] = 99.0                        # must not move the rover
+        pos[0] = 99.0  # must not move the rover
         posT[1] = 5.0
         return 1e-4 * state_code + posT[0] * 0.0 + smt * 0.0
 
     roll = simulate(scribble, t_end=3.0, control_dt=1.0, target_x=0.25)
     assert np.all(np.abs(roll.x) < 1.0)
-    assert roll.torque_cmd[0] == 1e-4 * 5         # at rest: state F = code 5
+    assert roll.torque_cmd[0] == 1e-4 * 5  # at rest: state F = code 5
 
 
 def test_compiled_controller_errors():
@@ -89,10 +105,14 @@ def test_no_compile_at_import():
     # the explicit-signature loops are built on first use, not when simulate is imported
     import subprocess
     import sys
-    code = ("import hoprover_env.sim.rollout as r; import hoprover_env; "
-            "print(r.run_one == {} and r.run_many == {} and r.no_control is None)")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         check=True).stdout.strip()
+
+    code = (
+        "import hoprover_env.sim.rollout as r; import hoprover_env; "
+        "print(r.run_one == {} and r.run_many == {} and r.no_control is None)"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout.strip()
     assert out == "True"
 
 

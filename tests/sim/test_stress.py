@@ -1,4 +1,5 @@
 """Property-based stress of the whole hybrid simulator (hypothesis)."""
+
 import math
 
 import numpy as np
@@ -27,7 +28,7 @@ def valid_params(draw):
     )
     try:
         return RoverParams(**kw)
-    except ValueError:          # the Painleve regime: not a valid parameter set
+    except ValueError:  # the Painleve regime: not a valid parameter set
         assume(False)
 
 
@@ -80,18 +81,27 @@ def run(p, state, control_dt, torques, hold, integrator, law, t_end, seed=None):
             return attitude_hold(the, omg, inertia=p.inertia)
         return sched[int(round(t / control_dt)) % sched.size]
 
-    return simulate(control, t_end=t_end, control_dt=control_dt, target_x=0.3,
-                    integrator=integrator, impact_law=law, params=p, initial_state=state,
-                    euler_dt=5e-3, seed=seed)
+    return simulate(
+        control,
+        t_end=t_end,
+        control_dt=control_dt,
+        target_x=0.3,
+        integrator=integrator,
+        impact_law=law,
+        params=p,
+        initial_state=state,
+        euler_dt=5e-3,
+        seed=seed,
+    )
 
 
-@pytest.mark.slow                # hypothesis: 25 random whole runs
+@pytest.mark.slow  # hypothesis: 25 random whole runs
 @given(scenario())
 def test_never_nan_never_under_ground_always_consistent_and_deterministic(sc):
     roll = run(*sc)
     arr = np.c_[roll.t, roll.x, roll.y, roll.theta, roll.vx, roll.vy, roll.omega]
     assert np.all(np.isfinite(arr))
-    assert np.all(np.diff(roll.t) > 0)                 # time always advances
+    assert np.all(np.diff(roll.t) > 0)  # time always advances
     assert roll.min_corner_height >= -1e-9
     for which in "AB":
         assert roll.corner(which)[1].min() >= -1e-9
@@ -105,8 +115,9 @@ def test_never_nan_never_under_ground_always_consistent_and_deterministic(sc):
         steps = sc[2] / 5e-3 if sc[5] == "euler" else 0.0
         assert per_step.max() <= 200 + 2 * steps
     again = run(*sc)
-    assert np.array_equal(arr, np.c_[again.t, again.x, again.y, again.theta, again.vx,
-                                     again.vy, again.omega])
+    assert np.array_equal(
+        arr, np.c_[again.t, again.x, again.y, again.theta, again.vx, again.vy, again.omega]
+    )
     assert again.events == roll.events and again.ttrtp == roll.ttrtp
     if sc[6] == "dissipative":
         assert np.all(roll.impact_energy_ratios <= 1.0 + 1e-12)

@@ -1,4 +1,5 @@
 """The reward cannot be gamed, the action maps, and the hop-level task HopRoverHop-v0."""
+
 import math
 
 import gymnasium as gym
@@ -15,7 +16,7 @@ from hoprover_env.envs.env import HopRoverEnv
 from hoprover_env.envs.registry import HopRoverHopEnv, HopRoverHopVectorEnv
 from hoprover_env.tasks import hop, reward, torque
 
-GAMED = dict(shaping="landing", attitude_weight=1.0, gamma=0.995)   # the probe's setting
+GAMED = dict(shaping="landing", attitude_weight=1.0, gamma=0.995)  # the probe's setting
 
 
 def _episode(env, act, seed=0, target=0.5):
@@ -41,8 +42,9 @@ def _spinner(env):
     return lambda obs, rng, k: np.array([a], np.float32)
 
 
-@pytest.mark.parametrize("kw", [GAMED, dict(GAMED, control_dt=2.0),
-                                dict(GAMED, action_map="cubic"), {}])
+@pytest.mark.parametrize(
+    "kw", [GAMED, dict(GAMED, control_dt=2.0), dict(GAMED, action_map="cubic"), {}]
+)
 def test_no_positive_reward_at_a_breaking_step(kw):
     """Random and spinning policies: every breaking step is penalised, whatever spin the
     rover had (the unbounded attitude potential once paid up to +142 here)."""
@@ -55,9 +57,12 @@ def test_no_positive_reward_at_a_breaking_step(kw):
                 breaks += 1
                 # exactly the penalty and the time cost: no potential is released
                 dt_cost = env.config.time_cost * env.config.control_dt
-                assert -env.config.break_penalty - dt_cost - 1e-9 <= rewards[-1] \
+                assert (
+                    -env.config.break_penalty - dt_cost - 1e-9
+                    <= rewards[-1]
                     <= -env.config.break_penalty
-    assert breaks >= 12          # the spinning policy breaks the rover every time
+                )
+    assert breaks >= 12  # the spinning policy breaks the rover every time
 
 
 def test_return_ranks_success_over_staying_put_over_breaking():
@@ -69,8 +74,16 @@ def test_return_ranks_success_over_staying_put_over_breaking():
 
         def scripted(obs, rng, k, env=env, hopper=hopper, params=params):
             s = env.unwrapped._s
-            t = hopper(s[0:2].copy(), s[3:5].copy(), s[2], s[5], np.array([0.5, 0.0]), s[6],
-                       env.config.episode_time, "ABCDEFG"[int(s[7])])
+            t = hopper(
+                s[0:2].copy(),
+                s[3:5].copy(),
+                s[2],
+                s[5],
+                np.array([0.5, 0.0]),
+                s[6],
+                env.config.episode_time,
+                "ABCDEFG"[int(s[7])],
+            )
             return np.array([torque_to_action(t, params, env.config)], np.float32)
 
         succ, _, info_s = _episode(env, scripted, target=0.5)
@@ -86,7 +99,7 @@ def test_potential_is_bounded_below_by_phi_min():
     env = HopRoverEnv(**GAMED)
     e = env.config.reward_vector()
     m = reward.new_memory()
-    env.reset(seed=0)                            # sets env._s
+    env.reset(seed=0)  # sets env._s
     S = env.unwrapped._s.copy()
     P = env.unwrapped._p
     S[hoprover_env.core.S_MODE] = hoprover_env.core.MODE_A
@@ -108,7 +121,7 @@ def test_action_maps_and_their_inverse(amap, scale):
         assert abs(t) <= scale * p.torque_max + 1e-18
         assert torque_to_action(t, p, env.config) == pytest.approx(a, abs=1e-9)
     assert torque.action_to_torque(0.0, p.as_array(), e) == 0.0
-    if amap == "cubic":       # fine resolution near zero: the tipping torque at |a| ~ 0.2
+    if amap == "cubic":  # fine resolution near zero: the tipping torque at |a| ~ 0.2
         a_tip = torque_to_action(p.tipping_torque, p, env.config)
         assert 0.2 * scale ** (-1 / 3) * 0.9 < a_tip < 0.25 * scale ** (-1 / 3)
     with pytest.raises(ValueError, match="action_map"):
@@ -120,6 +133,7 @@ def test_action_maps_and_their_inverse(amap, scale):
 # ---- the hop-level task ----------------------------------------------------------------
 def test_hop_env_passes_both_checkers():
     from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
     gym_check_env(gym.make("HopRoverHop-v0").unwrapped, skip_render_check=True)
     sb3_check_env(HopRoverHopEnv(), warn=True)
 
@@ -136,6 +150,7 @@ def test_hop_env_is_deterministic_under_a_seed():
             if te or tr:
                 break
         return np.concatenate(out)
+
     assert np.array_equal(run(3), run(3))
     assert not np.array_equal(run(3), run(4))
 
@@ -179,7 +194,7 @@ def test_hop_lands_near_where_the_torque_sends_it_and_in_band_succeeds():
         obs, r, te, tr, info = env.step(np.array([a], np.float32))
         assert info["state"] == hoprover_env.core.MODE_F and not te
         x.append(info["rover_state"][0])
-    assert x[0] < -0.1 and 0.0 < x[1] < x[2]            # direction and length follow |a|
+    assert x[0] < -0.1 and 0.0 < x[1] < x[2]  # direction and length follow |a|
 
 
 def test_hop_policy_through_controller_matches_hop_env():
@@ -187,7 +202,7 @@ def test_hop_policy_through_controller_matches_hop_env():
     hold law on the same control grid gives the same first hop in the torque env."""
     env = HopRoverHopEnv(info_level="full")
     env.reset(seed=0, options={"target_x": 3.0})
-    a = float(np.float32(0.55))          # what the env receives
+    a = float(np.float32(0.55))  # what the env receives
     env.step(np.array([a], np.float32))
     x_hop = env.unwrapped._s[0]
     launch = hop.hop_torque(a, RoverParams().as_array(), env.config.task_vector())
@@ -200,8 +215,9 @@ def test_hop_policy_through_controller_matches_hop_env():
 
 def test_controller_policy_uses_the_envs_action_map():
     env_kwargs = {"action_map": "cubic", "action_scale": 0.5}
-    pol = ControllerPolicy(lambda: (lambda *a: 1e-5), env_kwargs=env_kwargs)
+    pol = ControllerPolicy(lambda: lambda *a: 1e-5, env_kwargs=env_kwargs)
     from hoprover_env.envs.vector_env import HopRoverVectorEnv
+
     venv = HopRoverVectorEnv(2, autoreset_mode=AutoresetMode.SAME_STEP, **env_kwargs)
     obs, _ = venv.reset(seed=0)
     pol.reset(2)
@@ -216,6 +232,7 @@ def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
     import json
 
     from hoprover_env.agents.policies import BUNDLED, BUNDLED_DIR
+
     path = BUNDLED_DIR / f"{BUNDLED[name]}.json"
     if name == "scratch" and not path.exists():
         pytest.skip("no bundled torque-level policy from scratch")
@@ -232,6 +249,7 @@ def test_bundled_from_scratch_policy_records_how_it_was_trained(name):
 def test_bundled_hop_policy_runs_in_the_hop_task():
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.episodes import run_episodes, summarize
+
     pol = load_policy("hop")
     assert pol.env_id == "HopRoverHop-v0" and pol.name == "hop"
     res = summarize(run_episodes(pol, np.linspace(-0.9, 0.9, 7)))

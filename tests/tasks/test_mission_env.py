@@ -1,6 +1,7 @@
 """HopRoverMission-v0: checkers, vector == single, replay from a seed, the documented
 noise (statistics over many readings), no hidden state in the observation, the
 actuator's scale error and the unknown ground, bad arguments."""
+
 import math
 
 import numpy as np
@@ -13,7 +14,7 @@ from hoprover_env import core
 from hoprover_env.envs.registry import HopRoverMissionEnv, HopRoverMissionVectorEnv
 from hoprover_env.tasks import mission
 
-TRUNC_STD = 0.9866     # standard deviation of a unit normal truncated at |z| <= 3
+TRUNC_STD = 0.9866  # standard deviation of a unit normal truncated at |z| <= 3
 
 
 def _random_actions(n, seed, scale=0.05):
@@ -34,7 +35,7 @@ def test_checkers_pass_and_the_observation_has_the_documented_shape():
     assert np.array_equal(obs[:8], obs[8:16]) and np.array_equal(obs[:8], obs[16:])
     first = obs[:8].copy()
     obs, *_ = env.step(np.array([0.02], np.float32))
-    assert np.array_equal(obs[8:16], first)      # shifted back by one, newest first
+    assert np.array_equal(obs[8:16], first)  # shifted back by one, newest first
 
 
 def test_the_vector_env_equals_single_envs_bit_for_bit_and_a_seed_replays():
@@ -48,13 +49,13 @@ def test_the_vector_env_equals_single_envs_bit_for_bit_and_a_seed_replays():
         vobs.append(o.copy())
         vrew.append(r.copy())
     for i in range(n):
-        for _ in range(2):                       # twice: a seed replays
+        for _ in range(2):  # twice: a seed replays
             env = HopRoverMissionEnv(history=2)
             o, _ = env.reset(seed=10 + i)
             assert np.array_equal(o, vobs[0][i])
             done = False
             for k, a in enumerate(acts):
-                if done:                         # NextStep: the vector env resets here
+                if done:  # NextStep: the vector env resets here
                     o, _ = env.reset()
                     done = False
                     assert np.array_equal(o, vobs[k + 1][i])
@@ -73,9 +74,16 @@ def _readings(noise_scale=1.0, episodes=6, steps=300, scale=0.05, **kw):
         obs, info = env.reset(seed=ep)
         acts = _random_actions(steps, 100 + ep, scale)
         for a in acts:
-            rows.append((obs.copy(), info["rover_state"].copy(), info["target_x"],
-                         info["attitude_bias"], env.params, float(info["t"]) if "t" in info
-                         else 0.0))
+            rows.append(
+                (
+                    obs.copy(),
+                    info["rover_state"].copy(),
+                    info["target_x"],
+                    info["attitude_bias"],
+                    env.params,
+                    float(info["t"]) if "t" in info else 0.0,
+                )
+            )
             obs, _, te, tr, info = env.step(a)
             if te or tr:
                 break
@@ -85,15 +93,19 @@ def _readings(noise_scale=1.0, episodes=6, steps=300, scale=0.05, **kw):
 def test_the_readings_differ_from_the_true_state_by_the_documented_noise():
     cfg = HopRoverMissionEnv().config
     rows = _readings()
-    att = np.array([math.atan2(o[mission.OBS_SIN], o[mission.OBS_COS]) - s[2] - b
-                    for o, s, _, b, _, _ in rows])
+    att = np.array(
+        [math.atan2(o[mission.OBS_SIN], o[mission.OBS_COS]) - s[2] - b for o, s, _, b, _, _ in rows]
+    )
     att = (att + math.pi) % (2 * math.pi) - math.pi
     rate = np.array([o[mission.OBS_RATE] * 0.3 - s[5] for o, s, *_ in rows])
     incl = np.array([o[mission.OBS_SLOPE] * 0.5 - p.slope for o, _, _, _, p, _ in rows])
     n = len(rows)
     assert n > 1000
-    for err, sigma in ((att, cfg.attitude_noise), (rate, cfg.rate_noise),
-                       (incl, cfg.inclinometer_noise)):
+    for err, sigma in (
+        (att, cfg.attitude_noise),
+        (rate, cfg.rate_noise),
+        (incl, cfg.inclinometer_noise),
+    ):
         # float32 rounding of the readings is far below these noises
         assert abs(err.mean()) < 4 * sigma / math.sqrt(n)
         assert err.std() == pytest.approx(sigma * TRUNC_STD, rel=0.08)
@@ -111,17 +123,17 @@ def test_a_fix_comes_only_after_a_second_at_rest_and_has_the_documented_noise():
         # the first reading carries a fix of the start
         errs.append(obs[mission.OBS_FIX] + info["target_x"] - info["rover_state"][0])
         assert obs[mission.OBS_FIX_AGE] == 0.0
-        rest = 1.0                       # it rested before the episode
+        rest = 1.0  # it rested before the episode
         for a in _random_actions(200, ep, scale=0.005):
             last_fix = float(info["last_fix_x"])
             obs, _, te, tr, info = env.step(a)
             if te or tr:
                 break
             rest = rest + 0.5 if info["state"] == core.MODE_F else 0.0
-            if rest >= 1.0:              # a fix now
+            if rest >= 1.0:  # a fix now
                 assert obs[mission.OBS_FIX_AGE] == 0.0
                 errs.append(float(info["last_fix_x"]) - info["rover_state"][0])
-            else:                        # the last fix, ageing
+            else:  # the last fix, ageing
                 assert info["last_fix_x"] == last_fix and obs[mission.OBS_FIX_AGE] > 0
     errs = np.array(errs)
     assert len(errs) > 300
@@ -130,7 +142,7 @@ def test_a_fix_comes_only_after_a_second_at_rest_and_has_the_documented_noise():
 
 def _probe_rms(X, y):
     """RMS error of the least-squares fit of y on X's columns, their squares and 1."""
-    A = np.column_stack([X, X ** 2, np.ones(len(X))]).astype(np.float64)
+    A = np.column_stack([X, X**2, np.ones(len(X))]).astype(np.float64)
     coef, *_ = np.linalg.lstsq(A, y, rcond=None)
     return float(np.sqrt(np.mean((A @ coef - y) ** 2)))
 
@@ -148,8 +160,10 @@ def test_no_hidden_state_leaks_into_one_observation():
     near = np.abs(th) < 0.5
     fresh = obs[:, mission.OBS_FIX_AGE] == 0.0
     assert near.sum() > 500 and fresh.sum() > 200
-    for sel, y, floor in ((near, th, cfg.attitude_noise * TRUNC_STD),
-                          (fresh, x, cfg.fix_noise * TRUNC_STD)):
+    for sel, y, floor in (
+        (near, th, cfg.attitude_noise * TRUNC_STD),
+        (fresh, x, cfg.fix_noise * TRUNC_STD),
+    ):
         assert _probe_rms(obs[sel], y[sel]) > 0.9 * floor
         leaked = np.column_stack([obs[sel], y[sel]])
         assert _probe_rms(leaked, y[sel]) < 0.1 * floor
@@ -192,11 +206,17 @@ def test_the_ground_is_drawn_per_episode_and_not_observed():
     assert len(draws) == 10
 
 
-@pytest.mark.parametrize("kw, match", [
-    ({"history": 0}, "history"), ({"history": 2.5}, "history"),
-    ({"noise_scale": -1.0}, "noise_scale"), ({"fix_noise": math.nan}, "fix_noise"),
-    ({"actuator_error": 0.5, "noise_scale": 2.0}, "actuator_error"),
-    ({"fix_rest": 0.0}, "fix_rest")])
+@pytest.mark.parametrize(
+    "kw, match",
+    [
+        ({"history": 0}, "history"),
+        ({"history": 2.5}, "history"),
+        ({"noise_scale": -1.0}, "noise_scale"),
+        ({"fix_noise": math.nan}, "fix_noise"),
+        ({"actuator_error": 0.5, "noise_scale": 2.0}, "actuator_error"),
+        ({"fix_rest": 0.0}, "fix_rest"),
+    ],
+)
 def test_bad_arguments_are_refused_by_name(kw, match):
     with pytest.raises(ValueError, match=match):
         HopRoverMissionEnv(**kw)

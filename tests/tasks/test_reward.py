@@ -2,6 +2,7 @@
 info_level="full" reports sum to the reward, in the single env and the vector env, and a
 term can charge what a whole step accumulates (the energy term), even on the hop task,
 which changes its torque many times inside one step and ends it at 0."""
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -70,10 +71,16 @@ def test_vector_terms_sum_to_the_reward(env_id):
 def test_energy_of_a_torque_step_is_its_closed_form():
     """A torque held over a control period: the effort is |T| / T_limit times the
     seconds simulated."""
-    env = gym.make("HopRover-v0", info_level="full", energy_weight=0.5, control_dt=0.5,
-                   action_map="linear", action_scale=1.0)
+    env = gym.make(
+        "HopRover-v0",
+        info_level="full",
+        energy_weight=0.5,
+        control_dt=0.5,
+        action_map="linear",
+        action_scale=1.0,
+    )
     env.reset(seed=0)
-    before = 0.0                   # the episode's clock starts at 0
+    before = 0.0  # the episode's clock starts at 0
     for a in (0.4, -0.8):
         _, _, _, _, info = env.step(np.array([a], np.float32))
         p = RoverParams()
@@ -99,7 +106,7 @@ def test_a_hop_is_charged_for_the_torques_inside_its_step():
     np.testing.assert_allclose(r_paid - r_free, energy, rtol=1e-9, atol=1e-12)
     t = np.array([info["t"] for info in infos_paid])
     seconds = np.diff(np.concatenate([[0.0], t]))
-    assert np.all(energy < 0.0)                      # every hop spends some torque
+    assert np.all(energy < 0.0)  # every hop spends some torque
     assert np.all(-energy <= w * seconds * (1 + 1e-12))
-    for a, b in zip(infos_free, infos_paid):         # the same rover, step for step
+    for a, b in zip(infos_free, infos_paid):  # the same rover, step for step
         np.testing.assert_array_equal(a["rover_state"], b["rover_state"])

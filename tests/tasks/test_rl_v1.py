@@ -1,5 +1,6 @@
 """HopRoverRL-v1: the observation resolves what the reward depends on, the per-decision
 attitude cost, the flight starts of training, and evaluation unchanged by them."""
+
 import math
 
 import gymnasium as gym
@@ -29,7 +30,7 @@ def test_the_spin_slot_resolves_every_spin_the_attitude_term_tells_apart():
         potentials.append(rw.U_Q * math.log1p(min(u, rw.U_MAX) / rw.U_Q))
         # the fine slot saturates...
         assert obs[v1.OBS_RATE] == pytest.approx(min(omega / 0.3, 10.0))
-    assert np.all(np.diff(seen) > 0.1)                  # ...the whole-range one does not
+    assert np.all(np.diff(seen) > 0.1)  # ...the whole-range one does not
     assert np.all(np.diff(potentials) > 0)
     assert max(seen) < v1.SPIN_BOUND
 
@@ -117,11 +118,16 @@ def test_flight_start_is_checked_and_refused_where_it_cannot_apply():
 
 
 def test_evaluation_starts_at_rest_whatever_the_training_starts():
-    policy = ArrayPolicy(lambda obs: np.full((len(obs), 1), 0.8, np.float32), name="push",
-                         env_id="HopRoverRL-v1")
+    policy = ArrayPolicy(
+        lambda obs: np.full((len(obs), 1), 0.8, np.float32), name="push", env_id="HopRoverRL-v1"
+    )
     targets = np.linspace(-0.9, 0.9, 6)
     trained = run_episodes(policy, targets, {"flight_start": 1.0})
     contest = run_episodes(policy, targets, {})
     for a, b in zip(trained, contest):
-        assert (a.success, a.broken, a.steps, a.final_x) == (b.success, b.broken, b.steps,
-                                                             b.final_x)
+        assert (a.success, a.broken, a.steps, a.final_x) == (
+            b.success,
+            b.broken,
+            b.steps,
+            b.final_x,
+        )

@@ -6,6 +6,7 @@ function on its own file and bytecode only. The task here lives outside the pack
 researcher's copy of tests/toy_task.py would, renamed so that its kernels and the toy
 task's never share a name. The processes use the test session's numba cache, as the
 researcher's warm one: the simulator loads from it, the task's kernels compile."""
+
 import json
 import os
 import pathlib
@@ -20,7 +21,7 @@ pytestmark = pytest.mark.slow
 
 TOY = pathlib.Path(__file__).parents[1] / "toy_task.py"
 
-RUN = r'''
+RUN = r"""
 import json, numpy as np, gymnasium as gym, hoprover_env
 from numba.core import event
 compiled = []
@@ -54,15 +55,23 @@ for locator in CacheImpl._locator_classes:
         out["cache"] = found.get_cache_path()
         break
 print(json.dumps(out))
-'''
+"""
 
 
 def _run(folder):
-    env = dict(os.environ, HOPROVER_PARALLEL_COMPILE="0",
-               PYTHONPATH=os.pathsep.join(p for p in (str(folder),
-                                                      os.environ.get("PYTHONPATH")) if p))
-    out = subprocess.run([sys.executable, "-c", RUN], env=env, cwd=folder,
-                         capture_output=True, text=True, timeout=1500)
+    env = dict(
+        os.environ,
+        HOPROVER_PARALLEL_COMPILE="0",
+        PYTHONPATH=os.pathsep.join(p for p in (str(folder), os.environ.get("PYTHONPATH")) if p),
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", RUN],
+        env=env,
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=1500,
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
 

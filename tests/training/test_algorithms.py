@@ -1,6 +1,7 @@
 """train.py's algorithms from sb3-contrib (TQC, CrossQ, RecurrentPPO): a tiny run of each
 trains, checkpoints, resumes and loads back to play judged episodes; their own config
 keys are checked; a recurrent policy keeps its memory per episode slot."""
+
 import json
 import math
 import shutil
@@ -21,20 +22,35 @@ from hoprover_env.training.sb3_agents import ConfigError, load_config, make_agen
 pytestmark = pytest.mark.slow
 
 ENV = {"control_dt": 1.0, "episode_time": 30.0, "target_range": [-0.3, 0.3]}
-TINY = {"env_id": "HopRover-v0", "n_envs": 2, "timesteps": 300, "seed": 0, "env": ENV,
-        "evaluation": {"freq": 200, "episodes": 2, "seed": 1}, "checkpoint": {"freq": 100}}
+TINY = {
+    "env_id": "HopRover-v0",
+    "n_envs": 2,
+    "timesteps": 300,
+    "seed": 0,
+    "env": ENV,
+    "evaluation": {"freq": 200, "episodes": 2, "seed": 1},
+    "checkpoint": {"freq": 100},
+}
 OFF_POLICY = {"learning_starts": 50, "buffer_size": 1000, "batch_size": 32}
 # each algorithm with some of its own keys set
 OWN = {
-    "tqc": {"policy": {"net_arch": [32, 32], "n_quantiles": 5, "n_critics": 2},
-            "hyperparams": {**OFF_POLICY, "top_quantiles_to_drop_per_net": 1,
-                            "action_noise": 0.1}},
-    "crossq": {"policy": {"net_arch": [32, 32], "batch_norm_momentum": 0.02,
-                          "renorm_warmup_steps": 100},
-               "hyperparams": {**OFF_POLICY, "policy_delay": 2}},
-    "recurrentppo": {"policy": {"net_arch": [32], "lstm_hidden_size": 16,
-                                "n_lstm_layers": 1, "enable_critic_lstm": True},
-                     "hyperparams": {"n_steps": 32, "batch_size": 32, "n_epochs": 1}},
+    "tqc": {
+        "policy": {"net_arch": [32, 32], "n_quantiles": 5, "n_critics": 2},
+        "hyperparams": {**OFF_POLICY, "top_quantiles_to_drop_per_net": 1, "action_noise": 0.1},
+    },
+    "crossq": {
+        "policy": {"net_arch": [32, 32], "batch_norm_momentum": 0.02, "renorm_warmup_steps": 100},
+        "hyperparams": {**OFF_POLICY, "policy_delay": 2},
+    },
+    "recurrentppo": {
+        "policy": {
+            "net_arch": [32],
+            "lstm_hidden_size": 16,
+            "n_lstm_layers": 1,
+            "enable_critic_lstm": True,
+        },
+        "hyperparams": {"n_steps": 32, "batch_size": 32, "n_epochs": 1},
+    },
 }
 CLASSES = {"tqc": "TQC", "crossq": "CrossQ", "recurrentppo": "RecurrentPPO"}
 
@@ -44,6 +60,7 @@ def one_torch_thread():
     """One torch thread (as train.py --torch-threads 1): tiny networks on a busy machine
     run many times faster than with a thread per core."""
     import torch
+
     before = torch.get_num_threads()
     torch.set_num_threads(1)
     yield
@@ -68,8 +85,9 @@ def test_trains_resumes_and_plays(tmp_path, algo):
     assert first >= 300
     # the replay buffer is kept for the off-policy learners only
     assert (ckpt / "last_replay_buffer.pkl").exists() == (algo != "recurrentppo")
-    assert run_train(["--config", str(path), "--out", str(out), "--timesteps", "500",
-                      "--resume"]) == 0
+    assert (
+        run_train(["--config", str(path), "--out", str(out), "--timesteps", "500", "--resume"]) == 0
+    )
     meta = json.loads((ckpt / "last.json").read_text())
     assert meta["algo"] == algo and meta["timesteps"] >= 500 > first
     policy = load_sb3(out)
@@ -91,17 +109,20 @@ def test_algo_flag_takes_every_algorithm():
         assert train.parse_args(["--algo", algo, "--out", "r"]).algo == algo
 
 
-@pytest.mark.parametrize("algo, section, key, value", [
-    ("tqc", "policy", "n_quantilez", 5),
-    ("tqc", "hyperparams", "top_quantiles_to_drop", 2),
-    ("tqc", "policy", "lstm_hidden_size", 16),          # RecurrentPPO's, not TQC's
-    ("crossq", "policy", "batch_norm_momentun", 0.01),
-    ("crossq", "hyperparams", "tau", 0.005),            # CrossQ has no target network
-    ("crossq", "policy", "n_quantiles", 5),
-    ("recurrentppo", "policy", "lstm_hidden_sizes", 16),
-    ("recurrentppo", "hyperparams", "n_step", 32),
-    ("recurrentppo", "hyperparams", "action_noise", 0.1),   # on-policy: no action noise
-])
+@pytest.mark.parametrize(
+    "algo, section, key, value",
+    [
+        ("tqc", "policy", "n_quantilez", 5),
+        ("tqc", "hyperparams", "top_quantiles_to_drop", 2),
+        ("tqc", "policy", "lstm_hidden_size", 16),  # RecurrentPPO's, not TQC's
+        ("crossq", "policy", "batch_norm_momentun", 0.01),
+        ("crossq", "hyperparams", "tau", 0.005),  # CrossQ has no target network
+        ("crossq", "policy", "n_quantiles", 5),
+        ("recurrentppo", "policy", "lstm_hidden_sizes", 16),
+        ("recurrentppo", "hyperparams", "n_step", 32),
+        ("recurrentppo", "hyperparams", "action_noise", 0.1),  # on-policy: no action noise
+    ],
+)
 def test_unknown_keys_are_named(algo, section, key, value):
     cfg = load_config(None, {"algo": algo})
     cfg[section] = {key: value}
@@ -109,15 +130,18 @@ def test_unknown_keys_are_named(algo, section, key, value):
         validate(cfg)
 
 
-@pytest.mark.parametrize("algo, section, key, value", [
-    ("tqc", "policy", "n_quantiles", 2.5),
-    ("tqc", "hyperparams", "top_quantiles_to_drop_per_net", -1),
-    ("crossq", "policy", "renorm_warmup_steps", "many"),
-    ("crossq", "policy", "batch_norm_momentum", 0),
-    ("recurrentppo", "policy", "lstm_hidden_size", 0),
-    ("recurrentppo", "policy", "shared_lstm", "yes"),
-    ("recurrentppo", "policy", "shared_lstm", True),     # needs enable_critic_lstm: false
-])
+@pytest.mark.parametrize(
+    "algo, section, key, value",
+    [
+        ("tqc", "policy", "n_quantiles", 2.5),
+        ("tqc", "hyperparams", "top_quantiles_to_drop_per_net", -1),
+        ("crossq", "policy", "renorm_warmup_steps", "many"),
+        ("crossq", "policy", "batch_norm_momentum", 0),
+        ("recurrentppo", "policy", "lstm_hidden_size", 0),
+        ("recurrentppo", "policy", "shared_lstm", "yes"),
+        ("recurrentppo", "policy", "shared_lstm", True),  # needs enable_critic_lstm: false
+    ],
+)
 def test_bad_values_are_named(algo, section, key, value):
     cfg = load_config(None, {"algo": algo})
     cfg[section] = {key: value}
@@ -129,6 +153,7 @@ def test_action_noise_is_a_gaussian_std_where_the_algorithm_takes_it():
     from stable_baselines3.common.noise import NormalActionNoise
 
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+
     for algo in ("td3", "tqc", "crossq"):
         cfg = load_config(None, {"algo": algo, "n_envs": 2})
         cfg["hyperparams"] = {"action_noise": 0.2}
@@ -143,6 +168,7 @@ def recurrent_policy():
     import torch
 
     from hoprover_env.envs.sb3 import HopRoverSB3VecEnv
+
     cfg = load_config(None, {"algo": "recurrentppo", "n_envs": 2})
     cfg["policy"] = {"net_arch": [16], "lstm_hidden_size": 8}
     torch.set_num_threads(1)
@@ -160,11 +186,11 @@ def test_recurrent_policy_remembers_per_slot_and_forgets_on_reset(recurrent_poli
     pol.reset(2)
     first = pol.act(obs, None)
     second = pol.act(obs, None)
-    assert not np.allclose(first, second)          # the same observation, another memory
-    pol.restart([1])                               # slot 1 starts a new episode
+    assert not np.allclose(first, second)  # the same observation, another memory
+    pol.restart([1])  # slot 1 starts a new episode
     third = pol.act(obs, None)
     assert third[1] == pytest.approx(first[1], abs=1e-6)
-    assert not np.allclose(third[0], second[0])    # slot 0 goes on remembering
+    assert not np.allclose(third[0], second[0])  # slot 0 goes on remembering
     pol.reset(2)
     np.testing.assert_allclose(pol.act(obs, None), first, atol=1e-6)
 
@@ -175,15 +201,19 @@ def test_recurrent_batch_plays_each_episode_as_alone(recurrent_policy):
     targets = [-0.6, -0.2, 0.3, 0.8]
     batch = run_episodes(recurrent_policy, targets)
     again = run_episodes(recurrent_policy, targets)
-    alone = [run_episodes(recurrent_policy, [t], first_episode=e)[0]
-             for e, t in enumerate(targets)]
-    assert [r.as_dict() | {"wall_time": 0} for r in again] == \
-        [r.as_dict() | {"wall_time": 0} for r in batch]
+    alone = [run_episodes(recurrent_policy, [t], first_episode=e)[0] for e, t in enumerate(targets)]
+    assert [r.as_dict() | {"wall_time": 0} for r in again] == [
+        r.as_dict() | {"wall_time": 0} for r in batch
+    ]
     assert len({round(r.final_x, 6) for r in batch}) == len(targets)
     for b, a in zip(batch, alone):
         # the LSTM's float32 sums differ in the last bit between batch sizes
-        assert (b.episode, b.success, b.broken, b.steps) == (a.episode, a.success, a.broken,
-                                                             a.steps)
+        assert (b.episode, b.success, b.broken, b.steps) == (
+            a.episode,
+            a.success,
+            a.broken,
+            a.steps,
+        )
         assert b.final_x == pytest.approx(a.final_x, abs=1e-6)
         assert (b.ttrtp is None) == (a.ttrtp is None)
         if b.ttrtp is not None:

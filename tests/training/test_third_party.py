@@ -3,6 +3,7 @@ name registered ids and build and train SB3's PPO the way the zoo builds it, the
 itself trains, evaluates and enjoys with them as its users run it (no env arguments on
 the command line) where rl_zoo3 is installed, and CleanRL's wrapper stack (gymnasium
 1.x signatures) runs on HopRover-v0 and reports episode statistics."""
+
 from __future__ import annotations
 
 import ast
@@ -25,8 +26,15 @@ ROOT = Path(__file__).resolve().parents[2]
 HYPERPARAMS = ROOT / "hyperparams"
 ZOO_FILE = HYPERPARAMS / "ppo.yml"
 # keys the zoo consumes itself; everything else goes to the algorithm's constructor
-ZOO_ONLY = {"n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "env_wrapper",
-            "policy_kwargs"}
+ZOO_ONLY = {
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "env_kwargs",
+    "normalize",
+    "env_wrapper",
+    "policy_kwargs",
+}
 
 
 # env arguments that shape only the training episodes' starts (evaluation starts at rest)
@@ -51,7 +59,7 @@ def test_hyperparams_files_name_registered_ids_and_carry_no_env_kwargs(path):
             kwargs = dict(hp["env_kwargs"])
             assert set(kwargs) <= TRAINING_ONLY, f"{path.name}: {env_id} passes {kwargs}"
         assert {"n_timesteps", "policy"} <= set(hp)
-        if "gamma" in hp:      # the shaping's discount must be the learner's
+        if "gamma" in hp:  # the shaping's discount must be the learner's
             assert gym.spec(env_id).kwargs.get("gamma") == hp["gamma"], (path.name, env_id)
 
 
@@ -60,13 +68,14 @@ def test_zoo_file_trains_sb3_ppo_as_the_zoo_would(tmp_path):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import VecNormalize
     from torch import nn
+
     hp = zoo_hyperparams()
     assert hp["policy"] == "MlpPolicy" and "env_wrapper" not in hp
     # the zoo evaluates these two strings (policy_kwargs with torch.nn in scope)
     norm = ast.literal_eval(hp["normalize"])
     policy_kwargs = eval(hp["policy_kwargs"], {"nn": nn, "dict": dict})  # noqa: S307
     algo_kwargs = {k: v for k, v in hp.items() if k not in ZOO_ONLY}
-    algo_kwargs.update(n_steps=64, batch_size=128)            # a tiny budget, same code path
+    algo_kwargs.update(n_steps=64, batch_size=128)  # a tiny budget, same code path
     venv = VecNormalize(make_vec_env("HopRoverRL-v0", n_envs=2), **norm)
     assert venv.venv.envs[0].unwrapped.config.control_dt == 2.0
     model = PPO(hp["policy"], venv, policy_kwargs=policy_kwargs, seed=0, **algo_kwargs)
@@ -95,24 +104,62 @@ def test_zoo_trains_evaluates_and_enjoys_as_its_users_run_it(tmp_path, algo, env
     the id's defaults: a 2 s control period, so at most 300 steps in the 600 s episode
     (HopRover-v0's default 0.5 s would allow 1200)."""
     pytest.importorskip("rl_zoo3", reason="RL Baselines3 Zoo is not installed: pip install rl_zoo3")
-    common = ["--algo", algo, "--env", env_id, "--gym-packages", "hoprover_env",
-              "-f", str(tmp_path / "logs")]
+    common = [
+        "--algo",
+        algo,
+        "--env",
+        env_id,
+        "--gym-packages",
+        "hoprover_env",
+        "-f",
+        str(tmp_path / "logs"),
+    ]
     # a short budget: the zoo's own options, no change to the file's hyperparameters
     # beyond when off-policy learning starts (so that this budget trains at all)
     short = ["-n", "1024", "--eval-freq", "512", "--eval-episodes", "2", "--seed", "0"]
     if algo != "ppo":
         short += ["-params", "learning_starts:256"]
-    subprocess.run([sys.executable, "-m", "rl_zoo3.train", *common, "--conf-file",
-                    str(HYPERPARAMS / f"{algo}.yml"), *short], check=True, cwd=tmp_path,
-                   timeout=600)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rl_zoo3.train",
+            *common,
+            "--conf-file",
+            str(HYPERPARAMS / f"{algo}.yml"),
+            *short,
+        ],
+        check=True,
+        cwd=tmp_path,
+        timeout=600,
+    )
     run = tmp_path / "logs" / algo / f"{env_id}_1"
     evals = np.load(run / "evaluations.npz")
     assert evals["ep_lengths"].size and (run / "best_model.zip").exists()
-    out = subprocess.run([sys.executable, "-m", "rl_zoo3.enjoy", *common, "--exp-id", "1",
-                          "--load-best", "-n", "400", "--no-render"],
-                         check=True, cwd=tmp_path, timeout=600, capture_output=True, text=True)
-    lengths = [int(line.split()[-1]) for line in out.stdout.splitlines()
-               if line.startswith("Episode Length")]
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "rl_zoo3.enjoy",
+            *common,
+            "--exp-id",
+            "1",
+            "--load-best",
+            "-n",
+            "400",
+            "--no-render",
+        ],
+        check=True,
+        cwd=tmp_path,
+        timeout=600,
+        capture_output=True,
+        text=True,
+    )
+    lengths = [
+        int(line.split()[-1])
+        for line in out.stdout.splitlines()
+        if line.startswith("Episode Length")
+    ]
     assert lengths
     if env_id.startswith("HopRoverRL-"):
         assert evals["ep_lengths"].max() <= 300 and max(lengths) <= 300
@@ -122,16 +169,19 @@ def test_cleanrl_wrapper_stack_runs_on_gymnasium_1():
     """CleanRL's ppo_continuous_action wraps each env like this; on gymnasium 1.x the
     observation clip needs the observation space as a third argument, and episode
     statistics arrive as arrays with a mask (infos['final_info'] under SAME_STEP)."""
+
     def make():
         env = gym.make("HopRover-v0", control_dt=10.0)
         env = gym.wrappers.FlattenObservation(env)
         env = gym.wrappers.RecordEpisodeStatistics(env)
         env = gym.wrappers.ClipAction(env)
         env = gym.wrappers.NormalizeObservation(env)
-        env = gym.wrappers.TransformObservation(env, lambda obs: np.clip(obs, -10, 10),
-                                                env.observation_space)
+        env = gym.wrappers.TransformObservation(
+            env, lambda obs: np.clip(obs, -10, 10), env.observation_space
+        )
         env = gym.wrappers.NormalizeReward(env, gamma=0.99)
         return gym.wrappers.TransformReward(env, lambda r: np.clip(r, -10, 10))
+
     envs = gym.vector.SyncVectorEnv([make, make], autoreset_mode=gym.vector.AutoresetMode.SAME_STEP)
     envs.reset(seed=1)
     rng = np.random.default_rng(0)
@@ -152,28 +202,41 @@ def _zoo_entry_as_config(algo: str, env_id: str, hp: dict) -> dict:
     from torch import nn
 
     from hoprover_env.training.sb3_agents import ACTIVATIONS
+
     hp = dict(hp)
-    hp.pop("env_kwargs", None)                  # compared with the config's env above
+    hp.pop("env_kwargs", None)  # compared with the config's env above
     norm = ast.literal_eval(hp.pop("normalize", "{}"))
     pk = eval(hp.pop("policy_kwargs", "dict()"), {"nn": nn, "dict": dict})  # noqa: S307
     if "activation_fn" in pk:
         names = {getattr(nn, v): k for k, v in ACTIVATIONS.items()}
         pk["activation_fn"] = names[pk["activation_fn"]]
-    if "noise_std" in hp:                       # the zoo's Gaussian action noise
+    if "noise_std" in hp:  # the zoo's Gaussian action noise
         assert hp.pop("noise_type") == "normal"
         hp["action_noise"] = hp.pop("noise_std")
-    return {"algo": algo, "n_envs": hp.pop("n_envs"), "timesteps": int(hp.pop("n_timesteps")),
-            "policy": pk, "obs": norm.get("norm_obs", True),
-            "reward": norm.get("norm_reward", True),
-            "hyperparams": {k: v for k, v in hp.items() if k != "policy"}}
+    return {
+        "algo": algo,
+        "n_envs": hp.pop("n_envs"),
+        "timesteps": int(hp.pop("n_timesteps")),
+        "policy": pk,
+        "obs": norm.get("norm_obs", True),
+        "reward": norm.get("norm_reward", True),
+        "hyperparams": {k: v for k, v in hp.items() if k != "policy"},
+    }
 
 
 def _config_of(path) -> dict:
     from hoprover_env.training.sb3_agents import load_config
+
     cfg = load_config(path)
-    return {"algo": cfg["algo"], "n_envs": cfg["n_envs"], "timesteps": cfg["timesteps"],
-            "policy": cfg["policy"], "obs": cfg["normalize"]["obs"],
-            "reward": cfg["normalize"]["reward"], "hyperparams": dict(cfg["hyperparams"])}
+    return {
+        "algo": cfg["algo"],
+        "n_envs": cfg["n_envs"],
+        "timesteps": cfg["timesteps"],
+        "policy": cfg["policy"],
+        "obs": cfg["normalize"]["obs"],
+        "reward": cfg["normalize"]["reward"],
+        "hyperparams": dict(cfg["hyperparams"]),
+    }
 
 
 def _rollout_size(cfg: dict) -> dict:
@@ -193,18 +256,24 @@ def test_each_zoo_entry_is_a_train_py_config(path):
     the entry's id, its defaults included."""
     from hoprover_env.envs.registry import config_class, task
     from hoprover_env.training.sb3_agents import env_kwargs, load_config
-    configs = [p for p in (ROOT / "configs").glob("*.yaml")
-               if yaml.safe_load(p.read_text()).get("algo") == path.stem]
+
+    configs = [
+        p
+        for p in (ROOT / "configs").glob("*.yaml")
+        if yaml.safe_load(p.read_text()).get("algo") == path.stem
+    ]
     for env_id, hp in yaml.safe_load(path.read_text()).items():
         training = dict(hp.get("env_kwargs", {}))
         want = config_class(env_id)(**{**task(env_id).kwargs, **training})
         matches = []
         for p in configs:
             cfg = load_config(p)
-            if config_class(cfg["env_id"]) is type(want) and \
-                    config_class(cfg["env_id"])(**env_kwargs(cfg)) == want:
+            if (
+                config_class(cfg["env_id"]) is type(want)
+                and config_class(cfg["env_id"])(**env_kwargs(cfg)) == want
+            ):
                 matches.append(p)
         assert matches, f"{path.name}: no configs/*.yaml trains {path.stem} on {env_id}'s settings"
         assert _rollout_size(_zoo_entry_as_config(path.stem, env_id, hp)) in [
-            _rollout_size(_config_of(p)) for p in matches], \
-            f"{path.name}: {env_id} differs from {[p.name for p in matches]}"
+            _rollout_size(_config_of(p)) for p in matches
+        ], f"{path.name}: {env_id} differs from {[p.name for p in matches]}"
