@@ -42,6 +42,7 @@ from hoprover_env.envs.parts import (
 from hoprover_env.envs.parts import info as make_info
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.spread import spread_order
+from hoprover_env.jit.threads import run_threaded
 from hoprover_env.tasks import draws, reward, torque
 from hoprover_env.tasks import options as reset_options
 from hoprover_env.tasks.common import note_info_rows
@@ -51,8 +52,8 @@ THREAD_THRESHOLD = 64
 
 def _threaded_step(batch_threaded, order, *args):
     """The task's threaded batch step over the rows in `order`, leaving the caller's
-    OpenMP settings as they were (jit.compiler.run_threaded)."""
-    return _compile.run_threaded(batch_threaded, *args, order)
+    OpenMP settings as they were (jit.threads.run_threaded)."""
+    return run_threaded(batch_threaded, *args, order)
 
 
 class HopRoverVectorEnv(VectorEnv):

@@ -56,8 +56,8 @@ from hoprover_env.core.params import (
     from_fields,
     kernel_rows,
 )
-from hoprover_env.jit.compiler import run_threaded
 from hoprover_env.jit.spread import spread_order
+from hoprover_env.jit.threads import run_threaded
 from hoprover_env.sim import rollout
 from hoprover_env.sim.randomize import check_randomize, draw_fields, rng_for_seeds
 from hoprover_env.sim.rollout import SampledStates
