@@ -3,7 +3,7 @@
 
     demonstrations:
       policy: scripted        # any load_policy name that acts on the config's env
-      steps: 20000            # at least this many decisions, every episode whole
+      steps: 20000            # decisions played, in whole episodes (a few cut: prefill)
       seed: 0                 # the demonstrated episodes' seeds: seed, seed + 1, ...
 
 Before the first update of a fresh run, the policy plays whole episodes of the config's
@@ -14,7 +14,8 @@ not the demonstrator's). Every transition goes into the learner's replay buffer 
 own collection stores one: the raw observation and the next one (VecNormalize normalises
 both when it samples), the action in the policy's [-1, 1] scale, the unnormalised
 reward, and a truncation at the time limit marked `TimeLimit.truncated`, so the learner
-bootstraps there as it does on its own data. The observation statistics of VecNormalize
+bootstraps there as it does on its own data. Each episode goes whole down one of the
+buffer's env columns (`prefill` says why). The observation statistics of VecNormalize
 are updated with the demonstrations' observations. The demonstrations stay in the buffer
 until its ring overwrites them; a resumed run restores the buffer with them.
 """
@@ -61,40 +62,65 @@ def collect_demonstrations(cfg: dict, env_kwargs: dict) -> list:
     )
 
 
+def columns(lengths: list[int], n: int) -> tuple[list[list[int]], int]:
+    """Which episodes go to which of the buffer's `n` env columns: each episode, in order,
+    to the column holding the fewest transitions so far. Returns the columns' episode
+    indices and the rows every column can fill (the shortest column's length)."""
+    cols: list[list[int]] = [[] for _ in range(n)]
+    filled = [0] * n
+    for i, length in enumerate(lengths):
+        c = filled.index(min(filled))
+        cols[c].append(i)
+        filled[c] += length
+    return cols, min(filled)
+
+
 def prefill(model, venv, episodes: list) -> dict:
     """Add the transitions of `episodes` to `model`'s replay buffer (see the module
     docstring) and update `venv`'s observation statistics when it normalises them.
-    Returns what was added: transitions, episodes and their mean return."""
+    Returns what was added: transitions, episodes and their mean return.
+
+    The buffer holds one column per env, whose consecutive rows an n-step return
+    (SB3's NStepReplayBuffer) reads as consecutive decisions of one episode, so each
+    episode goes whole down one column (`columns`), and the columns are cut to the
+    shortest: a transition cut from its episode's next one, and the last of each
+    column, is marked truncated (bootstrapped from its true next observation), so that
+    no return runs past it into another episode or the learner's own data."""
     buf = model.replay_buffer
     n = buf.n_envs
-    obs, nxt, act, rew, done, trunc = [], [], [], [], [], []
-    for ep in episodes:
-        o = np.asarray(ep.observations, np.float32)
-        steps = len(ep.actions)
-        obs.append(o[:-1])
-        nxt.append(o[1:])
-        act.append(np.asarray(ep.actions, np.float32).reshape(steps, -1))
-        rew.append(np.asarray(ep.rewards, np.float32))
-        te, tr = np.asarray(ep.terminations, bool), np.asarray(ep.truncations, bool)
-        done.append(te | tr)
-        trunc.append(tr & ~te)
-    obs, nxt, act, rew, done, trunc = map(np.concatenate, (obs, nxt, act, rew, done, trunc))
-    usable = len(obs) - len(obs) % n  # the buffer takes one row per env at a time
-    for i in range(0, usable, n):
-        rows = slice(i, i + n)
+    cols, rows = columns([len(ep.actions) for ep in episodes], n)
+    stacked = []
+    for col in cols:
+        parts = {key: [] for key in ("obs", "next", "act", "rew", "done", "trunc")}
+        for i in col:
+            ep = episodes[i]
+            o = np.asarray(ep.observations, np.float32)
+            steps = len(ep.actions)
+            te, tr = np.asarray(ep.terminations, bool), np.asarray(ep.truncations, bool)
+            parts["obs"].append(o[:-1])
+            parts["next"].append(o[1:])
+            parts["act"].append(np.asarray(ep.actions, np.float32).reshape(steps, -1))
+            parts["rew"].append(np.asarray(ep.rewards, np.float32))
+            parts["done"].append(te | tr)
+            parts["trunc"].append(tr & ~te)
+        col_data = {key: np.concatenate(v)[:rows] for key, v in parts.items()}
+        if rows and not col_data["done"][-1]:  # cut: bootstrap, do not run on
+            col_data["done"][-1] = col_data["trunc"][-1] = True
+        stacked.append(col_data)
+    for r in range(rows):
         buf.add(
-            obs[rows],
-            nxt[rows],
-            act[rows],
-            rew[rows],
-            done[rows],
-            [{"TimeLimit.truncated": bool(t)} for t in trunc[rows]],
+            np.stack([c["obs"][r] for c in stacked]),
+            np.stack([c["next"][r] for c in stacked]),
+            np.stack([c["act"][r] for c in stacked]),
+            np.array([c["rew"][r] for c in stacked]),
+            np.array([c["done"][r] for c in stacked]),
+            [{"TimeLimit.truncated": bool(c["trunc"][r])} for c in stacked],
         )
     rms = getattr(venv, "obs_rms", None)
-    if rms is not None and getattr(venv, "norm_obs", False):
-        rms.update(obs)
+    if rms is not None and getattr(venv, "norm_obs", False) and rows:
+        rms.update(np.concatenate([c["obs"] for c in stacked]))
     return {
-        "transitions": int(usable),
+        "transitions": int(rows * n),
         "episodes": len(episodes),
         "return_mean": float(np.mean([np.sum(ep.rewards) for ep in episodes])),
     }

@@ -27,6 +27,7 @@ CFG = {
         "batch_size": 16,
         "gamma": 0.995,
         "buffer_size": 5_000,
+        "n_steps": 3,  # n-step returns read a column's consecutive rows as one episode
     },
     "evaluation": {"freq": 10_000, "episodes": 2, "seed": 7},
     "checkpoint": {"freq": 10_000},
@@ -62,25 +63,37 @@ def test_the_buffer_starts_with_the_demonstrators_episodes(tmp_path):
         num_envs=16,
         seed=3,
     )
-    obs = np.concatenate([e.observations[:-1] for e in episodes])
-    nxt = np.concatenate([e.observations[1:] for e in episodes])
-    act = np.concatenate([e.actions for e in episodes]).reshape(-1, 1)
-    rew = np.concatenate([e.rewards for e in episodes])
+    # every episode lies whole down one env column, its decisions in consecutive rows (an
+    # n-step return reads them so), until the columns are cut to the shortest
+    where = {
+        np.asarray(e.observations[t], np.float32).tobytes(): (i, t)
+        for i, e in enumerate(episodes)
+        for t in range(len(e.actions))
+    }
+    rows = buf.pos - 32  # then the learner's own 64 steps (32 calls of 2 envs)
+    assert rows * 2 >= 150 - 2 * max(len(e.actions) for e in episodes)
+    seen = set()
+    for c in range(2):
+        for r in range(rows):
+            i, t = where[buf.observations[r, c].tobytes()]
+            ep = episodes[i]
+            seen.add((i, t))
+            assert np.array_equal(buf.next_observations[r, c], ep.observations[t + 1])
+            assert buf.actions[r, c, 0] == np.float32(ep.actions[t][0])
+            assert buf.rewards[r, c] == np.float32(ep.rewards[t])
+            ended = bool(ep.terminations[t] or ep.truncations[t])
+            last = r == rows - 1
+            # a truncation bootstraps; so does the cut at the end of a column
+            assert buf.dones[r, c] == (ended or last)
+            assert buf.timeouts[r, c] == (
+                bool(ep.truncations[t] and not ep.terminations[t]) or (last and not ended)
+            )
+            if not ended and not last:
+                assert where[buf.observations[r + 1, c].tobytes()] == (i, t + 1)
+    assert len(seen) == rows * 2  # no decision twice
+    # the learner's own steps follow in every column, after a row that ends the demonstrations
+    assert buf.dones[rows - 1].all()
     term = np.concatenate([e.terminations for e in episodes])
-    trunc = np.concatenate([e.truncations for e in episodes])
-    n = len(obs) - len(obs) % 2
-    assert n >= 150
-    rows = n // 2
-    # the buffer's first rows, env by env in SB3's layout (position, env)
-    stored = buf.observations[:rows].reshape(n, -1)
-    assert np.array_equal(stored, obs[:n].astype(np.float32))
-    assert np.array_equal(buf.next_observations[:rows].reshape(n, -1), nxt[:n])
-    assert np.array_equal(buf.actions[:rows].reshape(n, -1), act[:n])
-    assert np.array_equal(buf.rewards[:rows].reshape(n), rew[:n].astype(np.float32))
-    assert np.array_equal(buf.dones[:rows].reshape(n), (term | trunc)[:n].astype(np.float32))
-    assert np.array_equal(buf.timeouts[:rows].reshape(n), (trunc & ~term)[:n])
-    # then the learner's own 64 steps (32 calls of 2 envs)
-    assert buf.pos == rows + 32
     # the demonstrator reached its targets: a success ends an episode by termination
     assert term.sum() >= len(episodes) // 2
 
