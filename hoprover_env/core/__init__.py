@@ -37,6 +37,7 @@ One module per section of the kernel (docs/ARCHITECTURE.md has the whole map):
 ``terrain``        rough-terrain bounces: the counter-based draw of each impact's tilt
 ``impacts``        the impact laws and the post-impact classification
 ``contact_phases`` state G in closed form, states B-E by DOP853 with located events
+``contact_steps``  a B-E phase's DOP853 step, its guards and their location in a step
 ``phase_end``      what happens when a phase ends (either integrator)
 ``euler``          the fixed-step Euler baseline
 ``integrator``     the event integrator's loop, ``advance``, ``advance_event``,

@@ -104,8 +104,9 @@ W_IMP_LY = W_IMP_LX + 2
 W_IMP_END = W_IMP_LY + 2
 assert W_IMP_END <= W_FLT
 
-# The contact phases' part (contact_phases.py), from W_RK: vectors of the reduced state
-# u = (theta, omega, x, vx) (N_U floats) and of the guards (N_GUARDS floats).
+# The contact phases' part (contact_phases.py, contact_steps.py), from W_RK: vectors of
+# the reduced state u = (theta, omega, x, vx) (N_U floats) and of the guards (N_GUARDS
+# floats).
 N_U = 4
 N_GUARDS = 6
 RK_STAGES = 13  # DOP853 stages kept for the error estimate
@@ -129,7 +130,7 @@ W_GTMP = W_GTRY + N_GUARDS  # guards at a trial length (root finding)
 W_RK_END = W_GTMP + N_GUARDS
 assert W_RK_END <= W_WORK
 
-# Guards of a single-contact phase (positive = no event yet), contact_phases._guards
+# Guards of a single-contact phase (positive = no event yet), contact_steps._guards
 GUARD_LIFTOFF = 0  # normal force f_y / (m g)
 GUARD_FRICTION = 1  # pivot: friction-cone margin (slip); slide: sigma v_Px (stick)
 GUARD_TOUCH = 2  # the other bottom corner's height (impact)

@@ -141,8 +141,8 @@ def test_the_parallel_compile_helper_does_the_contact_phases_and_changes_nothing
     # phase (the rest of the queue goes to whichever process is free first)
     helper_only = {
         "hoprover_env.core.contact_phases.contact_phase",
-        "hoprover_env.core.contact_phases._dop853_step",
-        "hoprover_env.core.contact_phases._locate",
+        "hoprover_env.core.contact_steps._dop853_step",
+        "hoprover_env.core.contact_steps._locate",
     }
     assert "hoprover_env.core.smooth.after_phase_smooth" in main
     assert helper_only <= set(everything)
