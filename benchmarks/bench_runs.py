@@ -178,9 +178,9 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     md = "\n\n".join(
         [
             f"`simulate()` with a torque schedule runs the whole episode in one kernel call "
-            f"(`hoprover_env/sim/rollout.py`). Schedules: {len(scheds)} closed-loop HopSequence "
-            f"runs recorded and replayed, {t_end:g} s episodes at control_dt 0.1 s, best of "
-            f"{repeat}, mean over the schedules:",
+            f"(`hoprover_env/sim/control_loop.py`). Schedules: {len(scheds)} closed-loop "
+            f"HopSequence runs recorded and replayed, {t_end:g} s episodes at control_dt "
+            f"0.1 s, best of {repeat}, mean over the schedules:",
             table(
                 ["integrator", "ms per episode", "x event"],
                 [[k, v * 1e3, v / ev] for k, v in walls.items()],

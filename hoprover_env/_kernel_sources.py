@@ -13,5 +13,5 @@ _HERE = os.path.dirname(os.path.abspath(__file__))
 add_kernel_sources(
     glob.glob(os.path.join(_HERE, "core", "*.py"))
     + glob.glob(os.path.join(_HERE, "tasks", "*.py"))
-    + [os.path.join(_HERE, "sim", name) for name in ("controllers.py", "rollout.py")]
+    + [os.path.join(_HERE, "sim", name) for name in ("controllers.py", "control_loop.py")]
 )

@@ -1,7 +1,7 @@
 """Contest controllers compiled with numba: they run inside the kernel's run loop.
 
 `simulate(controller)` and `simulate_batch(controller)` run a numba-compiled controller
-with the contest signature inside the compiled loop (hoprover_env/sim/rollout.py documents
+with the contest signature inside the compiled loop (hoprover_env/sim/control_loop.py documents
 the signature: the state arrives as an integer code 0..6 for A..G). A numba function
 keeps no memory between calls, so these controllers decide from the state and the time
 (the PD attitude hold they fly with is hoprover_env.sim.controllers.attitude_hold):

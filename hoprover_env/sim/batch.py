@@ -5,7 +5,7 @@
 >>> b.ttrtp, b.broken, b.n_events          # per run, leading axis N
 >>> b.rollout(3)                           # run 3 as a Rollout: equal to simulate(...) of run 3
 
-Each run is the loop of `simulate` compiled with the kernel (hoprover_env/sim/rollout.py);
+Each run is the loop of `simulate` compiled with the kernel (hoprover_env/sim/control_loop.py);
 numba's `prange` spreads the runs over its threads (`numba.set_num_threads` chooses how
 many). Run i equals `simulate` of run i bit for bit: same schedule row (or compiled
 controller), target, parameters and initial state.
@@ -14,7 +14,7 @@ Arguments
 ---------
 controller     a torque schedule array (N, K) (row i drives run i, zero torque after K
                control periods), or one numba-compiled contest controller for all runs
-               (see hoprover_env/sim/rollout.py for its signature)
+               (see hoprover_env/sim/control_loop.py for its signature)
 targets        (N,) target x of each run
 params         None (contest values), one RoverParams for all, or a sequence of N
                RoverParams (or dicts of RoverParams fields)
@@ -58,7 +58,7 @@ from hoprover_env.core.params import (
 )
 from hoprover_env.jit.spread import spread_order
 from hoprover_env.jit.threads import run_threaded
-from hoprover_env.sim import rollout
+from hoprover_env.sim import control_loop, rollout
 from hoprover_env.sim.randomize import check_randomize, draw_fields, rng_for_seeds
 from hoprover_env.sim.rollout import SampledStates
 from hoprover_env.sim.simulate import (
@@ -147,13 +147,13 @@ class BatchRollout(SampledStates):
 
 
 def _controller(controller, n):
-    """What decides the torques of n runs: (compiled?, rollout.CTRL_*, the compiled
+    """What decides the torques of n runs: (compiled?, control_loop.CTRL_*, the compiled
     controller or None, the (n, K) schedules or an (n, 0) placeholder)."""
-    use_ctrl = rollout.is_compiled(controller)
-    source = rollout.CTRL_COMPILED if use_ctrl else rollout.CTRL_SCHEDULE
+    use_ctrl = control_loop.is_compiled(controller)
+    source = control_loop.CTRL_COMPILED if use_ctrl else control_loop.CTRL_SCHEDULE
     if use_ctrl:
-        rollout.control_stub()
-        ctrl = rollout.control_function(controller)
+        control_loop.control_stub()
+        ctrl = control_loop.control_function(controller)
         sched = np.zeros((n, 0))
     elif callable(controller):
         raise TypeError(
@@ -345,18 +345,18 @@ def simulate_batch(
             f"t_end / control_dt (x control_dt / sample_dt) gives {n_ctrl * sub:.3g} "
             f"kernel calls per run; at most {MAX_STEPS:.0e}"
         )
-    if record and n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 > MAX_RECORD_BYTES:
+    if record and n * (n_ctrl * sub + 1) * control_loop.ROW_COLS * 8 > MAX_RECORD_BYTES:
         raise ValueError(
             f"recording {n} runs of {n_ctrl * sub + 1} samples needs "
-            f"{n * (n_ctrl * sub + 1) * rollout.ROW_COLS * 8 / 1e9:.1f} GB; pass "
+            f"{n * (n_ctrl * sub + 1) * control_loop.ROW_COLS * 8 / 1e9:.1f} GB; pass "
             "record=False (summaries only; rollout(i) re-runs run i)"
         )
-    run_many = rollout.kernel_many(rollout.loop_kind(opts, P))
+    run_many = control_loop.kernel_many(control_loop.loop_kind(opts, P))
     if not use_ctrl:
-        ctrl = rollout.no_control
-    buf = rollout.Buffers(n, n_ctrl * sub + 1, 64, record)
+        ctrl = control_loop.no_control
+    buf = control_loop.Buffers(n, n_ctrl * sub + 1, 64, record)
     threads = numba.config.NUMBA_NUM_THREADS
-    evbuf, w, backup, cbuf = rollout.scratch(threads, cargs.shape[1])
+    evbuf, w, backup, cbuf = control_loop.scratch(threads, cargs.shape[1])
     _run_threaded(
         run_many,
         buf,
@@ -470,10 +470,12 @@ def _run_threaded(
             )
         finally:
             numba.set_parallel_chunksize(chunk)
-        status = buf.prog[:, rollout.G_STATUS]
-        for i in np.flatnonzero(active & (status != rollout.ST_DONE) & (status != rollout.ST_ROOM)):
+        status = buf.prog[:, control_loop.G_STATUS]
+        for i in np.flatnonzero(
+            active & (status != control_loop.ST_DONE) & (status != control_loop.ST_ROOM)
+        ):
             rollout.check_status(buf.prog[i], S[i], f"run {i}: ")
-        active = status == rollout.ST_ROOM
+        active = status == control_loop.ST_ROOM
         if not active.any():
             break
         buf.grow_log()
@@ -484,8 +486,10 @@ _PAD_LETTERS = np.array(list(core.MODE_LETTERS) + [""])
 
 def _result(buf, S, targets, plist, record, run) -> BatchRollout:
     n = len(targets)
-    n_samples = buf.prog[:, rollout.G_ROWS].astype(np.int64) if record else np.zeros(n, np.int64)
-    rows = buf.rows if record else np.zeros((n, 0, rollout.ROW_COLS))
+    n_samples = (
+        buf.prog[:, control_loop.G_ROWS].astype(np.int64) if record else np.zeros(n, np.int64)
+    )
+    rows = buf.rows if record else np.zeros((n, 0, control_loop.ROW_COLS))
     pad = np.arange(rows.shape[1])[None, :] >= n_samples[:, None]
 
     if record:  # unused rows become padding, in place (no copies)
@@ -521,6 +525,6 @@ def _result(buf, S, targets, plist, record, run) -> BatchRollout:
         torque=torque(buf.applied),
         torque_cmd=torque(buf.cmds),
         event_log=buf.log,
-        n_logged=buf.prog[:, rollout.G_LOG].astype(np.int64),
+        n_logged=buf.prog[:, control_loop.G_LOG].astype(np.int64),
         _run=run,
     )

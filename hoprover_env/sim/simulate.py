@@ -11,7 +11,7 @@ called at every control instant with the state at that instant (no delay). The t
 is clipped to [T_min, T_max] and held (zero-order hold). A NaN or infinite torque raises
 ``ValueError``; it never reaches the state.
 
-Every controller runs through the one compiled control loop of hoprover_env/sim/rollout.py:
+Every controller runs through the one compiled control loop of hoprover_env/sim/control_loop.py:
 a torque schedule, or a controller compiled with ``numba.njit`` (state passed as an
 integer code 0..6 for A..G), in one kernel call; a plain Python callable at the cost of
 one Python call per control instant. All give the same `Rollout` for the same torques,
@@ -30,7 +30,8 @@ from hoprover_env import core
 from hoprover_env.core.params import MAX_MAGNITUDE, P_H, P_ROUGH, RoverParams, from_fields
 from hoprover_env.jit import compiler as _compile
 from hoprover_env.jit.compiler import MAT, VEC, kernel
-from hoprover_env.sim.rollout import ADVANCE, Rollout, budget_error, is_compiled, run_rollout
+from hoprover_env.sim.control_loop import ADVANCE, is_compiled
+from hoprover_env.sim.rollout import Rollout, budget_error, run_rollout
 from hoprover_env.util.validate import (
     check_rover,
     check_seed,
@@ -269,7 +270,7 @@ class RoverSim:
                 f"stop_on must be None or one of {', '.join(core.EVENT_NAMES)}; got {stop_on!r}"
             )
         self.s[core.S_STOP_ON] = -1.0 if stop_on is None else core.EVENT_NAMES.index(stop_on)
-        # the integrator this sim's options and ground need, no more (rollout.loop_kind)
+        # the integrator this sim's options and ground need, no more (control_loop.loop_kind)
         if self.o[core.O_INTEGRATOR] == core.INTEGRATOR_EULER:
             advance = ADVANCE["euler"]
         else:

@@ -64,7 +64,7 @@ def warm(log=None) -> None:
             vec.close()
         say(f"  {env_id}: {time.perf_counter() - t0:.1f} s")
     # each integrator, and the event integrator on rough ground too: the loops of simulate
-    # and simulate_batch are compiled per kind of run (sim/rollout.py, loop_kind)
+    # and simulate_batch are compiled per kind of run (sim/control_loop.py, loop_kind)
     for integrator, params in (
         ("event", None),
         ("event", RoverParams(roughness=0.1)),

@@ -329,7 +329,7 @@ def test_the_layers_tell_the_compiler_what_it_compiles_and_hashes():
         "core/integrator.py",
         "tasks/common.py",
         "jit/compiler.py",
-        "sim/rollout.py",
+        "sim/control_loop.py",
         "sim/controllers.py",
     ):
         assert os.path.join(root, name) in pc.KERNEL_SOURCES

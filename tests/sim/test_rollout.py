@@ -1,4 +1,4 @@
-"""The compiled whole-run loop (hoprover_env/sim/rollout.py) against simulate's Python loop
+"""The compiled whole-run loop (hoprover_env/sim/control_loop.py) against simulate's Python loop
 (on the stress benchmark's schedules too: tests/research/test_stress_replays.py).
 
 A torque schedule or a compiled controller runs in one kernel call; a plain Python
@@ -107,7 +107,7 @@ def test_no_compile_at_import():
     import sys
 
     code = (
-        "import hoprover_env.sim.rollout as r; import hoprover_env; "
+        "import hoprover_env.sim.control_loop as r; import hoprover_env; "
         "print(r.run_one == {} and r.run_many == {} and r.no_control is None)"
     )
     out = subprocess.run(
