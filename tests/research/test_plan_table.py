@@ -6,6 +6,7 @@ import pytest
 
 from hoprover_env.evaluation.episodes import run_episodes
 from hoprover_env.tasks.observation import OBS_DX, OBS_TIME, POS_SCALE
+from research.plan_clone import pipeline as pl
 from research.plan_clone import plan_table as pt
 
 
@@ -167,7 +168,7 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
         return collect_edge(table, learner, *a, **k)
 
     monkeypatch.setattr(nudge, "collect_edge", spy)
-    pt.pipeline(path, out, log=lambda m: None)
+    pl.pipeline(path, out, log=lambda m: None)
     # the network that drove the edge round had the ground gate on the c.m.'s offset and
     # no hold: the flight gate, the hold and the rest gate are the last network's only
     assert drivers == [(False, False, False)]
@@ -213,21 +214,21 @@ def test_the_pipeline_runs_from_one_config_and_keeps_what_it_collected(tmp_path,
     assert judged[-1] is not None and type(judged[-1]).__name__ == "GatedPolicy"
     stamps = {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     calls = []
-    monkeypatch.setattr(pt, "collect_table", lambda *a, **k: calls.append(a))
+    monkeypatch.setattr(pl, "collect_table", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(pt, "sweep", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(nudge, "collect_edge", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(nudge, "search", lambda *a, **k: calls.append(a))
     monkeypatch.setattr(cs, "fit", lambda *a, **k: calls.append(a))  # clones are kept
     monkeypatch.setattr(nudge, "fit_branch", lambda *a, **k: None)  # the branch is redone
     monkeypatch.setattr(nudge, "assemble", lambda *a, **k: None)
-    pt.pipeline(path, out, log=lambda m: None)  # again: nothing collected or fitted
+    pl.pipeline(path, out, log=lambda m: None)  # again: nothing collected or fitted
     assert calls == [] and stamps == {p.name: p.stat().st_mtime_ns for p in out.glob("*.npz")}
     path.write_text(yaml.safe_dump({**cfg, "fit_typo": {}}))
     with pytest.raises(SystemExit, match="fit_typo"):
-        pt.pipeline(path, out, log=lambda m: None)
+        pl.pipeline(path, out, log=lambda m: None)
     path.write_text(yaml.safe_dump({**cfg, "nudge": {"margn": 2}}))
     with pytest.raises(SystemExit, match="margn"):
-        pt.pipeline(path, out, log=lambda m: None)
+        pl.pipeline(path, out, log=lambda m: None)
 
 
 def _fly_then_rest(plan, target, teacher=None):
