@@ -10,9 +10,9 @@ their ranges, and control periods from 1e-4 s to 10 s. Each family runs with the
 integrator and, where affordable, the contest-style `euler` (dt 1e-3 s), under both
 impact laws.
 
-The driver (research/stress/drivers.py `drive`, with the stress controllers there and the
-families of runs in research/stress/families.py) checks the state after every control
-interval (a "sample", what `simulate`
+The driver (research/stress/drivers.py `drive`, with the stress controllers of
+research/stress/controllers.py and the families of runs in research/stress/families.py)
+checks the state after every control interval (a "sample", what `simulate`
 records) and also right after every impact (it lets `core.advance` stop at each impact,
 through the kernel's stop-on-event slot, checks, and resumes; the physics is unchanged,
 the cross-check below confirms it). Per control interval it counts:

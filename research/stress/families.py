@@ -13,14 +13,12 @@ import numpy as np
 
 from hoprover_env import RoverParams
 from hoprover_env.sim.simulate import make_state
+from research.stress.controllers import CTRL_HOPPER, CTRL_SCHEDULE, controller_params
 from research.stress.drivers import (
-    CTRL_HOPPER,
-    CTRL_SCHEDULE,
     HOPPER_FREE,
     HOPPER_HOLD,
     TARGET_X,
     RunSpec,
-    controller_params,
     flight_state_at,
     state_from,
     upright,

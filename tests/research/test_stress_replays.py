@@ -9,7 +9,8 @@ import pytest
 from helpers import assert_identical, replay
 from hoprover_env import simulate, simulate_batch
 from research.stress import families
-from research.stress.drivers import CTRL_SCHEDULE, TARGET_X
+from research.stress.controllers import CTRL_SCHEDULE
+from research.stress.drivers import TARGET_X
 
 
 def stress_schedule_specs(max_per_family=6):
