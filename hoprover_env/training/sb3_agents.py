@@ -437,6 +437,7 @@ DEMONSTRATION_TYPES = {
     "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
     "steps": POS_INT,
     "seed": INT,
+    "batch_share": (lambda v: _is_real(v) and 0 <= v < 1, "a number in [0, 1)"),
 }
 PRETRAIN_TYPES = {
     "expert": (lambda v: isinstance(v, str) and v != "", "a policy name"),
@@ -562,6 +563,12 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
 
         sigma, dim = float(hyper.pop("action_noise")), venv.action_space.shape[0]
         hyper["action_noise"] = NormalActionNoise(np.zeros(dim), sigma * np.ones(dim))
+    if cfg.get("demonstrations") is not None:  # a store of their own, with a batch_share
+        from hoprover_env.training.demonstrations import buffer_kwargs
+
+        if buffer_kwargs(cfg):
+            hyper.pop("n_steps", None)  # the buffer's own (SB3 sets it up only for its own)
+            hyper.update(buffer_kwargs(cfg))
     return cls(
         SB3_ALGOS[cfg["algo"]][2],
         venv,

@@ -104,6 +104,7 @@ def test_the_buffer_starts_with_the_demonstrators_episodes(tmp_path):
         ({"algo": "ppo", "hyperparams": {}}, "off-policy"),
         ({"demonstrations": {"policy": "scripted", "episodes": 3}}, "episodes"),
         ({"demonstrations": {"policy": "scripted", "steps": 0}}, "positive integer"),
+        ({"demonstrations": {"policy": "scripted", "batch_share": 1.0}}, "batch_share"),
     ],
 )
 def test_bad_demonstrations_are_refused_by_name(tmp_path, capsys, change, words):
@@ -120,3 +121,83 @@ def test_bad_demonstrations_are_refused_by_name(tmp_path, capsys, change, words)
         == 2
     )
     assert words in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("n_steps", [1, 3])
+def test_a_batch_share_draws_that_share_of_every_batch_from_the_demonstrations(n_steps):
+    """Symmetric sampling: the demonstrations' store gives half of each batch however
+    much the learner's own data outnumbers them (rewards tell the two apart here)."""
+    from gymnasium import spaces
+
+    from hoprover_env.training.demonstrations import (
+        DemonstrationNStepReplayBuffer,
+        DemonstrationReplayBuffer,
+    )
+
+    obs_space = spaces.Box(-1, 1, (3,), np.float32)
+    act_space = spaces.Box(-1, 1, (1,), np.float32)
+    cls, extra = DemonstrationReplayBuffer, {}
+    if n_steps > 1:
+        cls, extra = DemonstrationNStepReplayBuffer, {"n_steps": n_steps, "gamma": 0.9}
+    buf = cls(1000, obs_space, act_space, n_envs=2, batch_share=0.5, **extra)
+
+    def fill(target, rows, reward):
+        for r in range(rows):
+            o = np.full((2, 3), r, np.float32)
+            info = [{"TimeLimit.truncated": False}] * 2
+            done = np.array([r == rows - 1] * 2)
+            target.add(o, o + 1, np.zeros((2, 1)), np.full(2, reward), done, info)
+
+    fill(buf, 400, 0.0)  # the learner's own: 800 transitions
+    store = buf.demonstration_store(10)
+    fill(store, 10, 1.0)  # 20 demonstrated ones
+    assert store.size() == 10 and buf.size() == 400
+    batch = buf.sample(64)
+    assert batch.rewards.shape == (64, 1)
+    # an n-step return of demonstrations sums their rewards 1 + 0.9 + 0.81 (or fewer at
+    # the episode's end); the learner's own are all 0
+    from_demos = (batch.rewards > 0).sum().item()
+    assert from_demos == 32
+    assert batch.observations.shape == (64, 3)
+    if n_steps > 1:
+        assert batch.discounts is not None and batch.discounts.shape == (64, 1)
+    with pytest.raises(ValueError, match="batch_share"):
+        DemonstrationReplayBuffer(100, obs_space, act_space, batch_share=1.0)
+
+
+@pytest.mark.slow  # trains (64 steps), after collecting the demonstrations
+def test_a_run_with_a_batch_share_keeps_the_demonstrations_apart(tmp_path):
+    cfg = {**CFG, "demonstrations": {**CFG["demonstrations"], "batch_share": 0.5}}
+    out = tmp_path / "run"
+    assert train.main(["--config", _write(tmp_path, cfg), "--out", str(out), "--no-progress"]) == 0
+    import pickle
+
+    from hoprover_env.training.demonstrations import DemonstrationNStepReplayBuffer
+
+    with open(out / "checkpoints" / "last_replay_buffer.pkl", "rb") as fh:
+        buf = pickle.load(fh)
+    assert isinstance(buf, DemonstrationNStepReplayBuffer)  # CFG asks for 3-step returns
+    assert buf.n_steps == 3 and buf.demonstrations.n_steps == 3
+    assert buf.pos == 32  # only the learner's own 64 steps
+    import json
+
+    recorded = json.loads((out / "checkpoints" / "last.json").read_text())["demonstrations"]
+    assert buf.demonstrations.size() * 2 == recorded["transitions"] > 0
+    assert buf.demonstrations.dones[buf.demonstrations.size() - 1].all()
+    # and a resumed run carries on with them
+    assert (
+        train.main(
+            [
+                "--config",
+                _write(tmp_path, {**cfg, "timesteps": 96}),
+                "--out",
+                str(out),
+                "--resume",
+                "--no-progress",
+            ]
+        )
+        == 0
+    )
+    with open(out / "checkpoints" / "last_replay_buffer.pkl", "rb") as fh:
+        resumed = pickle.load(fh)
+    assert resumed.pos == 48 and resumed.demonstrations.size() == buf.demonstrations.size()
