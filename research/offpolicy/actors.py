@@ -14,7 +14,8 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
 - flight (A): the median |a|, the median |omega| and the correlation of the torque with
   -omega (1: a damper that brakes the spin).
 
-Per episode: broken, success, whether it ended in flight (cut by the 600 s limit before
+Per episode: broken (and, for each break, the contact state of the decision that led to
+it: `broken_from`), success, whether it ended in flight (cut by the 600 s limit before
 landing), the median flight's duration (decisions in a row in flight, times the control
 period) and that of each episode's longest flight, the opening action, its correlation
 with the target, and the final distance to the target.
@@ -73,14 +74,17 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
+    last_mode = np.full(n, -1)  # the contact state of each episode's latest decision
     run = np.zeros(n, int)  # decisions in the current flight
     longest = np.zeros(n, int)  # each episode's longest flight
     flights: list[int] = []  # each finished flight's decisions
     final = np.full(n, np.nan)
+    breaks: list[int] = []  # the contact state of the decision before each break
     while open_.any():
         a = np.asarray(policy.act(obs, venv), dtype=np.float32)
         mode = np.asarray(info["state"]).copy()
         rs = np.asarray(info["rover_state"]).copy()
+        last_mode[open_] = mode[open_]
         for i in np.flatnonzero(open_):
             modes.append(mode[i])
             acts.append(float(a[i, 0]))
@@ -101,6 +105,8 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             fin = info["final_info"]
             for i in np.flatnonzero(ended):
                 out["broken"][i] = bool(fin["broken"][i])
+                if out["broken"][i]:
+                    breaks.append(int(last_mode[i]))
                 out["success"][i] = bool(fin["is_success"][i])
                 out["ended_in_flight"][i] = int(fin["state"][i]) == FLIGHT
                 final[i] = float(fin["rover_state"][i][0]) - targets[i]
@@ -115,6 +121,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
         "flight_states": np.asarray(states),
         "opening": first,
         "final": final,
+        "breaks": np.asarray(breaks, int),
         **out,
     }
 
@@ -218,6 +225,9 @@ def main(argv=None) -> int:
         "episodes": args.episodes,
         "per_state": per_state(run, tipping_action(policy)),
         "broken": int(run["broken"].sum()),
+        "broken_from": {
+            name: int(np.isin(run["breaks"], codes).sum()) for name, codes in GROUPS.items()
+        },
         "success": int(run["success"].sum()),
         "median_final_distance_m": float(np.median(np.abs(run["final"]))),
         "ended_in_flight": int(run["ended_in_flight"].sum()),
