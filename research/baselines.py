@@ -100,6 +100,33 @@ def train(
         (run / "done").touch()
 
 
+# the leaderboard's groups of baselines (research/yardstick/leaderboard.py)
+RL, DEMOS = "RL from reward", "RL from reward and demonstrations"
+
+
+def group_of(cfg: dict) -> str:
+    """A baseline's group: demonstrations in the replay buffer make it RL from reward and
+    demonstrations; otherwise RL from reward."""
+    return DEMOS if cfg.get("demonstrations") else RL
+
+
+def provenance() -> tuple[str, str]:
+    """The checkout's commit (short) and today's date (UTC) for a recorded result."""
+    import datetime
+
+    try:
+        commit = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        commit = "unknown"
+    return commit, datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+
+
 def curve(run: Path) -> dict:
     """A run's validation curve (train.py's evaluations.csv) and when it first reached
     SUCCESS_GOAL (None if never)."""
@@ -269,6 +296,8 @@ def main(argv=None) -> int:
         train(args.config, seeds, out, args.timesteps, args.torch_threads)
     result = score(out, seeds, args.name or out.resolve().name)
     budget = f" --timesteps {args.timesteps}" if args.timesteps else ""
+    result["group"] = group_of(yaml.safe_load(Path(args.config).read_text()) or {})
+    result["commit"], result["date"] = provenance()
     result["command"] = (
         f"python -m research.baselines --config {args.config} --seeds "
         f"{args.seeds}{budget} --out runs/baselines/{out.resolve().name}"

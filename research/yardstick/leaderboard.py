@@ -83,6 +83,8 @@ AGENTS = {
 }
 # the groups, in the order the pages show them: (heading, what the group's agents are)
 RL, IMITATION = "RL from reward", "Imitation of a planner"
+# the baselines' second group (research/baselines.py group_of)
+DEMOS_GROUP = "RL from reward and demonstrations"
 PLANNERS, REFERENCES = "Planners that use the simulator as their model", "References"
 GROUPS = {
     RL: (
@@ -325,14 +327,17 @@ def tables(results: dict) -> str:
     return "\n\n".join(parts)
 
 
-def baseline_tables(folder: Path = BASELINES) -> str:
-    """The baselines scored over seeds (research/baselines.py's summary.json files, copied
-    into `folder`), one table per suite; "" when there are none."""
+def baseline_tables(folder: Path = BASELINES, group: str = "RL from reward") -> str:
+    """The baselines of `group` scored over seeds (research/baselines.py's summary.json
+    files, copied into `folder`; one recorded before groups were is RL from reward), one
+    table per suite; "" when there are none."""
     from hoprover_env.evaluation.scores import METRICS, Summary
 
     by_suite: dict = {}
     for path in sorted(folder.glob("*.json")):
         res = json.loads(path.read_text())
+        if res.get("group", "RL from reward") != group:
+            continue
         row = res["summary"]
         s = Summary(
             row["agent"],
@@ -349,7 +354,9 @@ def baseline_tables(folder: Path = BASELINES) -> str:
         f"**{suite}** on {env_id}, intervals over seeds:\n\n"
         f"{format_table([s for s, _ in rows])}\n\n"
         + "\n".join(
-            f"- {res['name']}: {res['env_id']}, `{res.get('command', '?')}`" for s, res in rows
+            f"- {res['name']}: {res['env_id']}, `{res.get('command', '?')}`"
+            + (f" (commit {res['commit']}, {res['date']})" if "commit" in res else "")
+            for s, res in rows
         )
         for (suite, env_id), rows in by_suite.items()
     )
@@ -536,6 +543,12 @@ def write_pages(results: dict, stamp: str, readme: bool = True) -> None:
         "on train.py's validation episodes) scored on the suite; "
         "docs/studies/baselines.md and docs/studies/off-policy.md have the per-seed "
         "tables, learning curves and times (BENCHMARKS.md, `baselines`, all of them).\n\n"
+        "## Baselines over seeds: RL from reward and demonstrations\n\n"
+        f"{baseline_tables(group=DEMOS_GROUP) or 'None scored yet.'}\n\nOff-policy "
+        "learners with a demonstrator's episodes in their replay buffer before the first "
+        "update (the config section `demonstrations`: which policy, how many decisions, "
+        "what share of each batch), then trained on the task's reward alone; the "
+        "demonstrator is named in the command's config. Scored as the baselines above.\n\n"
         f"## What each agent knows\n\n{privilege_table()}\n",
     )
     if readme:

@@ -34,6 +34,11 @@ def test_seed_specs(text, seeds):
     assert baselines.parse_seeds(text) == seeds
 
 
+def test_a_config_with_demonstrations_is_its_own_group():
+    assert baselines.group_of({"demonstrations": {"policy": "scripted"}}) == baselines.DEMOS
+    assert baselines.group_of({"algo": "sac"}) == baselines.RL == "RL from reward"
+
+
 @pytest.mark.parametrize("text", ["", "a-b", "0-1,1", "-1", "2-x"])
 def test_bad_seed_specs_are_named(text):
     with pytest.raises(ValueError, match="--seeds"):
@@ -60,6 +65,9 @@ def test_two_seeds_train_then_score_on_the_suite(tmp_path, capsys):
     for m in ("success", "mean_score", "iqm_score"):
         assert s[m + "_low"] <= s[m] <= s[m + "_high"]
     assert [r["seed"] for r in summary["runs"]] == [0, 1]
+    # its group (no demonstrations in TINY), and the commit and date it was scored at
+    assert summary["group"] == "RL from reward"
+    assert summary["commit"] and len(summary["date"]) == 10
     assert (out / "curves.png").stat().st_size > 0 and "| 1 |" in (out / "summary.md").read_text()
     # a second call trains nothing (both done) and scores the same
     capsys.readouterr()

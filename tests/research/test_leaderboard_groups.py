@@ -68,3 +68,36 @@ def test_the_page_has_one_heading_per_group_in_order():
     page = (ROOT / "docs" / "leaderboard.md").read_text()
     at = [page.index(f"### {heading}\n") for heading, _ in BUILDER.values()]
     assert at == sorted(at)
+
+
+def test_baselines_are_tabled_under_their_own_group(tmp_path):
+    """A recorded baseline with demonstrations sits under "RL from reward and
+    demonstrations", one without (or recorded before groups were) under RL from reward;
+    each line names its command, and its commit and date when recorded."""
+    from research.yardstick.leaderboard import DEMOS_GROUP, baseline_tables
+
+    row = {"agent": "x", "runs": 3, "episodes": 200}
+    for m in ("success", "median_regret", "mean_score", "iqm_score"):
+        row.update({m: 0.5, m + "_low": 0.4, m + "_high": 0.6})
+
+    def record(name, **extra):
+        res = {
+            "name": name,
+            "suite": "level-v1",
+            "env_id": "HopRoverRL-v1",
+            "summary": {**row, "agent": name},
+            "command": f"train {name}",
+            **extra,
+        }
+        (tmp_path / f"{name}.json").write_text(json.dumps(res))
+
+    record("old")
+    record("plain", group="RL from reward", commit="abc1234", date="2026-11-28")
+    record("demos", group=DEMOS_GROUP, commit="def5678", date="2026-11-28")
+    rl = baseline_tables(tmp_path)
+    demos = baseline_tables(tmp_path, group=DEMOS_GROUP)
+    assert "`train old`" in rl and "`train plain` (commit abc1234, 2026-11-28)" in rl
+    assert "demos" not in rl
+    assert "`train demos` (commit def5678, 2026-11-28)" in demos
+    assert "plain" not in demos and "old" not in demos
+    assert baseline_tables(tmp_path, group="nobody") == ""
