@@ -11,8 +11,9 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
 - rest (state F): the median |a| and the share of decisions whose torque tips a rover at
   rest (|T| > m g r);
 - ground contact (B-E, G: pivoting or sliding on a corner or the face);
-- flight (A): the median |a|, the median |omega| and the correlation of the torque with
-  -omega (1: a damper that brakes the spin).
+- flight (A): the median |a|, the median |omega|, the correlation of the torque with
+  -omega (1: a damper that brakes the spin), and the 90th percentile of |theta| (how far
+  from upright it flies).
 
 Per episode: broken (and, for each break, the contact state of the decision that led to
 it: `broken_from`), success, whether it ended in flight (cut by the 600 s limit before
@@ -152,6 +153,9 @@ def per_state(run: dict, tip: float) -> dict:
             row["tipping_share"] = float(np.mean(np.abs(a) > tip))
         if name == "flight" and sel.sum() > 2:
             row["median_abs_omega"] = float(np.median(np.abs(w)))
+            # how far from upright it flies (theta wrapped to [-180, 180] degrees)
+            theta = np.degrees(np.angle(np.exp(1j * run["flight_states"][:, 2])))
+            row["p90_abs_theta_deg"] = float(np.quantile(np.abs(theta), 0.9))
             row["corr_action_minus_omega"] = (
                 float(np.corrcoef(a, -w)[0, 1]) if a.std() > 0 and w.std() > 0 else float("nan")
             )

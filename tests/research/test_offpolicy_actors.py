@@ -56,3 +56,5 @@ def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
     assert set(states) == {"rest", "contact", "flight"}
     assert sum(s["decisions"] for s in states.values()) > 0
     assert states["rest"]["decisions"] >= 6  # every episode starts at rest
+    if states["flight"]["decisions"] > 2:
+        assert 0.0 <= states["flight"]["p90_abs_theta_deg"] <= 180.0
