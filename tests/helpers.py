@@ -90,3 +90,20 @@ def assert_identical(a, b):
             assert np.ascontiguousarray(x).tobytes() == np.ascontiguousarray(y).tobytes(), f.name
         else:
             assert x == y, f.name
+
+
+# A SAC run of HopRoverRL-v1 small enough to train in seconds (64 steps of 2 envs, 16-unit
+# layers), for tests of what surrounds training; each test changes what it checks.
+TINY_SAC_V1 = {
+    "algo": "sac",
+    "env_id": "HopRoverRL-v1",
+    "n_envs": 2,
+    "timesteps": 64,
+    "seed": 0,
+    "env": {"flight_start": 0.5},
+    "normalize": {"obs": True, "reward": False},
+    "policy": {"net_arch": [16, 16]},
+    "hyperparams": {"learning_starts": 32, "batch_size": 16, "gamma": 0.995},
+    "evaluation": {"freq": 10_000, "episodes": 2, "seed": 7},
+    "checkpoint": {"freq": 10_000},
+}

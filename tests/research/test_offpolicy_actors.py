@@ -7,28 +7,15 @@ import json
 import pytest
 import yaml
 
+from helpers import TINY_SAC_V1
 from hoprover_env.training import train
 from research.offpolicy import actors
-
-CFG = {
-    "algo": "sac",
-    "env_id": "HopRoverRL-v1",
-    "n_envs": 2,
-    "timesteps": 64,
-    "seed": 0,
-    "env": {"flight_start": 0.5},
-    "normalize": {"obs": True, "reward": False},
-    "policy": {"net_arch": [16, 16]},
-    "hyperparams": {"learning_starts": 32, "batch_size": 16, "gamma": 0.995},
-    "evaluation": {"freq": 10_000, "episodes": 2, "seed": 7},
-    "checkpoint": {"freq": 10_000},
-}
 
 
 @pytest.mark.slow  # trains a tiny SAC, then plays whole episodes
 def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
     path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(CFG))
+    path.write_text(yaml.safe_dump(TINY_SAC_V1))
     out = tmp_path / "run"
     assert train.main(["--config", str(path), "--out", str(out), "--no-progress"]) == 0
     report_path = tmp_path / "actors.json"

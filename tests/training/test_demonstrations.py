@@ -9,19 +9,13 @@ import pytest
 import yaml
 from stable_baselines3.common.buffers import ReplayBuffer
 
+from helpers import TINY_SAC_V1
 from hoprover_env.training import train
 
 pytest.importorskip("minari", reason="demonstrations record episodes with Minari's buffers")
 
 CFG = {
-    "algo": "sac",
-    "env_id": "HopRoverRL-v1",
-    "n_envs": 2,
-    "timesteps": 64,
-    "seed": 0,
-    "env": {"flight_start": 0.5},
-    "normalize": {"obs": True, "reward": False},
-    "policy": {"net_arch": [16, 16]},
+    **TINY_SAC_V1,
     "hyperparams": {
         "learning_starts": 10_000,
         "batch_size": 16,
@@ -29,8 +23,6 @@ CFG = {
         "buffer_size": 5_000,
         "n_steps": 3,  # n-step returns read a column's consecutive rows as one episode
     },
-    "evaluation": {"freq": 10_000, "episodes": 2, "seed": 7},
-    "checkpoint": {"freq": 10_000},
     "demonstrations": {"policy": "scripted", "steps": 150, "seed": 3},
 }
 
