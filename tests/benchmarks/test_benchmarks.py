@@ -86,3 +86,24 @@ def test_cold_compare_times_a_checkout_cold_then_cached(capsys):
     )
     assert cold > cached > 0.0
     assert f"{here}: cold" in out and "x base per round 1.000-1.000" in out
+
+
+def test_cold_breakdown_counts_the_outermost_span_of_nested_locks():
+    """numba's lock events nest (a compile inside a compile); held() counts each
+    outermost span once: here 1-4 s and 10-10.5 s."""
+    from numba.core import event as ev
+
+    from benchmarks.cold_breakdown import held
+
+    rec = ev.RecordingListener()
+    start, end = ev.EventStatus.START, ev.EventStatus.END
+    for ts, status in (
+        (1.0, start),
+        (2.0, start),
+        (3.0, end),
+        (4.0, end),
+        (10.0, start),
+        (10.5, end),
+    ):
+        rec.buffer.append((ts, ev.Event("numba:compiler_lock", status)))
+    assert held(rec) == 3.5
