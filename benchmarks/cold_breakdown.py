@@ -23,7 +23,7 @@ import subprocess
 import sys
 import tempfile
 
-from benchmarks.cold_compare import SCRIPTS
+from benchmarks.cold_compare import WORKLOADS
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -59,16 +59,11 @@ def held(rec) -> float:
 def breakdown(what: str) -> dict:
     """One cold run of workload `what` in a fresh interpreter: wall, CPU, and the seconds
     numba held its compiler and LLVM locks."""
-    workload = (
-        SCRIPTS[what]
-        .replace("print(time.time())", "")
-        .replace("import time as _t; print(_t.time())", "")
-    )
     env = {k: v for k, v in os.environ.items() if not k.startswith("HOPROVER_")}
     with tempfile.TemporaryDirectory() as cache:
         env.update(NUMBA_CACHE_DIR=cache, HOPROVER_PARALLEL_COMPILE="0")
         out = subprocess.run(
-            [sys.executable, "-c", PROBE.format(workload=workload)],
+            [sys.executable, "-c", PROBE.format(workload=WORKLOADS[what])],
             env=env,
             cwd=ROOT,  # `-c` puts the working directory first on sys.path: the probe imports held
             check=True,
@@ -81,7 +76,7 @@ def breakdown(what: str) -> dict:
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--rounds", type=int, default=2)
-    ap.add_argument("--what", nargs="+", choices=sorted(SCRIPTS), default=["step"])
+    ap.add_argument("--what", nargs="+", choices=sorted(WORKLOADS), default=["step"])
     args = ap.parse_args(argv)
     for what in args.what:
         for r in range(args.rounds):

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from hoprover_env.util.buildinfo import git_commit
 from hoprover_env.util.files import atomic_write
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -111,19 +112,11 @@ def group_of(cfg: dict) -> str:
 
 
 def provenance() -> tuple[str, str]:
-    """The checkout's commit (short) and today's date (UTC) for a recorded result."""
+    """The checkout's commit (buildinfo.git_commit: '+dirty' with uncommitted changes,
+    'unknown' outside git) and today's date (UTC) for a recorded result."""
     import datetime
 
-    try:
-        commit = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            cwd=ROOT,
-            capture_output=True,
-            text=True,
-            check=True,
-        ).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        commit = "unknown"
+    commit = git_commit(ROOT) or "unknown"
     return commit, datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
 
 

@@ -566,9 +566,10 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
     if cfg.get("demonstrations") is not None:  # a store of their own, with a batch_share
         from hoprover_env.training.demonstrations import buffer_kwargs
 
-        if buffer_kwargs(cfg):
+        separate = buffer_kwargs(cfg)
+        if separate:
             hyper.pop("n_steps", None)  # the buffer's own (SB3 sets it up only for its own)
-            hyper.update(buffer_kwargs(cfg))
+            hyper.update(separate)
     return cls(
         SB3_ALGOS[cfg["algo"]][2],
         venv,

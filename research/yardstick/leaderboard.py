@@ -35,6 +35,8 @@ import numpy as np
 from hoprover_env.evaluation import suites
 from hoprover_env.evaluation.scores import format_table, summarize
 from hoprover_env.util.files import atomic_write
+from research.baselines import DEMOS as DEMOS_GROUP  # the baselines' groups (group_of)
+from research.baselines import RL
 
 ROOT = Path(__file__).resolve().parents[2]  # the repository
 SUITES = {name: suites.task_of(name) for name in ("level", "terrain", "contest")}
@@ -82,9 +84,7 @@ AGENTS = {
     ],
 }
 # the groups, in the order the pages show them: (heading, what the group's agents are)
-RL, IMITATION = "RL from reward", "Imitation of a planner"
-# the baselines' second group (research/baselines.py group_of)
-DEMOS_GROUP = "RL from reward and demonstrations"
+IMITATION = "Imitation of a planner"
 PLANNERS, REFERENCES = "Planners that use the simulator as their model", "References"
 GROUPS = {
     RL: (
@@ -327,7 +327,7 @@ def tables(results: dict) -> str:
     return "\n\n".join(parts)
 
 
-def baseline_tables(folder: Path = BASELINES, group: str = "RL from reward") -> str:
+def baseline_tables(folder: Path = BASELINES, group: str = RL) -> str:
     """The baselines of `group` scored over seeds (research/baselines.py's summary.json
     files, copied into `folder`; one recorded before groups were is RL from reward), one
     table per suite; "" when there are none."""
@@ -336,7 +336,7 @@ def baseline_tables(folder: Path = BASELINES, group: str = "RL from reward") -> 
     by_suite: dict = {}
     for path in sorted(folder.glob("*.json")):
         res = json.loads(path.read_text())
-        if res.get("group", "RL from reward") != group:
+        if res.get("group", RL) != group:
             continue
         row = res["summary"]
         s = Summary(
