@@ -10,7 +10,8 @@ A config has these sections (every key is checked; a typo is an error that names
     env: {...}                      # HopRoverEnv arguments (control_dt, shaping, ...)
     normalize: {obs: true, reward: true, clip_obs: 10.0}
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
-                                    # and the algorithm's own (n_quantiles, lstm_hidden_size)
+                                    # and the algorithm's own (n_quantiles, lstm_hidden_size);
+                                    # critic_layer_norm (SAC, TD3) is hoprover's
     hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
@@ -76,7 +77,10 @@ POLICY_KEYS = {
     "n_lstm_layers",
     "shared_lstm",
     "enable_critic_lstm",
+    "critic_layer_norm",
 }
+# the algorithms whose critics hoprover can normalise (training/critics.py)
+LAYER_NORM_ALGOS = {"sac", "td3"}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {
     "expert": "scripted",
@@ -162,6 +166,8 @@ def policy_keys(algo: str) -> set:
     cls = algo_class(algo)
     params = set(inspect.signature(cls.policy_aliases[SB3_ALGOS[algo][2]].__init__).parameters)
     params.add("features_extractor")  # hoprover's name of features_extractor_class
+    if algo in LAYER_NORM_ALGOS:
+        params.add("critic_layer_norm")  # hoprover's: a policy class of its own
     return POLICY_KEYS & params
 
 
@@ -432,6 +438,7 @@ POLICY_TYPES = {
     "n_lstm_layers": POS_INT,
     "shared_lstm": BOOL,
     "enable_critic_lstm": BOOL,
+    "critic_layer_norm": BOOL,
 }
 DEMONSTRATION_TYPES = {
     "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
@@ -540,6 +547,7 @@ def policy_kwargs(cfg: dict) -> dict:
     import torch.nn as nn
 
     kw = dict(cfg["policy"])
+    kw.pop("critic_layer_norm", None)  # chooses the policy class (make_agent)
     if "features_extractor" in kw:
         kw["features_extractor_class"] = features_extractor(kw.pop("features_extractor"))
     if "activation_fn" in kw:
@@ -570,8 +578,13 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
         if separate:
             hyper.pop("n_steps", None)  # the buffer's own (SB3 sets it up only for its own)
             hyper.update(separate)
+    policy: Any = SB3_ALGOS[cfg["algo"]][2]
+    if cfg["policy"].get("critic_layer_norm"):
+        from hoprover_env.training.critics import LAYER_NORM_POLICIES
+
+        policy = LAYER_NORM_POLICIES[cfg["algo"]]
     return cls(
-        SB3_ALGOS[cfg["algo"]][2],
+        policy,
         venv,
         policy_kwargs=policy_kwargs(cfg),
         seed=cfg["seed"],
