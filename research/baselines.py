@@ -113,11 +113,13 @@ def group_of(cfg: dict) -> str:
 
 def provenance() -> tuple[str, str]:
     """The checkout's commit (buildinfo.git_commit: '+dirty' with uncommitted changes,
-    'unknown' outside git) and today's date (UTC) for a recorded result."""
+    'unknown' outside git), abbreviated as the docs quote commits, and today's date (UTC)
+    for a recorded result."""
     import datetime
 
-    commit = git_commit(ROOT) or "unknown"
-    return commit, datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+    rev, plus, mark = (git_commit(ROOT) or "unknown").partition("+")
+    today = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+    return rev[:7] + plus + mark, today
 
 
 def curve(run: Path) -> dict:
