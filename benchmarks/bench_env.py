@@ -227,7 +227,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     )
 
     sizes = [1, 16, 256] if quick else [1, 16, 256, 4096, 16384, 65536]
-    min_steps = 20000 if quick else 400000
+    # quick: few steps, as a threaded step of 1 or 16 sub-envs waits for its OpenMP team:
+    # on cores kept busy by other work (the test suite's other workers) that took 2-8 ms
+    # a step, 34 s for quick's former 20000 steps of one sub-env
+    min_steps = 500 if quick else 400000
     rows, curves = (
         [],
         {
@@ -281,7 +284,8 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
     cost_col = "us per simulated second (kernel, per rover)"
     cost_md = table(["rover kept", cost_col], [[k, v] for k, v in costs.items()], {cost_col: ".3f"})
 
-    task_us = task_step_costs(512 if quick else 4096, steps=20 if quick else 60)
+    task_n, task_steps, task_rounds = (512, 20, 2) if quick else (4096, 60, 5)
+    task_us = task_step_costs(task_n, steps=task_steps, rounds=task_rounds)
     task_md = table(
         ["task (native vector env)", "us per sub-env step", "x HopRover-v0"],
         [[k, v, v / task_us["HopRover-v0"]] for k, v in task_us.items()],
@@ -330,10 +334,10 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures") -> Section:
             f"warm-up steps, then at least 60 steps per sub-env; SyncVectorEnv at N = 4096: 10 "
             f"+ 20), numba threads: {numba.config.NUMBA_NUM_THREADS}:",
             vec_md,
-            f"Every task's step at N = {512 if quick else 4096} (the same random actions in "
-            "[-0.2, 0.2], 60 steps from reset, best of 5 rounds run in turn; the hop task's "
-            "step is a whole hop, the terrain and mission tasks draw slopes and bounce off "
-            "rough ground, the mission also reads its sensors):",
+            f"Every task's step at N = {task_n} (the same random actions in [-0.2, 0.2], "
+            f"{task_steps} steps from reset, best of {task_rounds} rounds run in turn; the hop "
+            "task's step is a whole hop, the terrain and mission tasks draw slopes and bounce "
+            "off rough ground, the mission also reads its sensors):",
             task_md,
             "Cost of simulated time (the kernel alone, per rover): a rover at rest costs only "
             "the per-step bookkeeping, a flight is closed form, a contact phase runs DOP853 with "

@@ -76,6 +76,13 @@ def train(task: str, seed: int, runs: Path, quick: bool, tmp: Path) -> Path:
     ]
     if (out / "checkpoints" / "last.json").exists():
         cmd.append("--resume")
+    if quick:
+        # quick runs feed batches of 8 observations through small networks: with torch's
+        # default of a thread per core, every small matmul waits for a team of threads,
+        # and on cores that other work keeps busy (the test suite runs this beside its
+        # other workers) a 4096-step run took 42 s instead of 5 s. Full runs keep the
+        # default, as train.py's users run it
+        cmd += ["--torch-threads", "1"]
     print(f"[bench_learning] {' '.join(cmd)}", file=sys.stderr, flush=True)
     subprocess.run(cmd, check=True, cwd=ROOT)
     return out
@@ -230,7 +237,8 @@ def run(
     ref = scripted_median(4 if quick else 100)
     figure(results, fig, ref)
     md = [
-        f"Runs in `{runs}` (one `train.py` run per task and seed; seeds "
+        f"Runs in `{runs}` (one `train.py` run per task and seed"
+        f"{', `--torch-threads 1`' if quick else ''}; seeds "
         f"{', '.join(map(str, seeds))}). Per seed, separated by /: the success rate and "
         "median TTRTP of the last evaluation, the best success rate, the wall seconds "
         "until the first evaluation at >= 95 % ('-': never), and the run's wall seconds "
