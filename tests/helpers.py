@@ -107,3 +107,16 @@ TINY_SAC_V1 = {
     "evaluation": {"freq": 10_000, "episodes": 2, "seed": 7},
     "checkpoint": {"freq": 10_000},
 }
+
+
+def train_tiny(tmp_path, cfg: dict = TINY_SAC_V1):
+    """Train `cfg` with train.py into tmp_path/run; its last checkpoint's model path."""
+    import yaml
+
+    from hoprover_env.training import train
+
+    path = tmp_path / "cfg.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    out = tmp_path / "run"
+    assert train.main(["--config", str(path), "--out", str(out), "--no-progress"]) == 0
+    return out / "checkpoints" / "last.zip"

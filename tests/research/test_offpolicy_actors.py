@@ -5,21 +5,15 @@ state of the decision before it."""
 import json
 
 import pytest
-import yaml
 
-from helpers import TINY_SAC_V1
-from hoprover_env.training import train
+from helpers import train_tiny
 from research.offpolicy import actors
 
 
 @pytest.mark.slow  # trains a tiny SAC, then plays whole episodes
 def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(TINY_SAC_V1))
-    out = tmp_path / "run"
-    assert train.main(["--config", str(path), "--out", str(out), "--no-progress"]) == 0
+    model = train_tiny(tmp_path)
     report_path = tmp_path / "actors.json"
-    model = out / "checkpoints" / "last.zip"
     assert (
         actors.main(
             [

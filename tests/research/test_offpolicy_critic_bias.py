@@ -7,10 +7,8 @@ import json
 
 import numpy as np
 import pytest
-import yaml
 
-from helpers import TINY_SAC_V1
-from hoprover_env.training import train
+from helpers import train_tiny
 from research.offpolicy import critic_bias
 
 
@@ -30,12 +28,8 @@ def test_soft_returns_are_the_discounted_sum_the_target_unrolls_to():
 
 @pytest.mark.slow  # trains a tiny SAC, then plays whole episodes
 def test_every_decision_is_counted_once(tmp_path):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(TINY_SAC_V1))
-    out = tmp_path / "run"
-    assert train.main(["--config", str(path), "--out", str(out), "--no-progress"]) == 0
+    model = str(train_tiny(tmp_path))
     report_path = tmp_path / "bias.json"
-    model = str(out / "checkpoints" / "last.zip")
     args = ["--model", model, "--episodes", "3", "--out", str(report_path)]
     assert critic_bias.main(args) == 0
     report = json.loads(report_path.read_text())
