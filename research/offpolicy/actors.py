@@ -142,6 +142,11 @@ def tipping_action(policy) -> float:
     return frac / scale
 
 
+def abs_tilt_deg(theta: np.ndarray) -> np.ndarray:
+    """|theta| wrapped to [0, 180] degrees: how far from upright."""
+    return np.abs(np.degrees(np.angle(np.exp(1j * np.asarray(theta)))))
+
+
 def per_state(run: dict, tip: float) -> dict:
     rows = {}
     for name, codes in GROUPS.items():
@@ -153,9 +158,9 @@ def per_state(run: dict, tip: float) -> dict:
             row["tipping_share"] = float(np.mean(np.abs(a) > tip))
         if name == "flight" and sel.sum() > 2:
             row["median_abs_omega"] = float(np.median(np.abs(w)))
-            # how far from upright it flies (theta wrapped to [-180, 180] degrees)
-            theta = np.degrees(np.angle(np.exp(1j * run["flight_states"][:, 2])))
-            row["p90_abs_theta_deg"] = float(np.quantile(np.abs(theta), 0.9))
+            # how far from upright it flies
+            tilt = abs_tilt_deg(run["flight_states"][:, 2])
+            row["p90_abs_theta_deg"] = float(np.quantile(tilt, 0.9))
             row["corr_action_minus_omega"] = (
                 float(np.corrcoef(a, -w)[0, 1]) if a.std() > 0 and w.std() > 0 else float("nan")
             )

@@ -39,7 +39,7 @@ from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.evaluation.episodes import seeded_targets
 from hoprover_env.util.files import atomic_write
-from research.offpolicy.actors import GROUPS, env_arguments
+from research.offpolicy.actors import GROUPS, abs_tilt_deg, env_arguments
 
 TILTED_DEG = 30.0
 
@@ -64,8 +64,9 @@ def _sample(model, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def play(policy, targets: np.ndarray, seed: int) -> dict:
-    """The sampling actor's episodes side by side; per decision the value, reward and
-    log-probability, and per episode how it ended."""
+    """The sampling actor's episodes side by side: per decision the critic's value, the
+    reward, the action's log-probability, the contact state and theta; per episode the
+    soft value that bootstraps a cut (0 where the episode ended)."""
     model, n = policy.model, len(targets)
     torch.manual_seed(seed)
     venv = vector_env_class(policy.env_id)(
@@ -86,7 +87,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
         cut = open_ & np.asarray(trunc) & ~np.asarray(term)
         if cut.any():
             last = np.stack([info["final_obs"][i] for i in np.flatnonzero(cut)])
-            a_t, logp_t, q_t = _sample(model, policy.normalize(last))
+            _, logp_t, q_t = _sample(model, policy.normalize(last))
             tail[cut] = q_t - entropy_coefficient(model) * logp_t
         open_ &= ~(np.asarray(term) | np.asarray(trunc))
     venv.close()
@@ -121,7 +122,7 @@ def report(policy, run: dict) -> dict:
         theta.append([s[4] for s in steps])
     v, g = np.concatenate(value), np.concatenate(ret)
     m, th = np.concatenate(mode), np.concatenate(theta)
-    tilt = np.abs(np.degrees(np.angle(np.exp(1j * th))))
+    tilt = abs_tilt_deg(th)
     groups = {name: np.isin(m, codes) for name, codes in GROUPS.items()}
     groups["flight_upright"] = groups["flight"] & (tilt < TILTED_DEG)
     groups["flight_tilted"] = groups["flight"] & (tilt >= TILTED_DEG)

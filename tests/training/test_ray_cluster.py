@@ -265,10 +265,6 @@ def test_interrupted_and_resumed_sweep_matches_an_uninterrupted_one(cluster, tmp
             "--timesteps",
             "128",
             "--no-progress",
-            # torch's default of a thread per core makes each small matmul wait for a
-            # thread team, which on cores the suite's other workers keep busy costs ms
-            "--torch-threads",
-            "1",
         ],
         cwd=ROOT,
         capture_output=True,
