@@ -202,6 +202,42 @@ def over_threads(work, threads: list[int], repeat: int) -> dict:
     return best
 
 
+def _process_worker(n_runs: int, t_end: float, barrier, results) -> None:
+    """One of `independent_processes`' processes: warm, wait for the others, time one
+    simulate_batch call on one numba thread."""
+    import numba
+
+    numba.set_num_threads(1)
+    sched, targets = batch_workload(n_runs, t_end)
+    time_batch(sched[:8], targets[:8], t_end)
+    barrier.wait()
+    results.put(time_batch(sched, targets, t_end)["wall"])
+
+
+def independent_processes(counts: list[int], n_runs: int, t_end: float, repeat: int) -> dict:
+    """{p: runs/s of p independent one-thread processes together}: each runs the same
+    simulate_batch call at once (started together after warming), so their sum is what
+    the machine's cores give work that shares nothing. The best of `repeat` rounds."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    best: dict = {}
+    for _ in range(repeat):
+        for p in counts:
+            barrier, results = ctx.Barrier(p), ctx.Queue()
+            procs = [
+                ctx.Process(target=_process_worker, args=(n_runs, t_end, barrier, results))
+                for _ in range(p)
+            ]
+            for proc in procs:
+                proc.start()
+            walls = [results.get() for _ in procs]
+            for proc in procs:
+                proc.join()
+            best[p] = max(best.get(p, 0.0), p * n_runs / max(walls))
+    return best
+
+
 def amdahl(serial_fraction: float, p: int) -> float:
     """The speed-up Amdahl's law gives p threads when serial_fraction of the one-thread
     time cannot be shared."""
@@ -268,6 +304,8 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     g_rows, g_sum = scaling_rows(grouped_best, n_runs)
     env_best = over_threads(VectorEnvWork(n_envs, steps), threads, repeat)
     e_rows, e_sum = scaling_rows(env_best, n_envs * steps)
+    procs = independent_processes(threads, n_runs, t_end, repeat)
+    p_rows = [[p, rate, rate / procs[1], rate / procs[1] / p] for p, rate in procs.items()]
 
     fmt = {
         "speed-up": ".2f",
@@ -349,6 +387,17 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
             f"HopRover-v0 vector env (`HopRoverVectorEnv({n_envs}, threads=True)`): {steps} "
             f"steps from one reset, random actions in +-{ENV_ACTION:g}:",
             e_md,
+            f"The machine's own ceiling: p independent processes of one numba thread each, "
+            f"each running the first table's {n_runs} runs at once (warmed, then started "
+            "together; runs / s of all of them, the best of "
+            f"{repeat}). Threads that scale less than this lose to hoprover's loop; "
+            "processes that scale no better than the threads show the cores themselves "
+            "(shared caches, memory bandwidth, clock or hyper-threads) set the limit:",
+            table(
+                ["processes", "runs / s", "speed-up", "efficiency"],
+                p_rows,
+                {"runs / s": ",.0f", "speed-up": ".2f", "efficiency": ".0%"},
+            ),
             "Serial time (Python outside the threaded kernel, at one thread) and what it "
             "allows: Amdahl's law with that serial fraction f predicts 1 / (f + (1 - f) / p) "
             "on p threads; the Karp-Flatt fraction is the serial fraction the measured "
@@ -368,6 +417,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
         "env_steps_per_s_1": e_rows[0][1],
         "env_steps_per_s_top": e_rows[-1][1],
         "env_speedup_top": e_sum["speedup_top"],
+        "processes_speedup_top": p_rows[-1][2],
         "env_serial_us_per_step": e_sum["serial_s"] / steps * 1e6,
         "env_amdahl_16": e_sum["amdahl_16"],
         "env_amdahl_64": e_sum["amdahl_64"],
