@@ -26,6 +26,7 @@ from gymnasium.vector import AutoresetMode
 
 from hoprover_env.agents.base import RandomPolicy
 from hoprover_env.envs.registry import vector_env_class
+from hoprover_env.tasks.config import TRAINING_STARTS
 
 
 @dataclasses.dataclass
@@ -84,9 +85,10 @@ def run_episodes(
     arguments, as the env does."""
     kwargs = {**(env_kwargs or {}), **getattr(policy, "env_kwargs", {})}
     kwargs.pop("target_x", None)
-    # a training start distribution (flight_start) is not the task: every evaluation
-    # starts where the contest does, upright at rest
-    kwargs.pop("flight_start", None)
+    # a training start distribution (flight_start, near_start) is not the task: every
+    # evaluation starts where the contest does, upright at rest
+    for name in TRAINING_STARTS:
+        kwargs.pop(name, None)
     targets = np.asarray(targets, dtype=float)
     results: list[EpisodeResult] = []
     # seeds stay integers (terrain_seed, a task's seed options): up to 2^63, a float64

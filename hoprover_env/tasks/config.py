@@ -69,6 +69,12 @@ class _FlatReward(type):
         return super().__call__(*args, reward=reward, **kwargs)
 
 
+# The training start distributions: shares of the episodes that start elsewhere than the
+# contest's rest at x = 0 (tasks/draws.py `training_starts`). They are no part of the
+# task: every evaluation drops them and starts where the contest does.
+TRAINING_STARTS = ("flight_start", "near_start")
+
+
 @dataclasses.dataclass(frozen=True)
 class EnvConfig(metaclass=_FlatReward):
     """The arguments every task shares (the table in hoprover_env/tasks/torque.py). The
@@ -94,6 +100,7 @@ class EnvConfig(metaclass=_FlatReward):
     action_scale: float = 1.0
     info_level: str = "basic"
     flight_start: float = 0.0
+    near_start: float = 0.0
     # the arguments a task does not use, each with the reason: refused, not ignored
     unused: ClassVar[dict] = {}
     # the task's own fields its kernels read, in the order of their slots of E after the
@@ -183,8 +190,15 @@ class EnvConfig(metaclass=_FlatReward):
             raise ValueError(f"action_scale must lie in (0, 1], got {self.action_scale!r}")
         if self.info_level not in ("basic", "full"):
             raise ValueError(f"info_level must be 'basic' or 'full', got {self.info_level!r}")
-        if not (is_real(self.flight_start) and 0.0 <= self.flight_start <= 1.0):
-            raise ValueError(f"flight_start must be a share in [0, 1], got {self.flight_start!r}")
+        for name in TRAINING_STARTS:
+            share = getattr(self, name)
+            if not (is_real(share) and 0.0 <= share <= 1.0):
+                raise ValueError(f"{name} must be a share in [0, 1], got {share!r}")
+        if self.flight_start + self.near_start > 1.0:
+            raise ValueError(
+                f"flight_start + near_start must be at most 1 (shares of the same episodes), "
+                f"got {self.flight_start!r} + {self.near_start!r}"
+            )
 
     @classmethod
     def from_kwargs(cls, owner: str | None = None, /, **kwargs: Any) -> EnvConfig:

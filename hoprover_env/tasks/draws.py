@@ -14,8 +14,8 @@ counter (episode, block, stream, attempt). Stream EPISODE holds, word by word,
 at fixed places whatever the config and the options say, so that the draws stay aligned;
 stream RANDOMIZE holds domain randomisation's uniforms (one per randomised field, in
 sorted order), attempt a being the a-th draw of a row whose earlier draws broke
-RoverParams' constraints (Painleve); stream START the flight starts of `flight_start`
-(`flight_rows`). A word u becomes a uniform (u >> 11) 2^-53 in
+RoverParams' constraints (Painleve); stream START the training starts of `flight_start`
+and `near_start` (`training_starts`). A word u becomes a uniform (u >> 11) 2^-53 in
 [0, 1) and a terrain seed u >> 1 in [0, 2^63).
 
 Reset options (tasks/options.py, checked there) replace the outcome of a draw, never the
@@ -204,16 +204,22 @@ class Episodes:
 # The flight starts of `flight_start` (a training option; evaluation always starts at
 # rest): a c.m. over the target range, clear of the ground in any attitude, moving as a
 # hop of up to a few metres does, in any attitude and spinning at up to FLIGHT_SPIN.
+# The near starts of `near_start`: upright at rest within NEAR_RADIUS of the target, so
+# that the last approach and the keeping still in the band are met before a learner can
+# reach them from x = 0 (the band's half-width is 0.05 m).
+NEAR_RADIUS = 0.5  # [m]
 FLIGHT_CLEARANCE = (0.01, 0.5)  # lowest corner above the ground [m]: its range
 FLIGHT_SPEED = (0.01, 0.005)  # |vx|, |vy| up to [m/s]
 FLIGHT_SPIN = 3.0  # |omega| up to [rad/s]
 
 
-def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
-    """The initial c.m. states (n, 6) of `flight_start`: a share cfg.flight_start of the
-    rovers (those whose first word of stream START falls below it) start in flight,
-    drawn from the next six words; the rest upright at rest at x = 0, as with no
-    initial state. Every rover draws the same words, so the streams stay aligned."""
+def training_starts(cfg, P, targets, keys_lo, keys_hi, episodes) -> np.ndarray:
+    """The initial c.m. states (n, 6) of the training starts: with u the first word of
+    stream START, a rover with u < cfg.flight_start starts in flight (drawn from the
+    next six words), one with u in [flight_start, flight_start + near_start) upright at
+    rest at x = target + NEAR_RADIUS (2 u1 - 1), the rest upright at rest at x = 0, as
+    with no initial state. Every rover draws the same words, so the streams stay
+    aligned (and flight_start alone draws what it drew before near_start existed)."""
     u = uniforms(words(keys_lo, keys_hi, episodes, STREAM_START, 7))
     lo, hi = cfg.target_range
     half_diagonal = np.hypot(P[:, P_R], P[:, P_H])
@@ -231,7 +237,10 @@ def flight_rows(cfg, P, keys_lo, keys_hi, episodes) -> np.ndarray:
     )
     rest = np.zeros_like(flying)
     rest[:, 1] = P[:, P_H]
-    return np.where((u[:, 0] < cfg.flight_start)[:, None], flying, rest)
+    near = rest.copy()
+    near[:, 0] = targets + NEAR_RADIUS * (2.0 * u[:, 1] - 1.0)
+    out = np.where((u[:, 0] < cfg.flight_start + cfg.near_start)[:, None], near, rest)
+    return np.where((u[:, 0] < cfg.flight_start)[:, None], flying, out)
 
 
 def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Episodes:
@@ -282,8 +291,8 @@ def sample_episodes(task, cfg, keys_lo, keys_hi, episodes, options=None) -> Epis
     X = np.zeros((0, 6))
     if "initial_state" in options:
         X = np.array(options["initial_state"], dtype=np.float64, order="C")  # writable
-    elif cfg.flight_start > 0.0:
-        X = flight_rows(cfg, P, keys_lo, keys_hi, episodes)
+    elif cfg.flight_start > 0.0 or cfg.near_start > 0.0:
+        X = training_starts(cfg, P, targets, keys_lo, keys_hi, episodes)
     bad = np.abs(targets) > MAX_MAGNITUDE
     if X.shape[0]:
         bad |= (np.abs(X) > MAX_MAGNITUDE).any(axis=1)

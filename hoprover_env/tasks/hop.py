@@ -131,6 +131,7 @@ class HopEnvConfig(EnvConfig):
         "action_map": "one action is a hop's launch torque, mapped by hop_torque",
         "action_scale": "one action is a hop's launch torque, mapped by hop_torque",
         "flight_start": "a hop is launched from rest: every step starts at rest",
+        "near_start": "a hop is launched from rest at x = 0: the hops are the task",
     }
 
     # its own slots of E: the built-in controller (tasks/layout.py task_slots)

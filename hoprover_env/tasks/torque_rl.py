@@ -62,8 +62,11 @@ state (partial-episode bootstrapping, Pardo et al. 2018; SB3 reads
 
 Upright at rest at x = 0, as in the contest, unless `flight_start` > 0 (a training
 option, 0 by default): that share of the episodes starts in flight, over the target
-range, in any attitude and spinning at up to 3 rad/s (tasks/draws.py `flight_rows`), so
-that a learner meets landings before it has learnt to launch. Evaluation
+range, in any attitude and spinning at up to 3 rad/s (tasks/draws.py `training_starts`),
+so that a learner meets landings before it has learnt to launch; and unless
+`near_start` > 0 (a training option too, 0 by default): that share starts upright at
+rest within 0.5 m of the target, so that it meets the last approach and the 5 s of
+keeping still in the band (flight_start + near_start <= 1). Evaluation
 (hoprover_env.evaluation.episodes, the frozen suites) always starts at rest.
 
 ## Episode end
@@ -72,13 +75,14 @@ As HopRover-v0: terminated on success or a break, truncated at `episode_time`.
 
 ## Arguments
 
-HopRover-v0's, with the defaults above, and `flight_start` (a share in [0, 1]);
-`dist_cap` at most 10 m.
+HopRover-v0's, with the defaults above, and `flight_start` and `near_start` (shares in
+[0, 1]); `dist_cap` at most 10 m.
 
 ## Version history
 
 * v1: this observation (unclipped spin and distances, no time), the per-decision
-  attitude cost, and `flight_start`.
+  attitude cost, and `flight_start`; `near_start` was added later, 0 by default, so
+  what the id computes did not change.
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
 
 import dataclasses

@@ -35,6 +35,8 @@ import numpy as np
 import torch
 from stable_baselines3.common.buffers import NStepReplayBuffer, ReplayBuffer
 
+from hoprover_env.tasks.config import TRAINING_STARTS
+
 DEFAULTS = {"policy": "scripted", "steps": 20_000, "seed": 0, "batch_share": 0.0}
 KEYS = set(DEFAULTS)
 
@@ -128,7 +130,7 @@ def collect_demonstrations(cfg: dict, env_kwargs: dict) -> list:
     from hoprover_env.evaluation.datasets import collect
 
     demo = settings(cfg)
-    kwargs = {k: v for k, v in env_kwargs.items() if k != "flight_start"}
+    kwargs = {k: v for k, v in env_kwargs.items() if k not in TRAINING_STARTS}
     control_dt = config_class(cfg["env_id"])(**kwargs).control_dt
     try:
         policy = load_policy(demo["policy"], control_dt=control_dt)

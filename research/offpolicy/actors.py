@@ -47,6 +47,7 @@ from hoprover_env.agents.policies import load_sb3
 from hoprover_env.core.params import RoverParams
 from hoprover_env.envs.registry import env_class, task, vector_env_class
 from hoprover_env.evaluation.episodes import seeded_targets
+from hoprover_env.tasks.config import TRAINING_STARTS
 from hoprover_env.util.files import atomic_write
 
 REST, FLIGHT = 5, 0
@@ -58,7 +59,8 @@ def env_arguments(policy) -> dict:
     """The env arguments the policy was trained with over its id's own, less the
     training-only start distribution (every episode here starts as the contest's)."""
     kw = {**task(policy.env_id).kwargs, **policy.env_kwargs}
-    kw.pop("flight_start", None)
+    for name in TRAINING_STARTS:
+        kw.pop(name, None)
     kw.pop("target_x", None)
     return kw
 

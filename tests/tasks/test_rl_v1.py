@@ -12,6 +12,7 @@ from hoprover_env.agents.base import ArrayPolicy
 from hoprover_env.evaluation.episodes import run_episodes
 from hoprover_env.tasks import reward as rw
 from hoprover_env.tasks import torque_rl as v1
+from hoprover_env.tasks.draws import NEAR_RADIUS
 
 H = 0.05
 
@@ -106,6 +107,45 @@ def test_flight_starts_are_the_share_asked_for_valid_and_the_same_in_the_vector_
     assert (np.asarray(info["state"]) == 5).all()
 
 
+def test_near_starts_are_the_share_asked_for_at_rest_near_the_target_and_vectorised():
+    n = 400
+    kw = {"flight_start": 0.25, "near_start": 0.5, "info_level": "full"}
+    venv = gym.make_vec("HopRoverRL-v1", num_envs=n, **kw)
+    obs, info = venv.reset(seed=3)
+    modes = np.asarray(info["state"])
+    x = np.asarray(info["rover_state"])[:, 0]
+    gap = x - np.asarray(info["target_x"])
+    at_rest = modes == 5
+    near = at_rest & (x != 0.0)
+    assert 50 < int((modes == 0).sum()) < 150  # flight: a quarter
+    assert 150 < int(near.sum()) < 250  # near the target: half
+    assert (np.abs(gap[near]) <= NEAR_RADIUS).all()
+    assert np.abs(gap[near]).max() > 0.8 * NEAR_RADIUS  # spread over the radius
+    assert (np.abs(gap[near]) < 0.1).any()  # some start within reach of the band
+    theta = np.asarray(info["rover_state"])[:, 2]
+    assert (theta[at_rest] == 0.0).all()
+    env = gym.make("HopRoverRL-v1", **kw)
+    for i in (0, 2, 5, 77):
+        single, _ = env.reset(seed=3 + i)
+        np.testing.assert_array_equal(single, obs[i])
+    # flight_start alone draws the flight starts it drew before near_start existed
+    a, _ = gym.make_vec("HopRoverRL-v1", num_envs=64, flight_start=0.5).reset(seed=9)
+    b, _ = gym.make_vec("HopRoverRL-v1", num_envs=64, flight_start=0.5, near_start=0.0).reset(
+        seed=9
+    )
+    np.testing.assert_array_equal(a, b)
+
+
+def test_near_start_is_checked_and_refused_where_it_cannot_apply():
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="near_start"):
+            gym.make("HopRoverRL-v1", near_start=bad)
+    with pytest.raises(ValueError, match="flight_start \\+ near_start"):
+        gym.make("HopRoverRL-v1", flight_start=0.6, near_start=0.5)
+    with pytest.raises(TypeError, match="near_start"):
+        gym.make("HopRoverHop-v0", near_start=0.5)
+
+
 def test_flight_start_is_checked_and_refused_where_it_cannot_apply():
     for bad in (-0.1, 1.5, float("nan")):
         with pytest.raises(ValueError, match="flight_start"):
@@ -122,7 +162,7 @@ def test_evaluation_starts_at_rest_whatever_the_training_starts():
         lambda obs: np.full((len(obs), 1), 0.8, np.float32), name="push", env_id="HopRoverRL-v1"
     )
     targets = np.linspace(-0.9, 0.9, 6)
-    trained = run_episodes(policy, targets, {"flight_start": 1.0})
+    trained = run_episodes(policy, targets, {"flight_start": 0.5, "near_start": 0.5})
     contest = run_episodes(policy, targets, {})
     for a, b in zip(trained, contest):
         assert (a.success, a.broken, a.steps, a.final_x) == (

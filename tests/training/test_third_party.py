@@ -17,6 +17,7 @@ import pytest
 import yaml
 
 import hoprover_env  # noqa: F401  (registers the envs)
+from hoprover_env.tasks.config import TRAINING_STARTS
 
 # the fast tier (pytest -m "not slow") leaves this file out:
 # trains with the RL Zoo and CleanRL's wrappers
@@ -38,7 +39,7 @@ ZOO_ONLY = {
 
 
 # env arguments that shape only the training episodes' starts (evaluation starts at rest)
-TRAINING_ONLY = {"flight_start"}
+TRAINING_ONLY = set(TRAINING_STARTS)
 
 
 def zoo_hyperparams() -> dict:

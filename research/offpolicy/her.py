@@ -1,0 +1,212 @@
+"""SAC (or TD3, TQC) with hindsight experience replay on HopRoverGoal-v1, trained the way
+SB3's users run HER: `make_vec_env` over the Gymnasium env, `MultiInputPolicy`,
+`HerReplayBuffer` with `copy_info_dict` (the goal env's reward reads the transitions'
+infos), and every `evaluation.freq` steps the contest's judge on fixed validation targets.
+
+    python -m research.offpolicy.her --config research/offpolicy/sac_her.yaml \\
+        --out runs/sac_her_s0 --seed 0 --torch-threads 1
+    python -m research.offpolicy.her --config ... --out runs/sac_her_s0 --resume
+
+The config is a train.py-like YAML (algo, n_envs, timesteps, env, her, policy,
+hyperparams, evaluation, checkpoint); its `env` arguments go to the training envs only,
+and validation starts every episode upright at rest, as the contest does (no
+`flight_start`). A validation episode ends at the judge's success (the 5 s dwell in the
+band), a break, or the time limit; it is scored as train.py scores its own (success
+rate, median and 90th-percentile TTRTP of the successes, broken count), so the curves
+compare with `evaluations.csv` of train.py's runs.
+
+The run directory holds `config.yaml`, `evaluations.csv` (rewritten atomically after
+each evaluation), `best_model.zip` with its observation statistics, and
+`checkpoints/last*` (model, replay buffer, statistics and a JSON with the evaluations so
+far, written together every `checkpoint.freq` steps): `--resume` continues from them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+import hoprover_env  # noqa: F401  (registers the ids)
+from hoprover_env.evaluation.episodes import seeded_targets
+from hoprover_env.tasks.config import TRAINING_STARTS
+from hoprover_env.util.files import atomic_write
+
+ENV_ID = "HopRoverGoal-v1"
+EVAL_COLUMNS = ("timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken")
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--config", required=True)
+    p.add_argument("--out", required=True)
+    p.add_argument("--seed", type=int, default=None, help="the config's seed by default")
+    p.add_argument("--timesteps", type=int, default=None)
+    p.add_argument("--resume", action="store_true", help="continue from checkpoints/last")
+    p.add_argument("--torch-threads", type=int, default=None)
+    return p.parse_args(argv)
+
+
+def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
+    with open(path) as f:
+        cfg = yaml.safe_load(f)
+    known = {"algo", "n_envs", "timesteps", "seed", "env", "her", "normalize", "policy"}
+    known |= {"hyperparams", "evaluation", "checkpoint"}
+    unknown = set(cfg) - known
+    if unknown:
+        raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
+    if seed is not None:
+        cfg["seed"] = seed
+    if timesteps is not None:
+        cfg["timesteps"] = timesteps
+    return cfg
+
+
+def make_model(cfg: dict, venv):
+    import torch.nn as nn
+    from stable_baselines3 import HerReplayBuffer
+
+    from hoprover_env.training.sb3_agents import ACTIVATIONS, algo_class
+
+    policy = dict(cfg.get("policy") or {})
+    if "activation_fn" in policy:
+        policy["activation_fn"] = getattr(nn, ACTIVATIONS[policy["activation_fn"]])
+    her = {"copy_info_dict": True, **(cfg.get("her") or {})}
+    return algo_class(cfg["algo"])(
+        "MultiInputPolicy",
+        venv,
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs=her,
+        policy_kwargs=policy,
+        seed=cfg["seed"],
+        verbose=0,
+        **cfg["hyperparams"],
+    )
+
+
+def validate(model, venv, cfg: dict, targets: np.ndarray) -> dict:
+    """The judge's summary of the deterministic policy, one episode per target from rest."""
+    import gymnasium as gym
+
+    env_kwargs = {k: v for k, v in (cfg.get("env") or {}).items() if k not in TRAINING_STARTS}
+    envs = [gym.make(ENV_ID, **env_kwargs).unwrapped for _ in targets]
+    obs = [
+        env.reset(seed=i, options={"target_x": float(t)})[0]
+        for i, (env, t) in enumerate(zip(envs, targets, strict=True))
+    ]
+    live = np.ones(len(envs), bool)
+    ttrtp = np.full(len(envs), np.nan)
+    broken = np.zeros(len(envs), bool)
+    while live.any():
+        idx = np.flatnonzero(live)
+        batch = {k: np.stack([obs[i][k] for i in idx]) for k in obs[0]}
+        actions, _ = model.predict(venv.normalize_obs(batch), deterministic=True)
+        for j, i in enumerate(idx):
+            obs[i], _, term, trunc, info = envs[i].step(actions[j])
+            if info["is_success"]:
+                ttrtp[i] = float(info["ttrtp"])
+            broken[i] = bool(info["broken"])
+            if info["is_success"] or term or trunc:
+                live[i] = False
+    done = ttrtp[np.isfinite(ttrtp)]
+    return {
+        "success_rate": float(np.isfinite(ttrtp).mean()),
+        "median_ttrtp": float(np.median(done)) if done.size else float("nan"),
+        "p90_ttrtp": float(np.percentile(done, 90)) if done.size else float("nan"),
+        "broken": int(broken.sum()),
+    }
+
+
+def write_evaluations(out: Path, rows: list[dict]) -> None:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=EVAL_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write(out / "evaluations.csv", buf.getvalue())
+
+
+def save_pair(model, venv, stem: Path) -> None:
+    """The model and its observation statistics, each replaced whole."""
+    for obj, suffix in ((model, ".zip"), (venv, "_vecnormalize.pkl")):
+        tmp = stem.with_name(f".tmp-{stem.name}{suffix}")
+        obj.save(str(tmp))
+        os.replace(tmp if tmp.exists() else f"{tmp}.zip", f"{stem}{suffix}")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    import torch
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from hoprover_env.training.sb3_agents import algo_class
+
+    if args.torch_threads:
+        torch.set_num_threads(args.torch_threads)
+    out = Path(args.out)
+    ckpt = out / "checkpoints" / "last"
+    if args.resume:
+        cfg = yaml.safe_load((out / "config.yaml").read_text())
+        if args.timesteps is not None:
+            cfg["timesteps"] = args.timesteps
+    else:
+        if (out / "config.yaml").exists():
+            raise SystemExit(f"error: {out} holds a run already (--resume continues it)")
+        cfg = load_config(args.config, args.seed, args.timesteps)
+        atomic_write(out / "config.yaml", yaml.safe_dump(cfg, sort_keys=False))
+    ev = cfg["evaluation"]
+    targets = seeded_targets(ev["episodes"], ev["seed"])
+    base = make_vec_env(ENV_ID, n_envs=cfg["n_envs"], seed=cfg["seed"], env_kwargs=cfg.get("env"))
+    norm = cfg.get("normalize") or {}
+    if args.resume:
+        venv = VecNormalize.load(f"{ckpt}_vecnormalize.pkl", base)
+        model = algo_class(cfg["algo"]).load(f"{ckpt}.zip", env=venv)
+        model.load_replay_buffer(f"{ckpt}_replay_buffer.pkl")
+        state = json.loads(Path(f"{ckpt}.json").read_text())
+        rows, best, wall0 = state["evaluations"], state["best"], state["wall_s"]
+        print(f"resuming {out} at {model.num_timesteps} steps", flush=True)
+    else:
+        venv = VecNormalize(
+            base,
+            norm_obs=norm.get("obs", True),
+            norm_reward=False,
+            clip_obs=norm.get("clip_obs", 10.0),
+            norm_obs_keys=["observation"],
+        )
+        model = make_model(cfg, venv)
+        rows, best, wall0 = [], None, 0.0
+    start = time.monotonic()
+    chunk = ev["freq"]
+    while model.num_timesteps < cfg["timesteps"]:
+        steps = min(chunk - model.num_timesteps % chunk, cfg["timesteps"] - model.num_timesteps)
+        model.learn(steps, reset_num_timesteps=False)
+        wall = wall0 + time.monotonic() - start
+        res = validate(model, venv, cfg, targets)
+        row = {"timesteps": int(model.num_timesteps), "wall_s": round(wall, 1), **res}
+        rows.append(row)
+        write_evaluations(out, rows)
+        print(json.dumps(row), flush=True)
+        key = [res["success_rate"], -res["broken"]]
+        if best is None or key > best:
+            best = key
+            save_pair(model, venv, out / "best_model")
+        ckpt.parent.mkdir(parents=True, exist_ok=True)
+        save_pair(model, venv, ckpt)
+        tmp = ckpt.with_name(".tmp-last_replay_buffer.pkl")
+        model.save_replay_buffer(str(tmp))
+        os.replace(tmp, f"{ckpt}_replay_buffer.pkl")
+        state = {"timesteps": int(model.num_timesteps), "evaluations": rows, "best": best}
+        atomic_write(f"{ckpt}.json", json.dumps({**state, "wall_s": wall}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
