@@ -304,7 +304,7 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
     g_rows, g_sum = scaling_rows(grouped_best, n_runs)
     env_best = over_threads(VectorEnvWork(n_envs, steps), threads, repeat)
     e_rows, e_sum = scaling_rows(env_best, n_envs * steps)
-    procs = independent_processes(threads, n_runs, t_end, repeat)
+    procs = independent_processes(threads, n_runs, t_end, 1 if quick else repeat)
     p_rows = [[p, rate, rate / procs[1], rate / procs[1] / p] for p, rate in procs.items()]
 
     fmt = {
@@ -390,7 +390,8 @@ def run(quick: bool = False, fig_dir: str = "benchmarks/figures"):
             f"The machine's own ceiling: p independent processes of one numba thread each, "
             f"each running the first table's {n_runs} runs at once (warmed, then started "
             "together; runs / s of all of them, the best of "
-            f"{repeat}). Threads that scale less than this lose to hoprover's loop; "
+            f"{1 if quick else repeat}). Threads that scale less than this lose to "
+            "hoprover's loop; "
             "processes that scale no better than the threads show the cores themselves "
             "(shared caches, memory bandwidth, clock or hyper-threads) set the limit:",
             table(
