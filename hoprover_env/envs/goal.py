@@ -52,8 +52,8 @@ state of the episode stays reachable from the states before it.
 
 ## Arguments
 
-`keep_going` (False) and HopRoverRL-v1's arguments, but `band_weight` (refused) and
-`info_level` (always "full" underneath).
+`keep_going` (False), `render_mode` (the base env's frames) and HopRoverRL-v1's
+arguments, but `band_weight` (refused) and `info_level` (always "full" underneath).
 """  # noqa: E501 (Markdown tables, rendered by docs/_ext/envpages.py: a row cannot wrap)
 
 from __future__ import annotations
@@ -80,9 +80,10 @@ _FREE_TERMS = ("attitude", "time", "penalty", "energy", "attitude_cost")
 class HopRoverGoalEnv(gym.Env):
     """HopRoverGoal-v1 (module docstring: spaces, reward, episode end)."""
 
-    metadata = {"render_modes": []}
+    # the base env draws the frames: SB3's make_vec_env asks for "rgb_array" by default
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
 
-    def __init__(self, keep_going: bool = False, **kwargs: Any):
+    def __init__(self, keep_going: bool = False, render_mode: str | None = None, **kwargs: Any):
         for name in ("band_weight", "info_level"):
             if name in kwargs:
                 raise TypeError(
@@ -91,7 +92,10 @@ class HopRoverGoalEnv(gym.Env):
                 )
         self.keep_going = bool(keep_going)
         kwargs = {**task(BASE_ID).kwargs, **kwargs}  # the id's settings, as gym.make
-        self.base = env_class(BASE_ID)(band_weight=0.0, info_level="full", **kwargs)
+        self.base = env_class(BASE_ID)(
+            band_weight=0.0, info_level="full", render_mode=render_mode, **kwargs
+        )
+        self.render_mode = render_mode
         cfg = self.base.config
         self.gamma, self.dist_weight, self.dist_cap = cfg.gamma, cfg.dist_weight, cfg.dist_cap
         self.success_bonus = cfg.success_bonus
@@ -194,6 +198,10 @@ class HopRoverGoalEnv(gym.Env):
         (trunc,) = self._columns(info, "truncated")
         trunc = trunc.astype(bool)
         return bool(trunc[0]) if isinstance(info, dict) else trunc
+
+    def render(self):
+        """The base env's frame (render_mode "rgb_array") or window ("human")."""
+        return self.base.render()
 
     def close(self):
         self.base.close()

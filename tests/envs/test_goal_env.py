@@ -120,3 +120,14 @@ def test_sb3_her_trains_on_the_goal_env(n_envs):
     rewards = batch.rewards.numpy().ravel()
     assert np.isfinite(rewards).all()
     assert len(np.unique(rewards)) > 10  # relabelled goals change the reward
+
+
+def test_sb3s_make_vec_env_builds_it_without_a_warning_and_it_renders(recwarn):
+    from stable_baselines3.common.env_util import make_vec_env
+
+    venv = make_vec_env("HopRoverGoal-v1", n_envs=1, seed=0)  # render_mode="rgb_array"
+    assert not [w for w in recwarn if "render" in str(w.message)]
+    venv.reset()
+    frame = venv.env_method("render")[0]
+    assert frame.ndim == 3 and frame.shape[2] == 3 and frame.dtype == np.uint8
+    assert gym.make("HopRoverGoal-v1").unwrapped.render_mode is None
