@@ -55,7 +55,16 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
+HER_KEYS = {"n_sampled_goal", "goal_selection_strategy", "copy_info_dict"}
+
+
 def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
+    """The config at `path`, checked as train.py checks its own where the sections are
+    the same (SystemExit naming the key otherwise)."""
+    import gymnasium as gym
+
+    from hoprover_env.training.sb3_agents import hyper_keys, policy_keys
+
     with open(path) as f:
         cfg = yaml.safe_load(f)
     known = {"algo", "n_envs", "timesteps", "seed", "env", "her", "normalize", "policy"}
@@ -63,6 +72,25 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     unknown = set(cfg) - known
     if unknown:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
+    own = {"replay_buffer_class", "replay_buffer_kwargs", "learning_rate_end"}
+    for section, valid in (
+        ("hyperparams", hyper_keys(cfg["algo"]) - own),
+        ("policy", policy_keys(cfg["algo"]) - {"critic_layer_norm", "features_extractor"}),
+        ("her", HER_KEYS),
+    ):
+        bad = sorted(set(cfg.get(section) or {}) - valid)
+        if bad:
+            raise SystemExit(f"error: {path}: unknown config key '{section}.{bad[0]}'")
+    try:
+        env = gym.make(ENV_ID, **(cfg.get("env") or {})).unwrapped
+    except (TypeError, ValueError) as exc:
+        raise SystemExit(f"error: {path}: config section 'env': {exc}") from None
+    gamma = cfg["hyperparams"].get("gamma", 0.99)
+    if gamma != env.gamma:
+        raise SystemExit(
+            f"error: {path}: hyperparams.gamma {gamma} is not the env's shaping discount "
+            f"{env.gamma} (the shaping leaves the optimal policy alone only with the same one)"
+        )
     if seed is not None:
         cfg["seed"] = seed
     if timesteps is not None:

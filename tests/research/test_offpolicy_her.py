@@ -3,6 +3,7 @@ the contest's judge. Validation must score the judge's success (the 5 s dwell), 
 goal env's own, and a run must resume where its last checkpoint left it."""
 
 import csv
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -60,6 +61,32 @@ def test_a_run_trains_validates_and_resumes(tmp_path):
         assert (out / name).exists(), name
     with pytest.raises(SystemExit, match="unknown config keys"):
         her.load_config(_bad(tmp_path), None, None)
+
+
+@pytest.mark.parametrize(
+    "path", sorted(Path(her.__file__).parent.glob("*_her.yaml")), ids=lambda p: p.stem
+)
+def test_the_recorded_her_configs_are_valid(path):
+    cfg = her.load_config(str(path), None, None)
+    assert cfg["algo"] in {"sac", "td3", "tqc"} and cfg["env"]["keep_going"] is True
+
+
+@pytest.mark.parametrize(
+    "section, bad, match",
+    [
+        ("hyperparams", {"learning_rte": 1e-3}, "hyperparams.learning_rte"),
+        ("her", {"n_goals": 4}, "her.n_goals"),
+        ("env", {"flight_strat": 0.5}, "flight_strat"),
+        ("hyperparams", {"gamma": 0.99}, "shaping discount"),
+    ],
+)
+def test_a_bad_key_or_discount_is_refused_by_name(tmp_path, section, bad, match):
+    cfg = yaml.safe_load((Path(her.__file__).parent / "sac_her.yaml").read_text())
+    cfg[section] = {**cfg[section], **bad}
+    path = tmp_path / "bad.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    with pytest.raises(SystemExit, match=match):
+        her.load_config(str(path), None, None)
 
 
 def _bad(tmp_path) -> str:
