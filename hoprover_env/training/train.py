@@ -155,6 +155,15 @@ def save_model(model, venv, stem: Path, meta: dict, replay: bool = False) -> Non
     write_json(stem.with_suffix(".json"), meta)
 
 
+def write_evaluations(out: Path, rows: list[dict]) -> None:
+    """out/evaluations.csv (EVAL_FIELDS, one row per evaluation), replaced whole."""
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=EVAL_FIELDS)
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write(out / "evaluations.csv", buf.getvalue())
+
+
 # ---- the training loop ---------------------------------------------------------------
 def build_env(cfg: dict, stats_path: Path | None = None):
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
@@ -344,11 +353,7 @@ class Trainer(Pretraining):
                 if not math.isnan(row[key]):
                     self.model.logger.record(f"eval/{key}", row[key])
             self.model.logger.dump(self.model.num_timesteps)
-        buf = io.StringIO()
-        w = csv.DictWriter(buf, fieldnames=EVAL_FIELDS)
-        w.writeheader()
-        w.writerows(self.evals)
-        atomic_write(self.out / "evaluations.csv", buf.getvalue())
+        write_evaluations(self.out, self.evals)
         score = _score(row)
         improved = score > tuple(self.best)
         if improved:

@@ -7,8 +7,8 @@ infos), and every `evaluation.freq` steps the contest's judge on fixed validatio
         --out runs/sac_her_s0 --seed 0 --torch-threads 1
     python -m research.offpolicy.her --config ... --out runs/sac_her_s0 --resume
 
-The config is a train.py-like YAML (algo, n_envs, timesteps, env, her, policy,
-hyperparams, evaluation, checkpoint); its `env` arguments go to the training envs only,
+The config is a train.py-like YAML (algo, n_envs, timesteps, env, her, normalize,
+policy, hyperparams, evaluation); its `env` arguments go to the training envs only,
 and validation starts every episode upright at rest, as the contest does (no
 `flight_start`). A validation episode ends at the judge's success (the 5 s dwell in the
 band), a break, or the time limit; it is scored as train.py scores its own (success
@@ -16,18 +16,16 @@ rate, median and 90th-percentile TTRTP of the successes, broken count), so the c
 compare with `evaluations.csv` of train.py's runs.
 
 The run directory holds `config.yaml`, `evaluations.csv` (rewritten atomically after
-each evaluation), `best_model.zip` with its observation statistics, and
+each evaluation), `best_model.zip` with its observation statistics and a JSON, and
 `checkpoints/last*` (model, replay buffer, statistics and a JSON with the evaluations so
-far, written together every `checkpoint.freq` steps): `--resume` continues from them.
+far, written after each evaluation by train.py's `save_model`): `--resume` continues
+from them.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -38,10 +36,10 @@ import yaml
 import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.evaluation.episodes import seeded_targets
 from hoprover_env.tasks.config import TRAINING_STARTS
+from hoprover_env.training.train import save_model, write_evaluations
 from hoprover_env.util.files import atomic_write
 
 ENV_ID = "HopRoverGoal-v1"
-EVAL_COLUMNS = ("timesteps", "wall_s", "success_rate", "median_ttrtp", "p90_ttrtp", "broken")
 
 
 def parse_args(argv=None):
@@ -68,7 +66,7 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     with open(path) as f:
         cfg = yaml.safe_load(f)
     known = {"algo", "n_envs", "timesteps", "seed", "env", "her", "normalize", "policy"}
-    known |= {"hyperparams", "evaluation", "checkpoint"}
+    known |= {"hyperparams", "evaluation"}
     unknown = set(cfg) - known
     if unknown:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
@@ -144,6 +142,8 @@ def validate(model, venv, cfg: dict, targets: np.ndarray) -> dict:
             broken[i] = bool(info["broken"])
             if info["is_success"] or term or trunc:
                 live[i] = False
+    for env in envs:
+        env.close()
     done = ttrtp[np.isfinite(ttrtp)]
     return {
         "success_rate": float(np.isfinite(ttrtp).mean()),
@@ -151,22 +151,6 @@ def validate(model, venv, cfg: dict, targets: np.ndarray) -> dict:
         "p90_ttrtp": float(np.percentile(done, 90)) if done.size else float("nan"),
         "broken": int(broken.sum()),
     }
-
-
-def write_evaluations(out: Path, rows: list[dict]) -> None:
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=EVAL_COLUMNS, lineterminator="\n")
-    w.writeheader()
-    w.writerows(rows)
-    atomic_write(out / "evaluations.csv", buf.getvalue())
-
-
-def save_pair(model, venv, stem: Path) -> None:
-    """The model and its observation statistics, each replaced whole."""
-    for obj, suffix in ((model, ".zip"), (venv, "_vecnormalize.pkl")):
-        tmp = stem.with_name(f".tmp-{stem.name}{suffix}")
-        obj.save(str(tmp))
-        os.replace(tmp if tmp.exists() else f"{tmp}.zip", f"{stem}{suffix}")
 
 
 def main(argv=None) -> int:
@@ -223,16 +207,11 @@ def main(argv=None) -> int:
         write_evaluations(out, rows)
         print(json.dumps(row), flush=True)
         key = [res["success_rate"], -res["broken"]]
+        state = {"timesteps": int(model.num_timesteps), "evaluations": rows, "wall_s": wall}
         if best is None or key > best:
             best = key
-            save_pair(model, venv, out / "best_model")
-        ckpt.parent.mkdir(parents=True, exist_ok=True)
-        save_pair(model, venv, ckpt)
-        tmp = ckpt.with_name(".tmp-last_replay_buffer.pkl")
-        model.save_replay_buffer(str(tmp))
-        os.replace(tmp, f"{ckpt}_replay_buffer.pkl")
-        state = {"timesteps": int(model.num_timesteps), "evaluations": rows, "best": best}
-        atomic_write(f"{ckpt}.json", json.dumps({**state, "wall_s": wall}, indent=1))
+            save_model(model, venv, out / "best_model", {**state, "best": best})
+        save_model(model, venv, ckpt, {**state, "best": best}, replay=True)
     return 0
 
 

@@ -45,7 +45,6 @@ def test_a_run_trains_validates_and_resumes(tmp_path):
         "policy": {"net_arch": [16, 16], "activation_fn": "relu"},
         "hyperparams": {"learning_starts": 200, "batch_size": 32, "gamma": 0.995},
         "evaluation": {"freq": 300, "episodes": 2, "seed": 7},
-        "checkpoint": {"freq": 300},
     }
     path = tmp_path / "her.yaml"
     path.write_text(yaml.safe_dump(cfg))
