@@ -15,6 +15,11 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
   -omega (1: a damper that brakes the spin), and the 90th percentile of |theta| (how far
   from upright it flies).
 
+In every state also what the learner's exploration adds to the actor's action there: the
+median spread of its exploring action (SAC and TQC: the state's Gaussian standard
+deviation through the tanh squashing's slope at the mean; TD3: its action noise) and the
+mean probability that an exploring action's torque tips a rover at rest (|T| > m g r).
+
 Per episode: broken (and, for each break, the contact state of the decision that led to
 it: `broken_from`), success, whether it ended in flight (cut by the 600 s limit before
 landing), the median flight's duration (decisions in a row in flight, times the control
@@ -37,6 +42,7 @@ import argparse
 import json
 import math
 from pathlib import Path
+from statistics import NormalDist
 
 import numpy as np
 import torch
@@ -65,6 +71,33 @@ def env_arguments(policy) -> dict:
     return kw
 
 
+def exploring_spread(policy, obs: np.ndarray) -> np.ndarray:
+    """Per env: the exploring action's spread around the actor's action (module docstring);
+    NaN for a learner without exploration noise of these kinds."""
+    model = policy.model
+    noise = getattr(model, "action_noise", None)
+    if noise is not None and hasattr(noise, "_sigma"):  # TD3: Gaussian action noise
+        return np.full(len(obs), float(np.ravel(noise._sigma)[0]))
+    actor = getattr(model, "actor", None)
+    if actor is None or not hasattr(actor, "get_action_dist_params"):
+        return np.full(len(obs), np.nan)
+    o = torch.as_tensor(policy.normalize(obs), dtype=torch.float32)
+    with torch.no_grad():
+        mean, log_std, _ = actor.get_action_dist_params(o)
+    mu, sd = mean[:, 0].numpy(), log_std.exp()[:, 0].numpy()
+    if getattr(actor, "use_sde", False):  # gSDE: the std depends on the features too
+        return np.full(len(obs), np.nan)
+    return sd * (1.0 - np.tanh(mu) ** 2)
+
+
+def tip_probability(action: np.ndarray, spread: np.ndarray, tip: float) -> np.ndarray:
+    """P(|a + spread z| > tip), z standard normal: how often exploring tips a resting rover."""
+    cdf = np.vectorize(NormalDist().cdf)
+    safe = np.where(spread > 0, spread, np.nan)
+    inside = cdf((tip - action) / safe) - cdf((-tip - action) / safe)
+    return np.where(spread > 0, 1.0 - inside, (np.abs(action) > tip).astype(float))
+
+
 def play(policy, targets: np.ndarray, seed: int) -> dict:
     """The deterministic actor's episodes side by side, every decision recorded."""
     n = len(targets)
@@ -73,7 +106,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     )
     obs, info = venv.reset(seed=seed, options={"target_x": targets})
     policy.reset(n)
-    modes, acts, omegas, states = [], [], [], []
+    modes, acts, omegas, states, spreads = [], [], [], [], []
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
@@ -85,12 +118,14 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     breaks: list[int] = []  # the contact state of the decision before each break
     while open_.any():
         a = np.asarray(policy.act(obs, venv), dtype=np.float32)
+        spread = exploring_spread(policy, obs)
         mode = np.asarray(info["state"]).copy()
         rs = np.asarray(info["rover_state"]).copy()
         last_mode[open_] = mode[open_]
         for i in np.flatnonzero(open_):
             modes.append(mode[i])
             acts.append(float(a[i, 0]))
+            spreads.append(float(spread[i]))
             omegas.append(rs[i, 5])
             if mode[i] == FLIGHT:
                 states.append(rs[i])
@@ -120,6 +155,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
         "longest": longest,
         "mode": np.asarray(modes),
         "action": np.asarray(acts),
+        "spread": np.asarray(spreads),
         "omega": np.asarray(omegas),
         "flight_states": np.asarray(states),
         "opening": first,
@@ -158,6 +194,10 @@ def per_state(run: dict, tip: float) -> dict:
         if sel.any():
             row["median_abs_action"] = float(np.median(np.abs(a)))
             row["tipping_share"] = float(np.mean(np.abs(a) > tip))
+            spread = run["spread"][sel]
+            if np.isfinite(spread).all():
+                row["median_exploring_spread"] = float(np.median(spread))
+                row["exploring_tip_probability"] = float(np.mean(tip_probability(a, spread, tip)))
         if name == "flight" and sel.sum() > 2:
             row["median_abs_omega"] = float(np.median(np.abs(w)))
             # how far from upright it flies
