@@ -190,7 +190,7 @@ def per_state(run: dict, tip: float) -> dict:
     for name, codes in GROUPS.items():
         sel = np.isin(run["mode"], codes)
         a, w = run["action"][sel], run["omega"][sel]
-        row = {"decisions": int(sel.sum())}
+        row: dict[str, float] = {"decisions": int(sel.sum())}
         if sel.any():
             row["median_abs_action"] = float(np.median(np.abs(a)))
             row["tipping_share"] = float(np.mean(np.abs(a) > tip))
