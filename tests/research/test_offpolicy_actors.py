@@ -39,3 +39,23 @@ def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
     assert states["rest"]["decisions"] >= 6  # every episode starts at rest
     if states["flight"]["decisions"] > 2:
         assert 0.0 <= states["flight"]["p90_abs_theta_deg"] <= 180.0
+    # a SAC actor explores: every state it acted in reports its spread and how often
+    # an exploring action would tip a rover at rest
+    for s in states.values():
+        if s["decisions"]:
+            assert s["median_exploring_spread"] > 0.0
+            assert 0.0 <= s["exploring_tip_probability"] <= 1.0
+
+
+def test_the_tipping_probability_of_an_exploring_action():
+    """P(|a + spread z| > tip) for z standard normal: at a = 0 and spread = tip it is
+    P(|z| > 1); without spread it is whether the action itself tips; far beyond the
+    tipping torque it is 1."""
+    import numpy as np
+
+    p = actors.tip_probability(
+        np.array([0.0, 0.0, 0.005, 0.5]), np.array([0.01, 0.0, 0.0, 0.01]), 0.01
+    )
+    assert p[0] == pytest.approx(0.3173, abs=1e-4)
+    assert p[1] == 0.0 and p[2] == 0.0
+    assert p[3] == pytest.approx(1.0)
