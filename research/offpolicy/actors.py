@@ -75,18 +75,22 @@ def exploring_spread(policy, obs: np.ndarray) -> np.ndarray:
     """Per env: the exploring action's spread around the actor's action (module docstring);
     NaN for a learner without exploration noise of these kinds."""
     model = policy.model
+    # TD3's Gaussian action noise; SB3 wraps it in a VectorizedActionNoise for several envs
     noise = getattr(model, "action_noise", None)
-    if noise is not None and hasattr(noise, "_sigma"):  # TD3: Gaussian action noise
+    noise = getattr(noise, "base_noise", noise)
+    if noise is not None and hasattr(noise, "_sigma"):
         return np.full(len(obs), float(np.ravel(noise._sigma)[0]))
     actor = getattr(model, "actor", None)
-    if actor is None or not hasattr(actor, "get_action_dist_params"):
+    if (
+        actor is None
+        or not hasattr(actor, "get_action_dist_params")
+        or getattr(actor, "use_sde", False)  # gSDE: the std depends on the features too
+    ):
         return np.full(len(obs), np.nan)
     o = torch.as_tensor(policy.normalize(obs), dtype=torch.float32)
     with torch.no_grad():
         mean, log_std, _ = actor.get_action_dist_params(o)
     mu, sd = mean[:, 0].numpy(), log_std.exp()[:, 0].numpy()
-    if getattr(actor, "use_sde", False):  # gSDE: the std depends on the features too
-        return np.full(len(obs), np.nan)
     return sd * (1.0 - np.tanh(mu) ** 2)
 
 

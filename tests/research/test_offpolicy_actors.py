@@ -59,3 +59,18 @@ def test_the_tipping_probability_of_an_exploring_action():
     assert p[0] == pytest.approx(0.3173, abs=1e-4)
     assert p[1] == 0.0 and p[2] == 0.0
     assert p[3] == pytest.approx(1.0)
+
+
+def test_td3s_exploring_spread_is_its_action_noise_also_when_vectorized():
+    """SB3 wraps TD3's Gaussian noise in a VectorizedActionNoise once it learns with
+    several envs (and saves it so); the spread is the noise's sigma either way."""
+    from types import SimpleNamespace
+
+    import numpy as np
+    from stable_baselines3.common.noise import NormalActionNoise, VectorizedActionNoise
+
+    noise = NormalActionNoise(np.zeros(1), 0.03 * np.ones(1))
+    obs = np.zeros((3, 20), np.float32)
+    for n in (noise, VectorizedActionNoise(noise, 4)):
+        policy = SimpleNamespace(model=SimpleNamespace(action_noise=n))
+        assert actors.exploring_spread(policy, obs) == pytest.approx([0.03] * 3)
