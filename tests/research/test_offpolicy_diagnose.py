@@ -81,13 +81,14 @@ def test_the_tipping_action_follows_the_action_map():
 
 
 def _train_py_configs():
-    """research/offpolicy's train.py configs (her.py's, with a section `her`, are its own:
-    tests/research/test_offpolicy_her.py checks them)."""
-    paths = sorted(Path(diagnose.__file__).parent.glob("*.yaml"))
+    """research/offpolicy's train.py configs and those of its exploration probe (her.py's,
+    with a section `her`, are its own: tests/research/test_offpolicy_her.py checks them)."""
+    here = Path(diagnose.__file__).parent
+    paths = sorted([*here.glob("*.yaml"), *(here / "exploration").glob("*.yaml")])
     return [p for p in paths if "her" not in yaml.safe_load(p.read_text())]
 
 
-@pytest.mark.parametrize("path", _train_py_configs(), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", _train_py_configs(), ids=lambda p: f"{p.parent.name}/{p.stem}")
 def test_every_recorded_variant_is_a_config_train_py_accepts(path):
     """The configs behind the recorded CSVs stay runnable: keys, the learner's own
     arguments (target_entropy, top_quantiles_to_drop_per_net, ...) and the discount
