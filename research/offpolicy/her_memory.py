@@ -65,7 +65,8 @@ def main(argv=None) -> None:
     from stable_baselines3.common.env_util import make_vec_env
 
     torch.set_num_threads(1)
-    venv = make_vec_env("HopRoverGoal-v1", n_envs=4, seed=0, env_kwargs={"keep_going": True})
+    n_envs = 4  # the clock below steps by n_envs, and the buffer holds n_envs per row
+    venv = make_vec_env("HopRoverGoal-v1", n_envs=n_envs, seed=0, env_kwargs={"keep_going": True})
     start = 1400  # an episode of up to 300 decisions must end before HER can sample
     model = SAC(
         "MultiInputPolicy",
@@ -87,7 +88,7 @@ def main(argv=None) -> None:
     class Probe(BaseCallback):
         def _on_step(self) -> bool:
             t = self.num_timesteps
-            if t >= start + 4 and (t - start) % args.every < 4:
+            if t >= start + n_envs and (t - start) % args.every < n_envs:
                 if args.trim:
                     ctypes.CDLL("libc.so.6").malloc_trim(0)
                 current, _ = tracemalloc.get_traced_memory()
@@ -96,7 +97,7 @@ def main(argv=None) -> None:
                         "env_steps": t,
                         "resident_mb": resident_mb(),
                         "python_live_mb": current / 2**20,
-                        "buffer_transitions": int(self.model.replay_buffer.size()) * 4,
+                        "buffer_transitions": int(self.model.replay_buffer.size()) * n_envs,
                     }
                 )
                 snapshots.append(tracemalloc.take_snapshot())
