@@ -1,19 +1,20 @@
-"""Where a HER run's memory goes: the process's resident size against what Python's
-allocator holds in live objects (tracemalloc), while SAC learns with SB3's
-`HerReplayBuffer` on HopRoverGoal-v1.
+"""Where a HER run's memory goes: the process's resident size while SAC (or TQC) learns
+with SB3's `HerReplayBuffer` on HopRoverGoal-v1, against the plain `DictReplayBuffer`.
 
-    python -m research.offpolicy.her_memory --steps 3000 --batch-size 256 \\
-        --out benchmarks/results/offpolicy/her_memory_256.json
+    python -m research.offpolicy.her_memory --steps 16000 --every 4000 \\
+        --out benchmarks/results/offpolicy/her_memory_her.json
+    python -m research.offpolicy.her_memory --steps 16000 --every 4000 --no-her \\
+        --out benchmarks/results/offpolicy/her_memory_plain.json
 
-A learner with HER grew by tens of KB per env step (docs/studies/off-policy.md): far more
-than the transitions it stores. If the live Python objects grow as fast as the resident
-size, something keeps them (and the largest growth by line says what); if they do not,
-the memory is held below Python's objects (freed blocks the allocator does not return,
-or torch's own). Every `--every` env steps after the first update: resident size,
-tracemalloc's current size, and the replay buffer's size; with `--trim`, glibc is
-first asked to return the memory it holds freed (malloc_trim), so that what remains
-resident is in use. Then the ten source lines whose
-live allocations grew most between the first and the last sample.
+Every `--every` env steps after the first update: the resident size and the replay
+buffer's size. The resident size is read with nothing else watching, because a watcher
+costs memory of its own: tracemalloc keeps a trace for every live block, and each snapshot
+holds all of them (an earlier version of this probe kept one snapshot per sample, about
+50 MB each, and measured mostly itself). With `--trace` tracemalloc also reports the live
+Python objects and the ten source lines whose live allocations grew most between the first
+sample and the end; the resident size then includes tracemalloc's own traces. With
+`--trim`, glibc is first asked to return the memory it holds freed (malloc_trim), so
+that what remains resident is in use.
 """
 
 from __future__ import annotations
@@ -22,11 +23,13 @@ import argparse
 import ctypes
 import json
 import resource
+import sys
 import tracemalloc
 from pathlib import Path
 
 import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.util.files import atomic_write
+from research.baselines import provenance
 
 
 def resident_mb() -> float:
@@ -41,8 +44,15 @@ def where(frame) -> str:
     return f"{path.parent.name}/{path.name}:{frame.lineno}"
 
 
+def growth_kb_per_step(samples: list[dict], key: str) -> float:
+    """Growth of `key` [MB] between the first and the last sample, in KB per env step."""
+    first, last = samples[0], samples[-1]
+    return (last[key] - first[key]) * 1024 / (last["env_steps"] - first["env_steps"])
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--algo", choices=("sac", "tqc"), default="sac")
     ap.add_argument("--steps", type=int, default=3000, help="env steps after learning starts")
     ap.add_argument("--batch-size", type=int, default=256)
     ap.add_argument("--every", type=int, default=500)
@@ -56,19 +66,26 @@ def main(argv=None) -> None:
         action="store_true",
         help="the control: SB3's plain DictReplayBuffer in place of HerReplayBuffer",
     )
+    ap.add_argument(
+        "--trace",
+        action="store_true",
+        help="also the live Python objects (tracemalloc; its traces add to the resident size)",
+    )
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
 
     import torch
-    from stable_baselines3 import SAC, HerReplayBuffer
+    from stable_baselines3 import HerReplayBuffer
     from stable_baselines3.common.callbacks import BaseCallback
     from stable_baselines3.common.env_util import make_vec_env
+
+    from hoprover_env.training.sb3_agents import algo_class
 
     torch.set_num_threads(1)
     n_envs = 4  # the clock below steps by n_envs, and the buffer holds n_envs per row
     venv = make_vec_env("HopRoverGoal-v1", n_envs=n_envs, seed=0, env_kwargs={"keep_going": True})
     start = 1400  # an episode of up to 300 decisions must end before HER can sample
-    model = SAC(
+    model = algo_class(args.algo)(
         "MultiInputPolicy",
         venv,
         replay_buffer_class=None if args.no_her else HerReplayBuffer,
@@ -83,7 +100,7 @@ def main(argv=None) -> None:
         device="cpu",
     )
     samples: list[dict] = []
-    snapshots = []
+    first_snapshot: list[tracemalloc.Snapshot] = []
 
     class Probe(BaseCallback):
         def _on_step(self) -> bool:
@@ -91,35 +108,47 @@ def main(argv=None) -> None:
             if t >= start + n_envs and (t - start) % args.every < n_envs:
                 if args.trim:
                     ctypes.CDLL("libc.so.6").malloc_trim(0)
-                current, _ = tracemalloc.get_traced_memory()
-                samples.append(
-                    {
-                        "env_steps": t,
-                        "resident_mb": resident_mb(),
-                        "python_live_mb": current / 2**20,
-                        "buffer_transitions": int(self.model.replay_buffer.size()) * n_envs,
-                    }
-                )
-                snapshots.append(tracemalloc.take_snapshot())
-                print(samples[-1], flush=True)
+                sample = {
+                    "env_steps": t,
+                    "resident_mb": resident_mb(),
+                    "buffer_transitions": int(self.model.replay_buffer.size()) * n_envs,
+                }
+                if args.trace:
+                    sample["python_live_mb"] = tracemalloc.get_traced_memory()[0] / 2**20
+                    if not first_snapshot:
+                        first_snapshot.append(tracemalloc.take_snapshot())
+                samples.append(sample)
+                print(sample, flush=True)
             return True
 
-    tracemalloc.start(8)
+    if args.trace:
+        tracemalloc.start(8)
     model.learn(start + args.steps, callback=Probe())
-    first, last = samples[0], samples[-1]
-    steps = last["env_steps"] - first["env_steps"]
-    top = snapshots[-1].compare_to(snapshots[0], "lineno")[:10]
+    if len(samples) < 3:
+        raise SystemExit(
+            f"--steps {args.steps} gave {len(samples)} samples; use --every <= --steps / 2"
+        )
+    half = samples[(len(samples) - 1) // 2 :]
+    commit, date = provenance()
     result = {
+        "command": " ".join(["python -m research.offpolicy.her_memory", *(argv or sys.argv[1:])]),
+        "commit": commit,
+        "date": date,
+        "algo": args.algo,
         "batch_size": args.batch_size,
         "malloc_trim": args.trim,
         "her": not args.no_her,
+        "traced": args.trace,
         "samples": samples,
-        "resident_kb_per_env_step": (last["resident_mb"] - first["resident_mb"]) * 1024 / steps,
-        "python_live_kb_per_env_step": (last["python_live_mb"] - first["python_live_mb"])
-        * 1024
-        / steps,
-        "top_growth": [{"where": where(s.traceback[0]), "kb": s.size_diff / 1024} for s in top],
+        "resident_kb_per_env_step": growth_kb_per_step(samples, "resident_mb"),
+        "resident_kb_per_env_step_second_half": growth_kb_per_step(half, "resident_mb"),
     }
+    if args.trace:
+        top = tracemalloc.take_snapshot().compare_to(first_snapshot[0], "lineno")[:10]
+        result["python_live_kb_per_env_step"] = growth_kb_per_step(samples, "python_live_mb")
+        result["top_growth"] = [
+            {"where": where(s.traceback[0]), "kb": s.size_diff / 1024} for s in top
+        ]
     print(json.dumps({k: v for k, v in result.items() if k != "samples"}, indent=1))
     if args.out is not None:
         atomic_write(args.out, json.dumps(result, indent=1) + "\n")
