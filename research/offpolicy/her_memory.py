@@ -73,6 +73,11 @@ def main(argv=None) -> None:
     )
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
+    if args.steps < 3 * args.every:  # a sample every `every` steps after the start
+        ap.error(
+            "--steps must be at least 3 x --every: the growth over the run and over its "
+            "second half need three samples"
+        )
 
     import torch
     from stable_baselines3 import HerReplayBuffer
@@ -108,6 +113,8 @@ def main(argv=None) -> None:
             if t >= start + n_envs and (t - start) % args.every < n_envs:
                 if args.trim:
                     ctypes.CDLL("libc.so.6").malloc_trim(0)
+                if args.trace and not first_snapshot:  # before the first reading, which
+                    first_snapshot.append(tracemalloc.take_snapshot())  # then holds it
                 sample = {
                     "env_steps": t,
                     "resident_mb": resident_mb(),
@@ -115,8 +122,6 @@ def main(argv=None) -> None:
                 }
                 if args.trace:
                     sample["python_live_mb"] = tracemalloc.get_traced_memory()[0] / 2**20
-                    if not first_snapshot:
-                        first_snapshot.append(tracemalloc.take_snapshot())
                 samples.append(sample)
                 print(sample, flush=True)
             return True
@@ -124,10 +129,6 @@ def main(argv=None) -> None:
     if args.trace:
         tracemalloc.start(8)
     model.learn(start + args.steps, callback=Probe())
-    if len(samples) < 3:
-        raise SystemExit(
-            f"--steps {args.steps} gave {len(samples)} samples; use --every <= --steps / 2"
-        )
     half = samples[(len(samples) - 1) // 2 :]
     commit, date = provenance()
     result = {
