@@ -11,7 +11,8 @@ A config has these sections (every key is checked; a typo is an error that names
     normalize: {obs: true, reward: true, clip_obs: 10.0}
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
                                     # and the algorithm's own (n_quantiles, lstm_hidden_size);
-                                    # critic_layer_norm (SAC, TD3) is hoprover's
+                                    # critic_layer_norm (SAC, TD3) and actor_mean_reg
+                                    # (SAC, TQC, CrossQ) are hoprover's
     hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
@@ -78,9 +79,12 @@ POLICY_KEYS = {
     "shared_lstm",
     "enable_critic_lstm",
     "critic_layer_norm",
+    "actor_mean_reg",
 }
 # the algorithms whose critics hoprover can normalise (training/critics.py)
 LAYER_NORM_ALGOS = {"sac", "td3"}
+# the algorithms whose actor's pre-tanh mean hoprover can penalise (training/actor_penalty.py)
+MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {
     "expert": "scripted",
@@ -168,6 +172,8 @@ def policy_keys(algo: str) -> set:
     params.add("features_extractor")  # hoprover's name of features_extractor_class
     if algo in LAYER_NORM_ALGOS:
         params.add("critic_layer_norm")  # hoprover's: a policy class of its own
+    if algo in MEAN_PENALTY_ALGOS:
+        params.add("actor_mean_reg")  # hoprover's: a policy class of its own
     return POLICY_KEYS & params
 
 
@@ -439,6 +445,7 @@ POLICY_TYPES = {
     "shared_lstm": BOOL,
     "enable_critic_lstm": BOOL,
     "critic_layer_norm": BOOL,
+    "actor_mean_reg": NONNEG_REAL,
 }
 DEMONSTRATION_TYPES = {
     "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),
@@ -548,6 +555,8 @@ def policy_kwargs(cfg: dict) -> dict:
 
     kw = dict(cfg["policy"])
     kw.pop("critic_layer_norm", None)  # chooses the policy class (make_agent)
+    if not kw.get("actor_mean_reg"):
+        kw.pop("actor_mean_reg", None)  # 0: SB3's own policy class (make_agent)
     if "features_extractor" in kw:
         kw["features_extractor_class"] = features_extractor(kw.pop("features_extractor"))
     if "activation_fn" in kw:
@@ -579,7 +588,12 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
             hyper.pop("n_steps", None)  # the buffer's own (SB3 sets it up only for its own)
             hyper.update(separate)
     policy: Any = SB3_ALGOS[cfg["algo"]][2]
-    if cfg["policy"].get("critic_layer_norm"):
+    layer_norm = bool(cfg["policy"].get("critic_layer_norm"))
+    if cfg["policy"].get("actor_mean_reg"):
+        from hoprover_env.training.actor_penalty import MEAN_PENALTY_POLICIES
+
+        policy = MEAN_PENALTY_POLICIES[(cfg["algo"], layer_norm)]
+    elif layer_norm:
         from hoprover_env.training.critics import LAYER_NORM_POLICIES
 
         policy = LAYER_NORM_POLICIES[cfg["algo"]]

@@ -15,6 +15,11 @@ episodes with its deterministic actor from rest (the contest's start, seeded tar
   -omega (1: a damper that brakes the spin), and the 90th percentile of |theta| (how far
   from upright it flies).
 
+For SAC, TQC and CrossQ also the actor's pre-tanh mean mu in every state: its median
+|mu| and the share of decisions with |mu| > SATURATED (5: tanh's slope below 2e-4, so
+the critic's gradient hardly reaches mu there; past about 10 it is 0 in float32 and the
+action stays at +-1 whatever the critic learns; training/actor_penalty.py).
+
 In every state also what the learner's exploration adds to the actor's action there: the
 median spread of its exploring action (SAC and TQC: the state's Gaussian standard
 deviation through the tanh squashing's slope at the mean; TD3: its action noise) and the
@@ -59,6 +64,7 @@ from hoprover_env.util.files import atomic_write
 REST, FLIGHT = 5, 0
 GROUPS = {"rest": (REST,), "contact": (1, 2, 3, 4, 6), "flight": (FLIGHT,)}
 GRID = np.linspace(-1.0, 1.0, 21)
+SATURATED = 5.0  # |pre-tanh mean| past which the actor's action hardly moves
 
 
 def env_arguments(policy) -> dict:
@@ -71,27 +77,41 @@ def env_arguments(policy) -> dict:
     return kw
 
 
-def exploring_spread(policy, obs: np.ndarray) -> np.ndarray:
-    """Per env: the exploring action's spread around the actor's action (module docstring);
-    NaN for a learner without exploration noise of these kinds."""
-    model = policy.model
-    # TD3's Gaussian action noise; SB3 wraps it in a VectorizedActionNoise for several envs
-    noise = getattr(model, "action_noise", None)
-    noise = getattr(noise, "base_noise", noise)
-    if noise is not None and hasattr(noise, "_sigma"):
-        return np.full(len(obs), float(np.ravel(noise._sigma)[0]))
-    actor = getattr(model, "actor", None)
+def gaussian_actor(policy, obs: np.ndarray):
+    """Per env: the squashed-Gaussian actor's pre-tanh mean and standard deviation, or
+    None for an actor of another kind (TD3's; gSDE, whose std depends on the features)."""
+    actor = getattr(policy.model, "actor", None)
     if (
         actor is None
         or not hasattr(actor, "get_action_dist_params")
-        or getattr(actor, "use_sde", False)  # gSDE: the std depends on the features too
+        or getattr(actor, "use_sde", False)
     ):
-        return np.full(len(obs), np.nan)
+        return None
     o = torch.as_tensor(policy.normalize(obs), dtype=torch.float32)
     with torch.no_grad():
         mean, log_std, _ = actor.get_action_dist_params(o)
-    mu, sd = mean[:, 0].numpy(), log_std.exp()[:, 0].numpy()
+    return mean[:, 0].numpy(), log_std.exp()[:, 0].numpy()
+
+
+def exploring_spread(policy, obs: np.ndarray) -> np.ndarray:
+    """Per env: the exploring action's spread around the actor's action (module docstring);
+    NaN for a learner without exploration noise of these kinds."""
+    # TD3's Gaussian action noise; SB3 wraps it in a VectorizedActionNoise for several envs
+    noise = getattr(policy.model, "action_noise", None)
+    noise = getattr(noise, "base_noise", noise)
+    if noise is not None and hasattr(noise, "_sigma"):
+        return np.full(len(obs), float(np.ravel(noise._sigma)[0]))
+    gaussian = gaussian_actor(policy, obs)
+    if gaussian is None:
+        return np.full(len(obs), np.nan)
+    mu, sd = gaussian
     return sd * (1.0 - np.tanh(mu) ** 2)
+
+
+def pre_tanh_mean(policy, obs: np.ndarray) -> np.ndarray:
+    """Per env: the actor's pre-tanh mean (NaN for an actor that has none)."""
+    gaussian = gaussian_actor(policy, obs)
+    return np.full(len(obs), np.nan) if gaussian is None else gaussian[0]
 
 
 def tip_probability(action: np.ndarray, spread: np.ndarray, tip: float) -> np.ndarray:
@@ -110,7 +130,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     )
     obs, info = venv.reset(seed=seed, options={"target_x": targets})
     policy.reset(n)
-    modes, acts, omegas, states, spreads = [], [], [], [], []
+    modes, acts, omegas, states, spreads, means = [], [], [], [], [], []
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
@@ -123,6 +143,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     while open_.any():
         a = np.asarray(policy.act(obs, venv), dtype=np.float32)
         spread = exploring_spread(policy, obs)
+        mu = pre_tanh_mean(policy, obs)
         mode = np.asarray(info["state"]).copy()
         rs = np.asarray(info["rover_state"]).copy()
         last_mode[open_] = mode[open_]
@@ -130,6 +151,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             modes.append(mode[i])
             acts.append(float(a[i, 0]))
             spreads.append(float(spread[i]))
+            means.append(float(mu[i]))
             omegas.append(rs[i, 5])
             if mode[i] == FLIGHT:
                 states.append(rs[i])
@@ -160,6 +182,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
         "mode": np.asarray(modes),
         "action": np.asarray(acts),
         "spread": np.asarray(spreads),
+        "pre_tanh_mean": np.asarray(means),
         "omega": np.asarray(omegas),
         "flight_states": np.asarray(states),
         "opening": first,
@@ -202,6 +225,10 @@ def per_state(run: dict, tip: float) -> dict:
             if np.isfinite(spread).all():
                 row["median_exploring_spread"] = float(np.median(spread))
                 row["exploring_tip_probability"] = float(np.mean(tip_probability(a, spread, tip)))
+            mu = run["pre_tanh_mean"][sel]
+            if np.isfinite(mu).all():
+                row["median_abs_pre_tanh_mean"] = float(np.median(np.abs(mu)))
+                row["saturated_share"] = float(np.mean(np.abs(mu) > SATURATED))
         if name == "flight" and sel.sum() > 2:
             row["median_abs_omega"] = float(np.median(np.abs(w)))
             # how far from upright it flies

@@ -71,9 +71,11 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     if unknown:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
     own = {"replay_buffer_class", "replay_buffer_kwargs", "learning_rate_end"}
+    # train.py's own policy classes; this driver builds SB3's MultiInputPolicy
+    hoprover_keys = {"critic_layer_norm", "actor_mean_reg", "features_extractor"}
     for section, valid in (
         ("hyperparams", hyper_keys(cfg["algo"]) - own),
-        ("policy", policy_keys(cfg["algo"]) - {"critic_layer_norm", "features_extractor"}),
+        ("policy", policy_keys(cfg["algo"]) - hoprover_keys),
         ("her", HER_KEYS),
     ):
         bad = sorted(set(cfg.get(section) or {}) - valid)

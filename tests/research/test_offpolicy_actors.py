@@ -4,9 +4,11 @@ state of the decision before it."""
 
 import json
 
+import numpy as np
 import pytest
 
 from helpers import train_tiny
+from hoprover_env.agents.policies import load_sb3
 from research.offpolicy import actors
 
 
@@ -45,13 +47,20 @@ def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
         if s["decisions"]:
             assert s["median_exploring_spread"] > 0.0
             assert 0.0 <= s["exploring_tip_probability"] <= 1.0
+            assert s["median_abs_pre_tanh_mean"] >= 0.0
+            assert 0.0 <= s["saturated_share"] <= 1.0
+    # the pre-tanh mean it reports is the one the actor acts with: action = tanh(mean)
+    policy = load_sb3(model)
+    obs = np.random.default_rng(0).normal(size=(16, policy.model.observation_space.shape[0]))
+    np.testing.assert_allclose(
+        np.tanh(actors.pre_tanh_mean(policy, obs)), policy.act(obs, None)[:, 0], atol=1e-6
+    )
 
 
 def test_the_tipping_probability_of_an_exploring_action():
     """P(|a + spread z| > tip) for z standard normal: at a = 0 and spread = tip it is
     P(|z| > 1); without spread it is whether the action itself tips; far beyond the
     tipping torque it is 1."""
-    import numpy as np
 
     p = actors.tip_probability(
         np.array([0.0, 0.0, 0.005, 0.5]), np.array([0.01, 0.0, 0.0, 0.01]), 0.01
@@ -66,7 +75,6 @@ def test_td3s_exploring_spread_is_its_action_noise_also_when_vectorized():
     several envs (and saves it so); the spread is the noise's sigma either way."""
     from types import SimpleNamespace
 
-    import numpy as np
     from stable_baselines3.common.noise import NormalActionNoise, VectorizedActionNoise
 
     noise = NormalActionNoise(np.zeros(1), 0.03 * np.ones(1))

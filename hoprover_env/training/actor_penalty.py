@@ -1,0 +1,98 @@
+"""A penalty on the pre-tanh mean of squashed-Gaussian actors (SAC, TQC, CrossQ): a
+config's `policy.actor_mean_reg`.
+
+SB3's squashed-Gaussian actor acts with tanh(mu(s)). When |mu| grows past about 10,
+tanh's slope (1 - tanh(mu)^2) is 0 in float32, so the critic's gradient no longer
+reaches mu: whatever the critic learns about that state, the actor's action there stays
+at +1 or -1 for good. The entropy bonus does not pull it back either, since SB3 bounds
+the tanh correction of the log-probability with an epsilon. On HopRoverRL-v1 this froze
+one SAC seed's opening action at rest at -1 (mu between -1400 and -2000 from 350 k steps
+on, for every target) while its critic preferred -0.25 to -0.75
+(docs/studies/off-policy.md). The SAC authors' own code penalised the Gaussian's mean
+towards zero for this reason (rlkit's SAC: `policy_mean_reg_weight`, 1e-3 by default);
+this is that penalty:
+
+    actor loss += actor_mean_reg * mean over the batch (and action dimensions) of mu(s)^2
+
+With a small weight it changes nothing where tanh has a slope (|mu| of a few units), and
+it brings a saturated mu back to where the critic's gradient acts again.
+
+It is added as a gradient hook on the actor's `mu` layer, not by rewriting the
+algorithm's `train`: every forward pass that builds a graph through `mu` adds the
+penalty's gradient to whatever loss is backpropagated through it. In SB3's SAC, TQC and
+CrossQ that is only the actor's loss (the critics' targets and `predict` run under
+`no_grad`, the entropy coefficient's loss detaches the log-probability).
+
+A model saved with one of these policies names the class in its zip, so loading it needs
+hoprover installed, as every hoprover model does.
+"""
+
+from __future__ import annotations
+
+import torch
+from sb3_contrib.crossq.policies import CrossQPolicy
+from sb3_contrib.tqc.policies import TQCPolicy
+from stable_baselines3.sac.policies import SACPolicy
+
+from hoprover_env.training.critics import LayerNormSACPolicy
+
+
+def penalise_mean(actor: torch.nn.Module, weight: float) -> None:
+    """Add the gradient of `weight * mean(mu^2)` (over the batch and the action
+    dimensions) to every backward pass through `actor.mu` (module docstring)."""
+    if weight <= 0:
+        return
+
+    def on_forward(_module, _inputs, mean: torch.Tensor) -> None:
+        if mean.requires_grad:
+            kept = mean.detach()
+            mean.register_hook(lambda grad: grad + (2.0 * weight / kept.numel()) * kept)
+
+    actor.mu.register_forward_hook(on_forward)
+
+
+class _MeanPenalty:
+    """Mixin for an SB3 policy class: its actor's pre-tanh mean is penalised with
+    `actor_mean_reg`."""
+
+    def __init__(self, *args, actor_mean_reg: float = 0.0, **kwargs):
+        # set before the base class builds the actor (in its __init__, through make_actor)
+        self.actor_mean_reg = float(actor_mean_reg)
+        super().__init__(*args, **kwargs)
+
+    def make_actor(self, features_extractor=None):
+        actor = super().make_actor(features_extractor)  # type: ignore[misc]
+        penalise_mean(actor, self.actor_mean_reg)
+        return actor
+
+    def _get_constructor_parameters(self) -> dict:
+        return {
+            **super()._get_constructor_parameters(),  # type: ignore[misc]
+            "actor_mean_reg": self.actor_mean_reg,
+        }
+
+
+class MeanPenaltySACPolicy(_MeanPenalty, SACPolicy):
+    """SAC's MlpPolicy with the actor's mean penalised."""
+
+
+class MeanPenaltyLayerNormSACPolicy(_MeanPenalty, LayerNormSACPolicy):
+    """SAC's MlpPolicy with layer-normalised critics and the actor's mean penalised."""
+
+
+class MeanPenaltyTQCPolicy(_MeanPenalty, TQCPolicy):
+    """TQC's MlpPolicy with the actor's mean penalised."""
+
+
+class MeanPenaltyCrossQPolicy(_MeanPenalty, CrossQPolicy):
+    """CrossQ's MlpPolicy with the actor's mean penalised."""
+
+
+# (algo, critic_layer_norm) -> policy class
+MEAN_PENALTY_POLICIES = {
+    ("sac", False): MeanPenaltySACPolicy,
+    ("sac", True): MeanPenaltyLayerNormSACPolicy,
+    ("tqc", False): MeanPenaltyTQCPolicy,
+    ("crossq", False): MeanPenaltyCrossQPolicy,
+}
+MEAN_PENALTY_ALGOS = {algo for algo, _ in MEAN_PENALTY_POLICIES}
