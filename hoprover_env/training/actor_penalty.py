@@ -30,8 +30,6 @@ hoprover installed, as every hoprover model does.
 from __future__ import annotations
 
 import torch
-from sb3_contrib.crossq.policies import CrossQPolicy
-from sb3_contrib.tqc.policies import TQCPolicy
 from stable_baselines3.sac.policies import SACPolicy
 
 from hoprover_env.training.critics import LayerNormSACPolicy
@@ -80,19 +78,24 @@ class MeanPenaltyLayerNormSACPolicy(_MeanPenalty, LayerNormSACPolicy):
     """SAC's MlpPolicy with layer-normalised critics and the actor's mean penalised."""
 
 
-class MeanPenaltyTQCPolicy(_MeanPenalty, TQCPolicy):
-    """TQC's MlpPolicy with the actor's mean penalised."""
-
-
-class MeanPenaltyCrossQPolicy(_MeanPenalty, CrossQPolicy):
-    """CrossQ's MlpPolicy with the actor's mean penalised."""
-
-
 # (algo, critic_layer_norm) -> policy class
-MEAN_PENALTY_POLICIES = {
+MEAN_PENALTY_POLICIES: dict[tuple[str, bool], type] = {
     ("sac", False): MeanPenaltySACPolicy,
     ("sac", True): MeanPenaltyLayerNormSACPolicy,
-    ("tqc", False): MeanPenaltyTQCPolicy,
-    ("crossq", False): MeanPenaltyCrossQPolicy,
 }
-MEAN_PENALTY_ALGOS = {algo for algo, _ in MEAN_PENALTY_POLICIES}
+
+try:  # TQC and CrossQ come with sb3-contrib (the contrib extra); SAC does not need it
+    from sb3_contrib.crossq.policies import CrossQPolicy
+    from sb3_contrib.tqc.policies import TQCPolicy
+except ImportError:
+    pass
+else:
+
+    class MeanPenaltyTQCPolicy(_MeanPenalty, TQCPolicy):
+        """TQC's MlpPolicy with the actor's mean penalised."""
+
+    class MeanPenaltyCrossQPolicy(_MeanPenalty, CrossQPolicy):
+        """CrossQ's MlpPolicy with the actor's mean penalised."""
+
+    MEAN_PENALTY_POLICIES[("tqc", False)] = MeanPenaltyTQCPolicy
+    MEAN_PENALTY_POLICIES[("crossq", False)] = MeanPenaltyCrossQPolicy
