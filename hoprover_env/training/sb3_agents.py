@@ -19,7 +19,9 @@ A config has these sections (every key is checked; a typo is an error that names
                                     # VecNormalize statistics (a bundled name, a run
                                     # directory or a .zip); everything else from here
     evaluation: {freq, episodes, seed}
-    checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time
+    checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time;
+                                    # keep: true also keeps each freq checkpoint's model
+                                    # (checkpoints/model_STEPS.zip, no replay buffer)
 """
 
 from __future__ import annotations
@@ -103,7 +105,7 @@ PRETRAIN_DEFAULTS = {
 }
 PRETRAIN_KEYS = set(PRETRAIN_DEFAULTS)
 EVAL_KEYS = {"freq", "episodes", "seed"}
-CHECKPOINT_KEYS = {"freq", "seconds"}
+CHECKPOINT_KEYS = {"freq", "seconds", "keep"}
 ACTIVATIONS = {
     "tanh": "Tanh",
     "relu": "ReLU",
@@ -469,7 +471,7 @@ PRETRAIN_TYPES = {
     "learning_rate_end": POS_REAL,
 }
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
-CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL}
+CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL, "keep": BOOL}
 # the keyword arguments of the algorithms (which ones an algorithm takes is checked
 # against its constructor's signature in validate)
 HYPER_TYPES = {

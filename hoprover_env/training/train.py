@@ -387,7 +387,10 @@ class Trainer(Pretraining):
         """Wall time spent stepping the environment (the batched core) so far."""
         return self.env0 + self.venv.venv.venv.step_seconds
 
-    def checkpoint(self):
+    def checkpoint(self, keep: bool = False):
+        """checkpoints/last.* (the replay buffer too); with `keep`, also the model, its
+        statistics and meta as checkpoints/model_STEPS.* (`checkpoint.keep`), which later
+        diagnostics load like any model (research.offpolicy.actors --model)."""
         # on-policy (PPO, RecurrentPPO): a checkpoint taken inside a rollout counts only the
         # steps trained on, so that --resume collects the unfinished rollout again
         # (off-policy steps live in the replay buffer, which is saved with the checkpoint)
@@ -409,6 +412,9 @@ class Trainer(Pretraining):
                 "env_s": self.env_seconds(),
             }
             save_model(self.model, self.venv, self.ckpt, meta, replay=replay)
+            if keep:
+                stem = self.ckpt.with_name(f"model_{meta['timesteps']}")
+                save_model(self.model, self.venv, stem, meta)
             return meta["timesteps"]
         finally:
             self.model.num_timesteps = steps
@@ -421,6 +427,7 @@ class Trainer(Pretraining):
         total = self.cfg["timesteps"]
         ev_freq, ck_freq = self.cfg["evaluation"]["freq"], self.cfg["checkpoint"]["freq"]
         ck_seconds = self.cfg["checkpoint"].get("seconds", 300.0)
+        ck_keep = bool(self.cfg["checkpoint"].get("keep", False))
 
         class Hooks(BaseCallback):
             def _on_rollout_start(self):
@@ -452,11 +459,13 @@ class Trainer(Pretraining):
                     self.next_eval += ev_freq
                     trainer.evaluate()
                 if self.num_timesteps >= self.next_ckpt or time.monotonic() >= self.ckpt_due:
+                    keep = False
                     if self.num_timesteps >= self.next_ckpt:
                         self.next_ckpt += ck_freq
+                        keep = ck_keep
                     # a wall-clock deadline too: a kill -9 loses minutes, not 500 k steps
                     self.ckpt_due = time.monotonic() + ck_seconds
-                    trainer.checkpoint()
+                    trainer.checkpoint(keep)
                 return True
 
             def _on_training_end(self):  # learn() returned: all trained on

@@ -176,6 +176,7 @@ TINY_CFG = {
         ("hyperparams", "n_epochs", True, "a positive integer"),
         ("evaluation", "freq", "fifty", "a positive integer"),
         ("checkpoint", "freq", 0, "a positive integer"),
+        ("checkpoint", "keep", "yes", "true or false"),
         ("policy", "net_arch", "big", "a list of positive layer sizes"),
         ("policy", "net_arch", [64, -1], "a list of positive layer sizes"),
         ("normalize", "obs", "yes please", "true or false"),
@@ -254,6 +255,26 @@ def _check_run_files(run):
     assert [e["timesteps"] for e in meta["evaluations"]] == steps  # last.json holds them all
     assert meta["timesteps"] == steps[-1]  # the final evaluation is in it
     return rows, meta
+
+
+@pytest.mark.slow  # trains a tiny SAC
+def test_checkpoint_keep_keeps_each_frequency_checkpoint_as_a_model(tmp_path):
+    """With `checkpoint.keep`, each checkpoint due by `freq` is also kept as
+    checkpoints/model_STEPS.* (no replay buffer), loadable as any model with its steps;
+    last.* stays the one to resume from."""
+    from helpers import TINY_SAC_V1, train_tiny
+    from hoprover_env.agents.policies import _algo_class, load_sb3
+
+    cfg = {**TINY_SAC_V1, "checkpoint": {"freq": 32, "keep": True, "seconds": 3600.0}}
+    last = train_tiny(tmp_path, cfg)
+    kept = sorted(p.name for p in last.parent.glob("model_*.zip"))
+    assert kept == ["model_32.zip", "model_64.zip"]
+    assert not list(last.parent.glob("model_*_replay_buffer.pkl"))
+    assert (last.parent / "last_replay_buffer.pkl").exists()
+    model = _algo_class("sac").load(last.parent / "model_32.zip", device="cpu")
+    assert model.num_timesteps == 32
+    policy = load_sb3(last.parent / "model_32.zip")
+    assert policy.env_id == "HopRoverRL-v1" and policy.obs_rms is not None
 
 
 @pytest.mark.slow  # trains, resumes, and trains uninterrupted
