@@ -241,6 +241,19 @@ def per_state(run: dict, tip: float) -> dict:
     return rows
 
 
+def critic_value(model, obs: torch.Tensor, actions: torch.Tensor) -> np.ndarray:
+    """The critic's value of each (observation, action) row: the minimum over SAC's and
+    TD3's twin critics, the mean over TQC's quantiles."""
+    with torch.no_grad():
+        q = model.critic(obs, actions)
+        q = (
+            q.mean(dim=(1, 2))
+            if isinstance(q, torch.Tensor)
+            else torch.min(torch.cat(q, dim=1), dim=1).values
+        )
+    return q.numpy()
+
+
 def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Generator) -> list[dict]:
     """Critic and one-step reward over GRID at k flight states."""
     model = policy.model
@@ -262,14 +275,7 @@ def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Gener
         env.close()
         o = torch.as_tensor(policy.normalize(obs[None]), dtype=torch.float32).repeat(len(GRID), 1)
         act = torch.as_tensor(GRID[:, None], dtype=torch.float32)
-        with torch.no_grad():
-            q = model.critic(o, act)
-            q = (
-                q.mean(dim=(1, 2))
-                if isinstance(q, torch.Tensor)
-                else torch.min(torch.cat(q, dim=1), dim=1).values
-            )
-        q = q.numpy()
+        q = critic_value(model, o, act)
         rows.append(
             {
                 "omega": float(x0[5]),

@@ -26,21 +26,16 @@ import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.util.files import atomic_write
-from research.offpolicy.actors import env_arguments, gaussian_actor
+from research.offpolicy.actors import critic_value, env_arguments, gaussian_actor
 
 ACTIONS = np.linspace(-1.0, 1.0, 9)
 
 
 def critic_values(model, obs: torch.Tensor) -> np.ndarray:
-    """(len(ACTIONS), n): the critic's value of each action in each state (the minimum
-    over SAC's twin critics, the mean over TQC's quantiles)."""
-    rows = []
-    with torch.no_grad():
-        for a in ACTIONS:
-            q = model.critic(obs, torch.full((len(obs), 1), float(a)))
-            q = q.mean(dim=(1, 2)) if isinstance(q, torch.Tensor) else torch.cat(q, 1).min(1).values
-            rows.append(q.numpy())
-    return np.asarray(rows)
+    """(len(ACTIONS), n): the critic's value of each action in each state."""
+    return np.asarray(
+        [critic_value(model, obs, torch.full((len(obs), 1), float(a))) for a in ACTIONS]
+    )
 
 
 def opening(path: Path, targets: np.ndarray) -> dict:
