@@ -241,17 +241,19 @@ def per_state(run: dict, tip: float) -> dict:
     return rows
 
 
+def critic_tensor(model, obs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+    """The critic's value of each (observation, action) row, differentiable: the minimum
+    over SAC's and TD3's twin critics, the mean over TQC's quantiles."""
+    q = model.critic(obs, actions)
+    if isinstance(q, torch.Tensor):
+        return q.mean(dim=(1, 2))
+    return torch.min(torch.cat(q, dim=1), dim=1).values
+
+
 def critic_value(model, obs: torch.Tensor, actions: torch.Tensor) -> np.ndarray:
-    """The critic's value of each (observation, action) row: the minimum over SAC's and
-    TD3's twin critics, the mean over TQC's quantiles."""
+    """critic_tensor's values as an array."""
     with torch.no_grad():
-        q = model.critic(obs, actions)
-        q = (
-            q.mean(dim=(1, 2))
-            if isinstance(q, torch.Tensor)
-            else torch.min(torch.cat(q, dim=1), dim=1).values
-        )
-    return q.numpy()
+        return critic_tensor(model, obs, actions).numpy()
 
 
 def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Generator) -> list[dict]:

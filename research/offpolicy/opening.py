@@ -1,6 +1,7 @@
 """A squashed-Gaussian actor's opening decision (SAC, TQC, CrossQ), model by model: at
 rest, the contest's start, for a grid of targets, its pre-tanh mean mu, its action
-tanh(mu), its standard deviation, and the action its critic values most.
+tanh(mu), its standard deviation, the actor's hidden units that are active there, and
+the action its critic values most.
 
     python -m research.offpolicy.opening --models runs/sac/checkpoints/model_*.zip \\
         --out benchmarks/results/offpolicy/opening_sac.json
@@ -11,6 +12,13 @@ so no critic gradient reaches it (hoprover_env/training/actor_penalty.py). Per m
 the median and largest |mu| over the targets, the actions' range, their correlation with
 the target (aiming), and the critic's argmax over ACTIONS per target. Writes one JSON
 (atomically) and prints a line per model.
+
+Active units: per hidden layer of the actor, how many units have a positive
+pre-activation at each target's start. For a ReLU actor these are the only paths from the
+observation to mu: with none active in the last hidden layer, mu at rest is the output
+layer's bias, the same for every target and moved by the gradient of every state the
+actor is trained on. The critic's slope dQ/da at the actor's own action says where the
+critic would move it.
 """
 
 from __future__ import annotations
@@ -26,7 +34,12 @@ import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.util.files import atomic_write
-from research.offpolicy.actors import critic_value, env_arguments, gaussian_actor
+from research.offpolicy.actors import (
+    critic_tensor,
+    critic_value,
+    env_arguments,
+    gaussian_actor,
+)
 
 ACTIONS = np.linspace(-1.0, 1.0, 9)
 
@@ -36,6 +49,27 @@ def critic_values(model, obs: torch.Tensor) -> np.ndarray:
     return np.asarray(
         [critic_value(model, obs, torch.full((len(obs), 1), float(a))) for a in ACTIONS]
     )
+
+
+def active_units(actor, obs: torch.Tensor) -> list[list[int]]:
+    """Per hidden layer of a squashed-Gaussian actor (SB3's `latent_pi`), per state: the
+    units whose pre-activation is positive (module docstring)."""
+    rows = []
+    with torch.no_grad():
+        x = actor.features_extractor(obs)
+        for layer in actor.latent_pi:
+            x = layer(x)
+            if isinstance(layer, torch.nn.Linear):
+                rows.append((x > 0).sum(dim=1).tolist())
+    return rows
+
+
+def critic_slope(model, obs: torch.Tensor, action: np.ndarray) -> np.ndarray:
+    """Per state: d(critic value)/da at `action` (critic_value's minimum over twins, or
+    TQC's mean over quantiles)."""
+    a = torch.as_tensor(action[:, None], dtype=torch.float32).requires_grad_(True)
+    (grad,) = torch.autograd.grad(critic_tensor(model, obs, a).sum(), a)
+    return grad[:, 0].numpy()
 
 
 def opening(path: Path, targets: np.ndarray) -> dict:
@@ -50,6 +84,7 @@ def opening(path: Path, targets: np.ndarray) -> dict:
     action = np.tanh(mu)
     o = torch.as_tensor(policy.normalize(obs), dtype=torch.float32)
     q = critic_values(policy.model, o)
+    units = active_units(policy.model.actor, o)
     return {
         "model": str(path),
         "timesteps": int(policy.model.num_timesteps),
@@ -57,12 +92,16 @@ def opening(path: Path, targets: np.ndarray) -> dict:
         "max_abs_mu": float(np.max(np.abs(mu))),
         "action_min": float(action.min()),
         "action_max": float(action.max()),
+        # an opening that is the output bias alone differs between targets by float noise
         "corr_action_target": (
-            float(np.corrcoef(action, targets)[0, 1]) if np.std(action) > 0 else float("nan")
+            float(np.corrcoef(action, targets)[0, 1]) if np.ptp(action) > 1e-6 else float("nan")
         ),
         "median_std": float(np.median(sd)),
         "critic_argmax": ACTIONS[q.argmax(0)].tolist(),
         "critic_range": np.ptp(q, axis=0).tolist(),
+        "critic_slope": critic_slope(policy.model, o, action).tolist(),
+        "active_units": units,
+        "last_layer_active_max": int(max(units[-1])),
         "targets": targets.tolist(),
         "mu": mu.tolist(),
     }
@@ -85,7 +124,8 @@ def main(argv=None) -> int:
             f"{r['timesteps']:>8} steps: |mu| median {r['median_abs_mu']:.3g}, max "
             f"{r['max_abs_mu']:.3g}; a {r['action_min']:+.3f} to {r['action_max']:+.3f}, "
             f"corr with target {r['corr_action_target']:+.2f}; critic's argmax "
-            f"{min(r['critic_argmax']):+.2f} to {max(r['critic_argmax']):+.2f}"
+            f"{min(r['critic_argmax']):+.2f} to {max(r['critic_argmax']):+.2f}; last hidden "
+            f"layer's active units at most {r['last_layer_active_max']}"
         )
     return 0
 
