@@ -192,6 +192,20 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     }
 
 
+def by_side(run: dict, targets: np.ndarray) -> dict:
+    """Episodes, successes and the median opening for the targets left (x* < 0) and right
+    of the start: the task is symmetric, so a policy that succeeds on one side only has
+    learnt one of its two openings."""
+    rows = {}
+    for name, sel in (("left", targets < 0), ("right", targets >= 0)):
+        rows[name] = {
+            "episodes": int(sel.sum()),
+            "success": int(run["success"][sel].sum()),
+            "median_opening": float(np.median(run["opening"][sel])) if sel.any() else float("nan"),
+        }
+    return rows
+
+
 def control_dt(policy) -> float:
     """The policy's control period [s]."""
     return float(env_arguments(policy).get("control_dt", 0.5))
@@ -327,6 +341,7 @@ def main(argv=None) -> int:
         "median_longest_flight_s": float(np.median(run["longest"]) * control_dt(policy)),
         "median_abs_opening": float(np.median(np.abs(run["opening"]))),
         "corr_opening_target": opening_corr,
+        "by_side": by_side(run, targets),
         "action_gap": action_gap(
             policy, run["flight_states"], targets, args.gap_states, np.random.default_rng(args.seed)
         ),

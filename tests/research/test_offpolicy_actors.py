@@ -35,6 +35,10 @@ def test_the_report_accounts_for_every_decision_and_every_break(tmp_path):
     assert report["episodes"] == 6
     assert sum(report["broken_from"].values()) == report["broken"]
     assert report["broken"] + report["success"] <= 6
+    # the two sides split the episodes and their successes
+    sides = report["by_side"]
+    assert sum(side["episodes"] for side in sides.values()) == 6
+    assert sum(side["success"] for side in sides.values()) == report["success"]
     states = report["per_state"]
     assert set(states) == {"rest", "contact", "flight"}
     assert sum(s["decisions"] for s in states.values()) > 0
