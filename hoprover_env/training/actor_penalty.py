@@ -1,5 +1,6 @@
-"""A penalty on the pre-tanh mean of squashed-Gaussian actors (SAC, TQC, CrossQ): a
-config's `policy.actor_mean_reg`.
+"""Two options of squashed-Gaussian actors: a penalty on the pre-tanh mean (SAC, TQC,
+CrossQ; a config's `policy.actor_mean_reg`) and a LayerNorm after each hidden layer
+(SAC, TQC; `policy.actor_layer_norm`).
 
 SB3's squashed-Gaussian actor acts with tanh(mu(s)). When |mu| grows past about 10,
 tanh's slope (1 - tanh(mu)^2) is 0 in float32, so the critic's gradient no longer
@@ -23,6 +24,19 @@ penalty's gradient to whatever loss is backpropagated through it. In SB3's SAC, 
 CrossQ that is only the actor's loss (the critics' targets and `predict` run under
 `no_grad`, the entropy coefficient's loss detaches the log-probability).
 
+LayerNorm in the actor's hidden layers (`actor_layer_norm`). A ReLU unit whose
+pre-activation is negative passes no gradient, and a layer can turn every unit off for one
+kind of state while it serves the others. On HopRoverRL-v1 every SAC actor measured had
+0-2 of the 256 units of its last hidden layer active at the contest's start from 50 k
+steps on: its opening there was the output layer's bias, the same for every target and
+moved by the training of every other state, and when that bias fell below the tipping
+torque the rover never launched (docs/studies/off-policy.md, "The opening is the output
+layer's bias"). Normalised over its units, each state's pre-activations have mean beta and
+spread gamma whatever the input, so a layer cannot turn all of its units off for one
+state alone. This is the LayerNorm of the actor in the large-network agents of
+Nauman et al. (2024, BRO) and Lee et al. (2024, SimBa), here after each hidden linear
+layer of SB3's MLP, as `policy.critic_layer_norm` does for the critics.
+
 A model saved with one of these policies names the class in its zip, so loading it needs
 hoprover installed, as every hoprover model does.
 """
@@ -30,6 +44,7 @@ hoprover installed, as every hoprover model does.
 from __future__ import annotations
 
 import torch
+from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.sac.policies import SACPolicy
 
 from hoprover_env.training.critics import LayerNormSACPolicy
@@ -49,17 +64,37 @@ def penalise_mean(actor: torch.nn.Module, weight: float) -> None:
     actor.mu.register_forward_hook(on_forward)
 
 
+def normalise_hidden_layers(actor: torch.nn.Module) -> None:
+    """Rebuild SB3's actor MLP (`latent_pi`) with a LayerNorm after every hidden linear
+    layer, before its activation (module docstring); the output layers are unchanged."""
+    device = next(actor.parameters()).device
+    layers = create_mlp(
+        actor.features_dim,
+        -1,
+        actor.net_arch,
+        actor.activation_fn,
+        post_linear_modules=[torch.nn.LayerNorm],
+    )
+    actor.latent_pi = torch.nn.Sequential(*layers).to(device)
+
+
 class _MeanPenalty:
     """Mixin for an SB3 policy class: its actor's pre-tanh mean is penalised with
-    `actor_mean_reg`."""
+    `actor_mean_reg`, and its hidden layers normalised with `actor_layer_norm`."""
 
-    def __init__(self, *args, actor_mean_reg: float = 0.0, **kwargs):
+    def __init__(
+        self, *args, actor_mean_reg: float = 0.0, actor_layer_norm: bool = False, **kwargs
+    ):
         # set before the base class builds the actor (in its __init__, through make_actor)
         self.actor_mean_reg = float(actor_mean_reg)
+        self.actor_layer_norm = bool(actor_layer_norm)
         super().__init__(*args, **kwargs)
 
     def make_actor(self, features_extractor=None):
         actor = super().make_actor(features_extractor)  # type: ignore[misc]
+        if self.actor_layer_norm:
+            # before the optimiser is made: SB3 builds it from the actor's parameters after
+            normalise_hidden_layers(actor)
         penalise_mean(actor, self.actor_mean_reg)
         return actor
 
@@ -67,15 +102,17 @@ class _MeanPenalty:
         return {
             **super()._get_constructor_parameters(),  # type: ignore[misc]
             "actor_mean_reg": self.actor_mean_reg,
+            "actor_layer_norm": self.actor_layer_norm,
         }
 
 
 class MeanPenaltySACPolicy(_MeanPenalty, SACPolicy):
-    """SAC's MlpPolicy with the actor's mean penalised."""
+    """SAC's MlpPolicy with the actor's options (the mean penalised, hidden layers
+    normalised); the name is the first option's, which saved models carry."""
 
 
 class MeanPenaltyLayerNormSACPolicy(_MeanPenalty, LayerNormSACPolicy):
-    """SAC's MlpPolicy with layer-normalised critics and the actor's mean penalised."""
+    """SAC's MlpPolicy with layer-normalised critics and the actor's options."""
 
 
 # (algo, critic_layer_norm) -> policy class
@@ -92,7 +129,7 @@ except ImportError:
 else:
 
     class MeanPenaltyTQCPolicy(_MeanPenalty, TQCPolicy):
-        """TQC's MlpPolicy with the actor's mean penalised."""
+        """TQC's MlpPolicy with the actor's options."""
 
     class MeanPenaltyCrossQPolicy(_MeanPenalty, CrossQPolicy):
         """CrossQ's MlpPolicy with the actor's mean penalised."""

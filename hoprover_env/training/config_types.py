@@ -85,6 +85,7 @@ POLICY_TYPES = {
     "enable_critic_lstm": BOOL,
     "critic_layer_norm": BOOL,
     "actor_mean_reg": NONNEG_REAL,
+    "actor_layer_norm": BOOL,
 }
 DEMONSTRATION_TYPES = {
     "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),

@@ -11,8 +11,9 @@ A config has these sections (every key is checked; a typo is an error that names
     normalize: {obs: true, reward: true, clip_obs: 10.0}
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
                                     # and the algorithm's own (n_quantiles, lstm_hidden_size);
-                                    # critic_layer_norm (SAC, TD3) and actor_mean_reg
-                                    # (SAC, TQC, CrossQ) are hoprover's
+                                    # critic_layer_norm (SAC, TD3), actor_mean_reg
+                                    # (SAC, TQC, CrossQ) and actor_layer_norm (SAC,
+                                    # TQC) are hoprover's
     hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
@@ -93,11 +94,15 @@ POLICY_KEYS = {
     "enable_critic_lstm",
     "critic_layer_norm",
     "actor_mean_reg",
+    "actor_layer_norm",
 }
 # the algorithms whose critics hoprover can normalise (training/critics.py)
 LAYER_NORM_ALGOS = {"sac", "td3"}
 # the algorithms whose actor's pre-tanh mean hoprover can penalise (training/actor_penalty.py)
 MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
+# the algorithms whose actor's hidden layers hoprover can normalise (the same module; CrossQ's
+# actor has batch normalisation of its own)
+ACTOR_LAYER_NORM_ALGOS = {"sac", "tqc"}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {
     "expert": "scripted",
@@ -187,6 +192,8 @@ def policy_keys(algo: str) -> set:
         params.add("critic_layer_norm")  # hoprover's: a policy class of its own
     if algo in MEAN_PENALTY_ALGOS:
         params.add("actor_mean_reg")  # hoprover's: a policy class of its own
+    if algo in ACTOR_LAYER_NORM_ALGOS:
+        params.add("actor_layer_norm")  # the same class
     return POLICY_KEYS & params
 
 
@@ -428,8 +435,9 @@ def policy_kwargs(cfg: dict) -> dict:
 
     kw = dict(cfg["policy"])
     kw.pop("critic_layer_norm", None)  # chooses the policy class (make_agent)
-    if not kw.get("actor_mean_reg"):
-        kw.pop("actor_mean_reg", None)  # 0: SB3's own policy class (make_agent)
+    for key in ("actor_mean_reg", "actor_layer_norm"):
+        if not kw.get(key):
+            kw.pop(key, None)  # 0 or false: SB3's own policy class (make_agent)
     if "features_extractor" in kw:
         kw["features_extractor_class"] = features_extractor(kw.pop("features_extractor"))
     if "activation_fn" in kw:
@@ -462,7 +470,7 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
             hyper.update(separate)
     policy: Any = SB3_ALGOS[cfg["algo"]][2]
     layer_norm = bool(cfg["policy"].get("critic_layer_norm"))
-    if cfg["policy"].get("actor_mean_reg"):
+    if cfg["policy"].get("actor_mean_reg") or cfg["policy"].get("actor_layer_norm"):
         from hoprover_env.training.actor_penalty import MEAN_PENALTY_POLICIES
 
         policy = MEAN_PENALTY_POLICIES[(cfg["algo"], layer_norm)]

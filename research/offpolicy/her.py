@@ -72,7 +72,12 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
     own = {"replay_buffer_class", "replay_buffer_kwargs", "learning_rate_end"}
     # train.py's own policy classes; this driver builds SB3's MultiInputPolicy
-    hoprover_keys = {"critic_layer_norm", "actor_mean_reg", "features_extractor"}
+    hoprover_keys = {
+        "critic_layer_norm",
+        "actor_mean_reg",
+        "actor_layer_norm",
+        "features_extractor",
+    }
     for section, valid in (
         ("hyperparams", hyper_keys(cfg["algo"]) - own),
         ("policy", policy_keys(cfg["algo"]) - hoprover_keys),
