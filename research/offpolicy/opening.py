@@ -53,13 +53,15 @@ def critic_values(model, obs: torch.Tensor) -> np.ndarray:
 
 def active_units(actor, obs: torch.Tensor) -> list[list[int]]:
     """Per hidden layer of a squashed-Gaussian actor (SB3's `latent_pi`), per state: the
-    units whose pre-activation is positive (module docstring)."""
+    units whose pre-activation is positive (module docstring), read at the activation's
+    output, which is positive where its input is (ReLU, ELU, SiLU, tanh), so after a
+    LayerNorm where the layer has one."""
     rows = []
     with torch.no_grad():
         x = actor.features_extractor(obs)
         for layer in actor.latent_pi:
             x = layer(x)
-            if isinstance(layer, torch.nn.Linear):
+            if not isinstance(layer, (torch.nn.Linear, torch.nn.LayerNorm)):
                 rows.append((x > 0).sum(dim=1).tolist())
     return rows
 
