@@ -109,14 +109,25 @@ TINY_SAC_V1 = {
 }
 
 
-def train_tiny(tmp_path, cfg: dict = TINY_SAC_V1):
-    """Train `cfg` with train.py into tmp_path/run; its last checkpoint's model path."""
+def write_config(tmp_path, cfg: dict) -> str:
+    """`cfg` written as tmp_path/cfg.yaml; its path."""
     import yaml
-
-    from hoprover_env.training import train
 
     path = tmp_path / "cfg.yaml"
     path.write_text(yaml.safe_dump(cfg))
+    return str(path)
+
+
+def train_run(tmp_path, cfg: dict = TINY_SAC_V1):
+    """Train `cfg` with train.py into tmp_path/run; the run's directory."""
+    from hoprover_env.training import train
+
     out = tmp_path / "run"
-    assert train.main(["--config", str(path), "--out", str(out), "--no-progress"]) == 0
-    return out / "checkpoints" / "last.zip"
+    args = ["--config", write_config(tmp_path, cfg), "--out", str(out), "--no-progress"]
+    assert train.main(args) == 0
+    return out
+
+
+def train_tiny(tmp_path, cfg: dict = TINY_SAC_V1):
+    """Train `cfg` with train.py into tmp_path/run; its last checkpoint's model path."""
+    return train_run(tmp_path, cfg) / "checkpoints" / "last.zip"

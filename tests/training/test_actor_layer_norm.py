@@ -7,16 +7,9 @@ it survives save and load, and the config refuses it where it cannot apply."""
 import numpy as np
 import pytest
 import torch
-import yaml
 
-from helpers import TINY_SAC_V1
+from helpers import TINY_SAC_V1, train_run, write_config
 from hoprover_env.training.sb3_agents import ConfigError, load_config
-
-
-def _write(tmp_path, cfg):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    return str(path)
 
 
 def _agent(tmp_path, algo: str, layer_norm: bool):
@@ -24,7 +17,7 @@ def _agent(tmp_path, algo: str, layer_norm: bool):
     from hoprover_env.training.sb3_agents import make_agent
 
     policy = {"net_arch": [16, 16], "actor_layer_norm": layer_norm}
-    cfg = load_config(_write(tmp_path, {**TINY_SAC_V1, "algo": algo, "policy": policy}))
+    cfg = load_config(write_config(tmp_path, {**TINY_SAC_V1, "algo": algo, "policy": policy}))
     return make_agent(cfg, HopRoverSB3VecEnv(2, env_id="HopRoverRL-v1"))
 
 
@@ -77,11 +70,9 @@ def test_a_state_that_turns_a_plain_layer_off_keeps_units_on(tmp_path):
 @pytest.mark.slow  # trains 64 steps and evaluates
 def test_it_trains_saves_and_loads(tmp_path):
     from hoprover_env.agents.policies import _algo_class
-    from hoprover_env.training import train
 
     cfg = {**TINY_SAC_V1, "policy": {"net_arch": [16, 16], "actor_layer_norm": True}}
-    out = tmp_path / "run"
-    assert train.main(["--config", _write(tmp_path, cfg), "--out", str(out), "--no-progress"]) == 0
+    out = train_run(tmp_path, cfg)
     model = _algo_class("sac").load(out / "final_model.zip", device="cpu")
     assert model.policy.actor_layer_norm is True
     assert any(isinstance(m, torch.nn.LayerNorm) for m in model.actor.latent_pi)
@@ -102,4 +93,4 @@ def test_the_config_refuses_it_where_it_cannot_apply(tmp_path, algo, value, mess
     if algo == "ppo":
         cfg["hyperparams"] = {}
     with pytest.raises(ConfigError, match=message):
-        load_config(_write(tmp_path, cfg))
+        load_config(write_config(tmp_path, cfg))

@@ -7,16 +7,9 @@ where it cannot apply."""
 import numpy as np
 import pytest
 import torch
-import yaml
 
-from helpers import TINY_SAC_V1
+from helpers import TINY_SAC_V1, train_run, write_config
 from hoprover_env.training.sb3_agents import ConfigError, load_config
-
-
-def _write(tmp_path, cfg):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    return str(path)
 
 
 def _agents(tmp_path, algo: str, weight: float):
@@ -25,7 +18,7 @@ def _agents(tmp_path, algo: str, weight: float):
     from hoprover_env.training.sb3_agents import make_agent
 
     policy = {"net_arch": [16, 16], "actor_mean_reg": weight}
-    cfg = load_config(_write(tmp_path, {**TINY_SAC_V1, "algo": algo, "policy": policy}))
+    cfg = load_config(write_config(tmp_path, {**TINY_SAC_V1, "algo": algo, "policy": policy}))
     venv = HopRoverSB3VecEnv(2, env_id="HopRoverRL-v1")
     penalised = make_agent(cfg, venv)
     plain = make_agent({**cfg, "policy": {"net_arch": [16, 16]}}, venv)
@@ -90,11 +83,9 @@ def test_a_saturated_actor_comes_back_only_with_the_penalty(tmp_path):
 @pytest.mark.slow  # trains 64 steps and evaluates
 def test_it_trains_saves_and_loads(tmp_path):
     from hoprover_env.agents.policies import _algo_class
-    from hoprover_env.training import train
 
     cfg = {**TINY_SAC_V1, "policy": {"net_arch": [16, 16], "actor_mean_reg": 1e-3}}
-    out = tmp_path / "run"
-    assert train.main(["--config", _write(tmp_path, cfg), "--out", str(out), "--no-progress"]) == 0
+    out = train_run(tmp_path, cfg)
     model = _algo_class("sac").load(out / "final_model.zip", device="cpu")
     assert type(model.policy).__name__ == "MeanPenaltySACPolicy"
     assert model.policy.actor_mean_reg == 1e-3
@@ -115,4 +106,4 @@ def test_the_config_refuses_it_where_it_cannot_apply(tmp_path, algo, value, mess
     if algo == "ppo":
         cfg["hyperparams"] = {}
     with pytest.raises(ConfigError, match=message):
-        load_config(_write(tmp_path, cfg))
+        load_config(write_config(tmp_path, cfg))

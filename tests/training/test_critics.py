@@ -6,17 +6,9 @@ where hoprover has no such critic."""
 import numpy as np
 import pytest
 import torch.nn as nn
-import yaml
 
-from helpers import TINY_SAC_V1
-from hoprover_env.training import train
+from helpers import TINY_SAC_V1, train_run, write_config
 from hoprover_env.training.sb3_agents import ConfigError, load_config
-
-
-def _write(tmp_path, cfg):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    return str(path)
 
 
 def _norms(module):
@@ -29,7 +21,7 @@ def test_each_hidden_layer_of_each_critic_is_normalised(tmp_path, algo):
     from hoprover_env.training.sb3_agents import make_agent
 
     cfg = load_config(
-        _write(
+        write_config(
             tmp_path,
             {
                 **TINY_SAC_V1,
@@ -59,8 +51,7 @@ def test_a_normalised_critic_trains_saves_and_loads(tmp_path):
     from hoprover_env.agents.policies import _algo_class
 
     cfg = {**TINY_SAC_V1, "policy": {"net_arch": [16, 16], "critic_layer_norm": True}}
-    out = tmp_path / "run"
-    assert train.main(["--config", _write(tmp_path, cfg), "--out", str(out), "--no-progress"]) == 0
+    out = train_run(tmp_path, cfg)
     model = _algo_class("sac").load(out / "final_model.zip", device="cpu")
     assert len(_norms(model.critic)) == 4 and len(_norms(model.critic_target)) == 4
     obs = np.zeros((3, model.observation_space.shape[0]), dtype=np.float32)
@@ -81,4 +72,4 @@ def test_the_config_refuses_it_where_it_cannot_apply(tmp_path, algo, value, mess
     if algo == "ppo":
         cfg["hyperparams"] = {}
     with pytest.raises(ConfigError, match=message):
-        load_config(_write(tmp_path, cfg))
+        load_config(write_config(tmp_path, cfg))

@@ -6,10 +6,9 @@ refuses them where they cannot apply."""
 
 import numpy as np
 import pytest
-import yaml
 from stable_baselines3.common.buffers import ReplayBuffer
 
-from helpers import TINY_SAC_V1
+from helpers import TINY_SAC_V1, train_run, write_config
 from hoprover_env.training import train
 
 pytest.importorskip("minari", reason="demonstrations record episodes with Minari's buffers")
@@ -27,19 +26,12 @@ CFG = {
 }
 
 
-def _write(tmp_path, cfg):
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    return str(path)
-
-
 @pytest.mark.slow  # trains (64 steps), after collecting the demonstrations
 def test_the_buffer_starts_with_the_demonstrators_episodes(tmp_path):
     from hoprover_env.agents.policies import load_policy
     from hoprover_env.evaluation.datasets import collect
 
-    out = tmp_path / "run"
-    assert train.main(["--config", _write(tmp_path, CFG), "--out", str(out), "--no-progress"]) == 0
+    out = train_run(tmp_path, CFG)
     import pickle
 
     with open(out / "checkpoints" / "last_replay_buffer.pkl", "rb") as fh:
@@ -104,7 +96,7 @@ def test_bad_demonstrations_are_refused_by_name(tmp_path, capsys, change, words)
         train.main(
             [
                 "--config",
-                _write(tmp_path, {**CFG, **change}),
+                write_config(tmp_path, {**CFG, **change}),
                 "--out",
                 str(tmp_path / "run"),
                 "--no-progress",
@@ -160,8 +152,7 @@ def test_a_batch_share_draws_that_share_of_every_batch_from_the_demonstrations(n
 @pytest.mark.slow  # trains (64 steps), after collecting the demonstrations
 def test_a_run_with_a_batch_share_keeps_the_demonstrations_apart(tmp_path):
     cfg = {**CFG, "demonstrations": {**CFG["demonstrations"], "batch_share": 0.5}}
-    out = tmp_path / "run"
-    assert train.main(["--config", _write(tmp_path, cfg), "--out", str(out), "--no-progress"]) == 0
+    out = train_run(tmp_path, cfg)
     import pickle
 
     from hoprover_env.training.demonstrations import DemonstrationNStepReplayBuffer
@@ -181,7 +172,7 @@ def test_a_run_with_a_batch_share_keeps_the_demonstrations_apart(tmp_path):
         train.main(
             [
                 "--config",
-                _write(tmp_path, {**cfg, "timesteps": 96}),
+                write_config(tmp_path, {**cfg, "timesteps": 96}),
                 "--out",
                 str(out),
                 "--resume",
