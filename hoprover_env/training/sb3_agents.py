@@ -103,6 +103,10 @@ MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
 # the algorithms whose actor's hidden layers hoprover can normalise (the same module; CrossQ's
 # actor has batch normalisation of its own)
 ACTOR_LAYER_NORM_ALGOS = {"sac", "tqc"}
+# the actor options (training/actor_penalty.py): any of them set chooses its policy class
+ACTOR_OPTION_KEYS = ("actor_mean_reg", "actor_layer_norm")
+# the policy keys hoprover's own policy classes take (make_agent), not SB3's policies
+HOPROVER_POLICY_KEYS = {"critic_layer_norm", *ACTOR_OPTION_KEYS}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
 PRETRAIN_DEFAULTS = {
     "expert": "scripted",
@@ -435,7 +439,7 @@ def policy_kwargs(cfg: dict) -> dict:
 
     kw = dict(cfg["policy"])
     kw.pop("critic_layer_norm", None)  # chooses the policy class (make_agent)
-    for key in ("actor_mean_reg", "actor_layer_norm"):
+    for key in ACTOR_OPTION_KEYS:
         if not kw.get(key):
             kw.pop(key, None)  # 0 or false: SB3's own policy class (make_agent)
     if "features_extractor" in kw:
@@ -470,7 +474,7 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
             hyper.update(separate)
     policy: Any = SB3_ALGOS[cfg["algo"]][2]
     layer_norm = bool(cfg["policy"].get("critic_layer_norm"))
-    if cfg["policy"].get("actor_mean_reg") or cfg["policy"].get("actor_layer_norm"):
+    if any(cfg["policy"].get(key) for key in ACTOR_OPTION_KEYS):
         from hoprover_env.training.actor_penalty import MEAN_PENALTY_POLICIES
 
         policy = MEAN_PENALTY_POLICIES[(cfg["algo"], layer_norm)]

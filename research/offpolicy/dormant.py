@@ -28,32 +28,19 @@ import torch
 import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
+from hoprover_env.tasks.config import TRAINING_STARTS
 from hoprover_env.util.files import atomic_write
-from research.offpolicy.actors import env_arguments
+from research.offpolicy.actors import env_arguments, hidden_activations
 
 TAU = 0.025  # Sokar et al.'s threshold for the actor and critic of their SAC runs
-
-
-def activations(actor, obs: torch.Tensor) -> list[torch.Tensor]:
-    """The output of each hidden layer's activation of SB3's actor MLP (`latent_pi`, or
-    TD3's `mu` less its output layers)."""
-    net = actor.latent_pi if hasattr(actor, "latent_pi") else actor.mu[:-2]
-    outs = []
-    with torch.no_grad():
-        x = actor.features_extractor(obs)
-        for layer in net:
-            x = layer(x)
-            if not isinstance(layer, (torch.nn.Linear, torch.nn.LayerNorm)):
-                outs.append(x)
-    return outs
 
 
 def states(policy, envs: int, steps: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
     """(observations, whether each is an episode's start at rest): `envs` episodes started
     at rest and `envs` as training starts them, played `steps` decisions by the actor."""
-    kw = env_arguments(policy)
-    # with the training-only start distribution the policy was trained with
-    training = {**kw, **{k: v for k, v in policy.env_kwargs.items() if k != "target_x"}}
+    kw = env_arguments(policy)  # the contest's start: env_arguments drops TRAINING_STARTS
+    starts = {k: v for k, v in policy.env_kwargs.items() if k in TRAINING_STARTS}
+    training = {**kw, **starts}
     targets = np.random.default_rng(seed).uniform(-1.0, 1.0, envs)
     rows, at_start = [], []
     for arguments in (kw, training):
@@ -75,7 +62,7 @@ def dormant(path: Path, envs: int, steps: int, seed: int) -> dict:
     obs, at_start = states(policy, envs, steps, seed)
     o = torch.as_tensor(policy.normalize(obs), dtype=torch.float32)
     layers = []
-    for h in activations(policy.model.actor, o):
+    for h in hidden_activations(policy.model.actor, o):
         active = (h > 0).sum(dim=1).numpy()
         score = h.abs().mean(dim=0) / (h.abs().mean() + 1e-12)
         layers.append(

@@ -61,7 +61,7 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     the same (SystemExit naming the key otherwise)."""
     import gymnasium as gym
 
-    from hoprover_env.training.sb3_agents import hyper_keys, policy_keys
+    from hoprover_env.training.sb3_agents import HOPROVER_POLICY_KEYS, hyper_keys, policy_keys
 
     with open(path) as f:
         cfg = yaml.safe_load(f)
@@ -72,12 +72,7 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
     own = {"replay_buffer_class", "replay_buffer_kwargs", "learning_rate_end"}
     # train.py's own policy classes; this driver builds SB3's MultiInputPolicy
-    hoprover_keys = {
-        "critic_layer_norm",
-        "actor_mean_reg",
-        "actor_layer_norm",
-        "features_extractor",
-    }
+    hoprover_keys = HOPROVER_POLICY_KEYS | {"features_extractor"}
     for section, valid in (
         ("hyperparams", hyper_keys(cfg["algo"]) - own),
         ("policy", policy_keys(cfg["algo"]) - hoprover_keys),

@@ -39,6 +39,7 @@ from research.offpolicy.actors import (
     critic_value,
     env_arguments,
     gaussian_actor,
+    hidden_activations,
 )
 
 ACTIONS = np.linspace(-1.0, 1.0, 9)
@@ -52,18 +53,9 @@ def critic_values(model, obs: torch.Tensor) -> np.ndarray:
 
 
 def active_units(actor, obs: torch.Tensor) -> list[list[int]]:
-    """Per hidden layer of a squashed-Gaussian actor (SB3's `latent_pi`), per state: the
-    units whose pre-activation is positive (module docstring), read at the activation's
-    output, which is positive where its input is (ReLU, ELU, SiLU, tanh), so after a
-    LayerNorm where the layer has one."""
-    rows = []
-    with torch.no_grad():
-        x = actor.features_extractor(obs)
-        for layer in actor.latent_pi:
-            x = layer(x)
-            if not isinstance(layer, (torch.nn.Linear, torch.nn.LayerNorm)):
-                rows.append((x > 0).sum(dim=1).tolist())
-    return rows
+    """Per hidden layer of the actor, per state: the units whose pre-activation is
+    positive (module docstring; after the layer's LayerNorm where it has one)."""
+    return [(h > 0).sum(dim=1).tolist() for h in hidden_activations(actor, obs)]
 
 
 def critic_slope(model, obs: torch.Tensor, action: np.ndarray) -> np.ndarray:

@@ -10,6 +10,7 @@ import torch
 from helpers import train_tiny
 from hoprover_env.agents.policies import load_sb3
 from research.offpolicy import dormant
+from research.offpolicy.actors import hidden_activations
 
 
 @pytest.mark.slow  # trains a tiny SAC
@@ -34,7 +35,7 @@ def test_a_unit_switched_off_is_counted(tmp_path):
     with torch.no_grad():
         last.bias[:3] = -1e6
     obs, at_start = dormant.states(policy, 4, 3, seed=1)
-    h = dormant.activations(policy.model.actor, torch.as_tensor(policy.normalize(obs)))[-1]
+    h = hidden_activations(policy.model.actor, torch.as_tensor(policy.normalize(obs)))[-1]
     assert at_start.sum() == 4
     assert bool((h[:, :3] == 0).all())
     never = int(((h > 0).sum(dim=0) == 0).sum())
