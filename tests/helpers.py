@@ -109,6 +109,15 @@ TINY_SAC_V1 = {
 }
 
 
+def tiny_config(algo: str, policy: dict) -> dict:
+    """TINY_SAC_V1 for another algorithm with this `policy` section (PPO takes none of
+    its off-policy hyperparameters)."""
+    cfg = {**TINY_SAC_V1, "algo": algo, "policy": policy}
+    if algo == "ppo":
+        cfg["hyperparams"] = {}
+    return cfg
+
+
 def write_config(tmp_path, cfg: dict) -> str:
     """`cfg` written as tmp_path/cfg.yaml; its path."""
     import yaml

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from helpers import TINY_SAC_V1, train_run, write_config
+from helpers import TINY_SAC_V1, tiny_config, train_run, write_config
 from hoprover_env.training.sb3_agents import ConfigError, load_config
 
 
@@ -102,8 +102,5 @@ def test_it_trains_saves_and_loads(tmp_path):
     ],
 )
 def test_the_config_refuses_it_where_it_cannot_apply(tmp_path, algo, value, message):
-    cfg = {**TINY_SAC_V1, "algo": algo, "policy": {"actor_mean_reg": value}}
-    if algo == "ppo":
-        cfg["hyperparams"] = {}
     with pytest.raises(ConfigError, match=message):
-        load_config(write_config(tmp_path, cfg))
+        load_config(write_config(tmp_path, tiny_config(algo, {"actor_mean_reg": value})))
