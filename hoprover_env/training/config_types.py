@@ -108,6 +108,7 @@ PRETRAIN_TYPES = {
     "ground_weight": POS_REAL,
     "learning_rate_end": POS_REAL,
 }
+REDO_TYPES = {"freq": POS_INT, "tau": UNIT, "batch": POS_INT}
 EVAL_TYPES = {"freq": POS_INT, "episodes": POS_INT, "seed": INT}
 CHECKPOINT_TYPES = {"freq": POS_INT, "seconds": POS_REAL, "keep": BOOL}
 # the keyword arguments of the algorithms (which ones an algorithm takes is checked

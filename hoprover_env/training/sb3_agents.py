@@ -47,6 +47,7 @@ from hoprover_env.training.config_types import (
     POLICY_TYPES,
     POS_INT,
     PRETRAIN_TYPES,
+    REDO_TYPES,
 )
 
 TOP_KEYS = {
@@ -64,6 +65,7 @@ TOP_KEYS = {
     "checkpoint",
     "init_from",
     "demonstrations",
+    "redo",
 }
 # hyperparams keys that are hoprover's, not the algorithm's: `learning_rate_end` makes the
 # learning rate fall linearly from `learning_rate` to it over the run
@@ -146,6 +148,7 @@ DEFAULTS = {
     "pretrain": None,
     "init_from": None,
     "demonstrations": None,
+    "redo": None,
     "evaluation": {"freq": 100_000, "episodes": 100, "seed": 7},
     "checkpoint": {"freq": 200_000, "seconds": 300.0},
 }
@@ -362,6 +365,8 @@ def validate(cfg: dict) -> None:
                 "before learning) needs an off-policy algo (sac, td3, tqc, "
                 f"crossq), got {cfg['algo']!r}"
             )
+    if cfg.get("redo") is not None:
+        _check_redo(cfg)
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
@@ -373,6 +378,7 @@ def validate(cfg: dict) -> None:
         ("hyperparams", HYPER_TYPES),
         ("pretrain", PRETRAIN_TYPES),
         ("demonstrations", DEMONSTRATION_TYPES),
+        ("redo", REDO_TYPES),
         ("evaluation", EVAL_TYPES),
         ("checkpoint", CHECKPOINT_TYPES),
     ):
@@ -389,6 +395,25 @@ def validate(cfg: dict) -> None:
             "share_features_extractor left true)"
         )
     _check_discounts(cfg, env_config)
+
+
+def _check_redo(cfg: dict) -> None:
+    """The `redo` section recycles an SB3 squashed-Gaussian actor's own hidden units
+    (training/redo.py): the algorithms with that actor, without a LayerNorm or gSDE."""
+    from hoprover_env.training import redo
+
+    _check_keys("redo", cfg["redo"], redo.KEYS)
+    if cfg["algo"] not in redo.ALGOS:
+        raise ConfigError(
+            f"config section 'redo' (recycling the actor's dormant units) needs algo "
+            f"{' or '.join(sorted(redo.ALGOS))}, got {cfg['algo']!r}"
+        )
+    for key, option in (("policy", "actor_layer_norm"), ("hyperparams", "use_sde")):
+        if cfg[key].get(option):
+            raise ConfigError(
+                f"config section 'redo' cannot recycle the units of an actor with "
+                f"{key}.{option}: true (training/redo.py says why)"
+            )
 
 
 def _check_value(key: str, value, kind) -> None:

@@ -473,6 +473,11 @@ class Trainer(Pretraining):
                 if self.bar is not None:
                     self.bar.close()
 
+        callbacks: list[BaseCallback] = [Hooks()]
+        if self.cfg.get("redo"):
+            from hoprover_env.training import redo
+
+            callbacks.append(redo.RecycleDormant(**redo.settings(self.cfg)))
         self.t_start = time.perf_counter()
         self.trained_steps = self.model.num_timesteps
         if self.model.num_timesteps == 0 and not self.evals:
@@ -489,7 +494,7 @@ class Trainer(Pretraining):
         try:
             if remaining > 0:
                 self.model.learn(
-                    remaining, callback=Hooks(), reset_num_timesteps=False, tb_log_name="run"
+                    remaining, callback=callbacks, reset_num_timesteps=False, tb_log_name="run"
                 )
         except KeyboardInterrupt:
             interrupted = True
