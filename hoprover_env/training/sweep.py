@@ -21,7 +21,10 @@ as s3://bucket/sweeps). OUT/NAME holds Tune's experiment state, each trial's fol
 (its train.py run directory in run/, and Tune checkpoints checkpoint_*/run reported
 with its evaluations) and, at the end, best_config.yaml, which `python train.py
 --config OUT/NAME/best_config.yaml --out ...` accepts unchanged. A trial whose node dies
-restarts from its last checkpoint on another node (--max-failures). Ctrl-C stops the
+restarts from its last checkpoint on another node (--max-failures); its run's
+evaluations.csv lists each evaluation once, but Tune's result.json may list twice the one
+reported just before the loss, when Tune had not yet stored that report's checkpoint (it
+restores the one before, and the trial reports that evaluation again). Ctrl-C stops the
 sweep with exit code 130, writes no best config and prints the command that resumes
 it: running the same command again keeps finished trials and continues unfinished ones
 from their last checkpoint. Without --address (or RAY_ADDRESS) it starts a local Ray
