@@ -1,6 +1,7 @@
-"""Two options of squashed-Gaussian actors: a penalty on the pre-tanh mean (SAC, TQC,
-CrossQ; a config's `policy.actor_mean_reg`) and a LayerNorm after each hidden layer
-(SAC, TQC; `policy.actor_layer_norm`).
+"""Three options of squashed-Gaussian actors: a penalty on the pre-tanh mean (SAC, TQC,
+CrossQ; a config's `policy.actor_mean_reg`), a LayerNorm after each hidden layer (SAC,
+TQC; `policy.actor_layer_norm`) and a learning rate of the actor's own (SAC, TQC, CrossQ;
+`policy.actor_lr_scale`).
 
 SB3's squashed-Gaussian actor acts with tanh(mu(s)). When |mu| grows past about 10,
 tanh's slope (1 - tanh(mu)^2) is 0 in float32, so the critic's gradient no longer
@@ -37,6 +38,18 @@ state alone. This is the LayerNorm of the actor in the large-network agents of
 Nauman et al. (2024, BRO) and Lee et al. (2024, SimBa), here after each hidden linear
 layer of SB3's MLP, as `policy.critic_layer_norm` does for the critics.
 
+The actor's learning rate (`actor_lr_scale`). SB3's SAC, TQC and CrossQ step the actor
+and the critics with one learning rate. With Adam, which moves each weight by about the
+learning rate whatever the gradient's scale, the actor's rate decides how fast its units
+turn off: on HopRoverRL-v1, of the ~196 units of the last hidden layer recycled at once
+(training/redo.py), ~175 were dormant again within 100 updates at an actor rate of 1e-3,
+~112-129 at 3e-4 and ~29 at 1e-4, the critics at 1e-3 in every case
+(docs/studies/off-policy.md, "Why recycled units die"). The option multiplies the
+actor's rate alone, at every step and whatever the schedule: 0.1 gives the actor a tenth
+of the critics' rate, as DDPG's authors did (1e-4 and 1e-3). It is applied by hooks around
+the actor optimiser's step, since the algorithms set every optimiser's rate to the one
+schedule before each update.
+
 A model saved with one of these policies names the class in its zip, so loading it needs
 hoprover installed, as every hoprover model does.
 """
@@ -64,6 +77,24 @@ def penalise_mean(actor: torch.nn.Module, weight: float) -> None:
     actor.mu.register_forward_hook(on_forward)
 
 
+def scale_learning_rate(optimizer: torch.optim.Optimizer, scale: float) -> None:
+    """Step `optimizer` with `scale` times the learning rate its groups are given
+    (module docstring); the groups show the given rate between steps."""
+    if scale == 1.0:
+        return
+
+    def before(opt, _args, _kwargs) -> None:
+        for group in opt.param_groups:
+            group["lr"] = group["lr"] * scale
+
+    def after(opt, _args, _kwargs) -> None:
+        for group in opt.param_groups:
+            group["lr"] = group["lr"] / scale
+
+    optimizer.register_step_pre_hook(before)
+    optimizer.register_step_post_hook(after)
+
+
 def normalise_hidden_layers(actor: torch.nn.Module) -> None:
     """Rebuild SB3's actor MLP (`latent_pi`) with a LayerNorm after every hidden linear
     layer, before its activation (module docstring); the output layers are unchanged."""
@@ -80,15 +111,26 @@ def normalise_hidden_layers(actor: torch.nn.Module) -> None:
 
 class _MeanPenalty:
     """Mixin for an SB3 policy class: its actor's pre-tanh mean is penalised with
-    `actor_mean_reg`, and its hidden layers normalised with `actor_layer_norm`."""
+    `actor_mean_reg`, its hidden layers normalised with `actor_layer_norm`, and its
+    learning rate scaled by `actor_lr_scale`."""
 
     def __init__(
-        self, *args, actor_mean_reg: float = 0.0, actor_layer_norm: bool = False, **kwargs
+        self,
+        *args,
+        actor_mean_reg: float = 0.0,
+        actor_layer_norm: bool = False,
+        actor_lr_scale: float = 1.0,
+        **kwargs,
     ):
         # set before the base class builds the actor (in its __init__, through make_actor)
         self.actor_mean_reg = float(actor_mean_reg)
         self.actor_layer_norm = bool(actor_layer_norm)
+        self.actor_lr_scale = float(actor_lr_scale)
         super().__init__(*args, **kwargs)
+
+    def _build(self, lr_schedule) -> None:
+        super()._build(lr_schedule)  # type: ignore[misc]
+        scale_learning_rate(self.actor.optimizer, self.actor_lr_scale)  # type: ignore[attr-defined]
 
     def make_actor(self, features_extractor=None):
         actor = super().make_actor(features_extractor)  # type: ignore[misc]
@@ -103,6 +145,7 @@ class _MeanPenalty:
             **super()._get_constructor_parameters(),  # type: ignore[misc]
             "actor_mean_reg": self.actor_mean_reg,
             "actor_layer_norm": self.actor_layer_norm,
+            "actor_lr_scale": self.actor_lr_scale,
         }
 
 

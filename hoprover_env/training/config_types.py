@@ -86,6 +86,7 @@ POLICY_TYPES = {
     "critic_layer_norm": BOOL,
     "actor_mean_reg": NONNEG_REAL,
     "actor_layer_norm": BOOL,
+    "actor_lr_scale": POS_REAL,
 }
 DEMONSTRATION_TYPES = {
     "policy": (lambda v: isinstance(v, str) and v != "", "a policy name"),

@@ -12,13 +12,15 @@ A config has these sections (every key is checked; a typo is an error that names
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
                                     # and the algorithm's own (n_quantiles, lstm_hidden_size);
                                     # critic_layer_norm (SAC, TD3), actor_mean_reg
-                                    # (SAC, TQC, CrossQ) and actor_layer_norm (SAC,
-                                    # TQC) are hoprover's
+                                    # and actor_lr_scale (SAC, TQC, CrossQ) and
+                                    # actor_layer_norm (SAC, TQC) are hoprover's
     hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
                                     # VecNormalize statistics (a bundled name, a run
                                     # directory or a .zip); everything else from here
+    demonstrations: {...}           # optional (off-policy): training/demonstrations.py
+    redo: {freq, tau, batch}        # optional (SAC, TQC): training/redo.py
     evaluation: {freq, episodes, seed}
     checkpoint: {freq, seconds}     # every freq steps and every `seconds` of wall time;
                                     # keep: true also keeps each freq checkpoint's model
@@ -97,6 +99,7 @@ POLICY_KEYS = {
     "critic_layer_norm",
     "actor_mean_reg",
     "actor_layer_norm",
+    "actor_lr_scale",
 }
 # the algorithms whose critics hoprover can normalise (training/critics.py)
 LAYER_NORM_ALGOS = {"sac", "td3"}
@@ -106,7 +109,7 @@ MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
 # actor has batch normalisation of its own)
 ACTOR_LAYER_NORM_ALGOS = {"sac", "tqc"}
 # the actor options (training/actor_penalty.py): any of them set chooses its policy class
-ACTOR_OPTION_KEYS = ("actor_mean_reg", "actor_layer_norm")
+ACTOR_OPTION_KEYS = ("actor_mean_reg", "actor_layer_norm", "actor_lr_scale")
 # the policy keys hoprover's own policy classes take (make_agent), not SB3's policies
 HOPROVER_POLICY_KEYS = {"critic_layer_norm", *ACTOR_OPTION_KEYS}
 # a config's `pretrain` section: every key it may set, with the value it takes when unset
@@ -198,7 +201,7 @@ def policy_keys(algo: str) -> set:
     if algo in LAYER_NORM_ALGOS:
         params.add("critic_layer_norm")  # hoprover's: a policy class of its own
     if algo in MEAN_PENALTY_ALGOS:
-        params.add("actor_mean_reg")  # hoprover's: a policy class of its own
+        params.update({"actor_mean_reg", "actor_lr_scale"})  # hoprover's: a class of its own
     if algo in ACTOR_LAYER_NORM_ALGOS:
         params.add("actor_layer_norm")  # the same class
     return POLICY_KEYS & params
