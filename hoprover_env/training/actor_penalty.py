@@ -41,10 +41,10 @@ layer of SB3's MLP, as `policy.critic_layer_norm` does for the critics.
 The actor's learning rate (`actor_lr_scale`). SB3's SAC, TQC and CrossQ step the actor
 and the critics with one learning rate. With Adam, which moves each weight by about the
 learning rate whatever the gradient's scale, the actor's rate decides how fast its units
-turn off: on HopRoverRL-v1, of the ~196 units of the last hidden layer recycled at once
-(training/redo.py), ~175 were dormant again within 100 updates at an actor rate of 1e-3,
-~112-129 at 3e-4 and ~29 at 1e-4, the critics at 1e-3 in every case
-(docs/studies/off-policy.md, "Why recycled units die"). The option multiplies the
+turn off: on HopRoverRL-v1, of the 173-177 units of a SAC actor's last hidden layer
+recycled at once (training/redo.py), 163-175 were dormant again after 300 updates at an
+actor rate of 1e-3, 114-117 at 3e-4 and 37-43 at 1e-4, the critics at 1e-3 in every
+case (docs/studies/off-policy.md, "Why recycled units die"). The option multiplies the
 actor's rate alone, at every step and whatever the schedule: 0.1 gives the actor a tenth
 of the critics' rate, as DDPG's authors did (1e-4 and 1e-3). It is applied by hooks around
 the actor optimiser's step, since the algorithms set every optimiser's rate to the one
