@@ -57,18 +57,32 @@ def _hidden_layers(actor) -> list[tuple[torch.nn.Linear, list[torch.nn.Linear]]]
     ]
 
 
-def dormant_units(actor, obs: torch.Tensor, tau: float) -> list[torch.Tensor]:
-    """Per hidden layer of the actor, a mask of its tau-dormant units over `obs`: mean
-    |activation| at most tau times the layer's mean (Sokar et al.'s score)."""
-    masks = []
+def hidden_activations(actor, obs: torch.Tensor) -> list[torch.Tensor]:
+    """The output of each hidden layer's activation of SB3's actor MLP (`latent_pi`, or
+    TD3's `mu` less its output layers), after the layer's LayerNorm where it has one. The
+    output is positive where the activation's input is (ReLU, ELU, SiLU, tanh), so
+    `> 0` marks a unit that is on."""
+    net = actor.latent_pi if hasattr(actor, "latent_pi") else actor.mu[:-2]
+    outs = []
     with torch.no_grad():
-        x = actor.extract_features(obs, actor.features_extractor)
-        for layer in actor.latent_pi:
+        x = actor.features_extractor(obs)
+        for layer in net:
             x = layer(x)
-            if not isinstance(layer, torch.nn.Linear):
-                score = x.abs().mean(dim=0)
-                masks.append(score <= tau * score.mean())
-    return masks
+            if not isinstance(layer, (torch.nn.Linear, torch.nn.LayerNorm)):
+                outs.append(x)
+    return outs
+
+
+def dormant_mask(h: torch.Tensor, tau: float) -> torch.Tensor:
+    """The tau-dormant units of one layer's activations `h` (states x units): mean
+    |activation| at most tau times the layer's mean (Sokar et al.'s score)."""
+    score = h.abs().mean(dim=0)
+    return score / (score.mean() + 1e-12) <= tau
+
+
+def dormant_units(actor, obs: torch.Tensor, tau: float) -> list[torch.Tensor]:
+    """Per hidden layer of the actor, a mask of its tau-dormant units over `obs`."""
+    return [dormant_mask(h, tau) for h in hidden_activations(actor, obs)]
 
 
 def _zero_moments(optimizer: torch.optim.Optimizer, param: torch.Tensor, index) -> None:
@@ -78,9 +92,16 @@ def _zero_moments(optimizer: torch.optim.Optimizer, param: torch.Tensor, index) 
             state[key][index] = 0.0
 
 
-def recycle(actor, optimizer: torch.optim.Optimizer, obs: torch.Tensor, tau: float) -> list[int]:
+def recycle(
+    actor,
+    optimizer: torch.optim.Optimizer,
+    obs: torch.Tensor,
+    tau: float,
+    reset_moments: bool = True,
+) -> list[int]:
     """Recycle the actor's tau-dormant hidden units on `obs` (module docstring); the
-    number recycled per hidden layer."""
+    number recycled per hidden layer. `reset_moments=False` keeps the recycled weights'
+    Adam moments (research.offpolicy.unit_survival's control)."""
     counts = []
     with torch.no_grad():
         for (layer, readers), mask in zip(_hidden_layers(actor), dormant_units(actor, obs, tau)):
@@ -90,11 +111,13 @@ def recycle(actor, optimizer: torch.optim.Optimizer, obs: torch.Tensor, tau: flo
             fresh = torch.nn.Linear(layer.in_features, layer.out_features).to(layer.weight.device)
             layer.weight[mask] = fresh.weight[mask]
             layer.bias[mask] = fresh.bias[mask]
-            _zero_moments(optimizer, layer.weight, mask)
-            _zero_moments(optimizer, layer.bias, mask)
+            moments = [(layer.weight, mask), (layer.bias, mask)]
             for reader in readers:
                 reader.weight[:, mask] = 0.0
-                _zero_moments(optimizer, reader.weight, (slice(None), mask))
+                moments.append((reader.weight, (slice(None), mask)))
+            if reset_moments:
+                for param, index in moments:
+                    _zero_moments(optimizer, param, index)
     return counts
 
 

@@ -255,22 +255,6 @@ def per_state(run: dict, tip: float) -> dict:
     return rows
 
 
-def hidden_activations(actor, obs: torch.Tensor) -> list[torch.Tensor]:
-    """The output of each hidden layer's activation of SB3's actor MLP (`latent_pi`, or
-    TD3's `mu` less its output layers), after the layer's LayerNorm where it has one. The
-    output is positive where the activation's input is (ReLU, ELU, SiLU, tanh), so
-    `> 0` marks a unit that is on."""
-    net = actor.latent_pi if hasattr(actor, "latent_pi") else actor.mu[:-2]
-    outs = []
-    with torch.no_grad():
-        x = actor.features_extractor(obs)
-        for layer in net:
-            x = layer(x)
-            if not isinstance(layer, (torch.nn.Linear, torch.nn.LayerNorm)):
-                outs.append(x)
-    return outs
-
-
 def critic_tensor(model, obs: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
     """The critic's value of each (observation, action) row, differentiable: the minimum
     over SAC's and TD3's twin critics, the mean over TQC's quantiles."""

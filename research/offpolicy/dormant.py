@@ -29,8 +29,9 @@ import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
 from hoprover_env.tasks.config import TRAINING_STARTS
+from hoprover_env.training.redo import dormant_mask, hidden_activations
 from hoprover_env.util.files import atomic_write
-from research.offpolicy.actors import env_arguments, hidden_activations
+from research.offpolicy.actors import env_arguments
 
 TAU = 0.025  # Sokar et al.'s threshold for the actor and critic of their SAC runs
 
@@ -64,12 +65,11 @@ def dormant(path: Path, envs: int, steps: int, seed: int) -> dict:
     layers = []
     for h in hidden_activations(policy.model.actor, o):
         active = (h > 0).sum(dim=1).numpy()
-        score = h.abs().mean(dim=0) / (h.abs().mean() + 1e-12)
         layers.append(
             {
                 "units": int(h.shape[1]),
                 "never_active": int(((h > 0).sum(dim=0) == 0).sum()),
-                "dormant": int((score <= TAU).sum()),
+                "dormant": int(dormant_mask(h, TAU).sum()),
                 "median_active_per_state": float(np.median(active)),
                 "median_active_at_start": float(np.median(active[at_start])),
             }

@@ -33,13 +33,13 @@ import torch
 import hoprover_env  # noqa: F401  (registers the ids)
 from hoprover_env.agents.policies import load_sb3
 from hoprover_env.envs.registry import vector_env_class
+from hoprover_env.training.redo import hidden_activations
 from hoprover_env.util.files import atomic_write
 from research.offpolicy.actors import (
     critic_tensor,
     critic_value,
     env_arguments,
     gaussian_actor,
-    hidden_activations,
 )
 
 ACTIONS = np.linspace(-1.0, 1.0, 9)

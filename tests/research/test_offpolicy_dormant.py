@@ -9,8 +9,8 @@ import torch
 
 from helpers import train_tiny
 from hoprover_env.agents.policies import load_sb3
+from hoprover_env.training.redo import hidden_activations
 from research.offpolicy import dormant
-from research.offpolicy.actors import hidden_activations
 
 
 @pytest.mark.slow  # trains a tiny SAC
