@@ -64,10 +64,12 @@ def survival(
     model = copy.deepcopy(base)
     model.set_logger(configure(None, [""]))
     set_rates = model._update_learning_rate
+    # a policy with actor_lr_scale multiplies whatever rate its actor is given at each step
+    given = actor_lr / getattr(model.policy, "actor_lr_scale", 1.0)
 
     def actor_rate_too(optimizers):
         set_rates(optimizers)
-        update_learning_rate(model.actor.optimizer, actor_lr)
+        update_learning_rate(model.actor.optimizer, given)
 
     model._update_learning_rate = actor_rate_too
     torch.manual_seed(seed)
@@ -76,13 +78,8 @@ def survival(
     masks = redo.dormant_units(model.actor, batch, tau)
     marked, recycled = masks[-1], [0] * len(masks)
     if recycle:
-        zero_moments = redo._zero_moments
-        if moments == "keep":
-            redo._zero_moments = lambda *_: None
-        try:
-            recycled = redo.recycle(model.actor, model.actor.optimizer, batch, tau)
-        finally:
-            redo._zero_moments = zero_moments
+        reset = moments == "zero"
+        recycled = redo.recycle(model.actor, model.actor.optimizer, batch, tau, reset)
     else:
         marked = torch.zeros_like(marked)
     rows = []
