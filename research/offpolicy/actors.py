@@ -36,7 +36,10 @@ critic's Q(s, a) and the one-step reward r(s, a) (the env re-played from that st
 each a, the same physics) over 21 actions in [-1, 1]: their ranges (max - min), the
 argmax of each, and whether the two argmaxes agree to within one grid step. A critic that
 learnt Q for a potential-shaped reward shows no attitude credit as a difference between
-actions; a per-decision cost puts it back.
+actions; a per-decision cost puts it back. Each state is taken with the target of the
+episode it came from. With `--gap-returns` each of those actions is also played out, the
+deterministic actor deciding from the next decision on, and its discounted return set
+beside Q(s, a): whether the critic's landscape over actions is the one its actor earns.
 
 Writes one JSON (atomically) and prints a summary.
 """
@@ -131,6 +134,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
     obs, info = venv.reset(seed=seed, options={"target_x": targets})
     policy.reset(n)
     modes, acts, omegas, states, spreads, means = [], [], [], [], [], []
+    state_episode: list[int] = []  # the episode each flight state came from
     open_ = np.ones(n, bool)
     first = np.full(n, np.nan)
     out = {k: np.zeros(n, bool) for k in ("broken", "success", "ended_in_flight")}
@@ -155,6 +159,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
             omegas.append(rs[i, 5])
             if mode[i] == FLIGHT:
                 states.append(rs[i])
+                state_episode.append(int(i))
                 run[i] += 1
                 longest[i] = max(longest[i], run[i])
             elif run[i]:
@@ -185,6 +190,7 @@ def play(policy, targets: np.ndarray, seed: int) -> dict:
         "pre_tanh_mean": np.asarray(means),
         "omega": np.asarray(omegas),
         "flight_states": np.asarray(states),
+        "flight_state_episode": np.asarray(state_episode, int),
         "opening": first,
         "final": final,
         "breaks": np.asarray(breaks, int),
@@ -270,9 +276,48 @@ def critic_value(model, obs: torch.Tensor, actions: torch.Tensor) -> np.ndarray:
         return critic_tensor(model, obs, actions).numpy()
 
 
-def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Generator) -> list[dict]:
-    """Critic and one-step reward over GRID at k flight states."""
+def action_returns(policy, x0: np.ndarray, target: float) -> np.ndarray:
+    """The discounted return of each GRID action taken at flight state x0 and followed by
+    the deterministic actor to the episode's end: what the critic's Q(x0, a) estimates. A
+    cut by the time limit is bootstrapped with the critic's value there, as the learner
+    does (the clock restarts at x0, so the cut comes 600 s later than in the episode)."""
+    model, n = policy.model, len(GRID)
+    venv = vector_env_class(policy.env_id)(
+        n, autoreset_mode=AutoresetMode.SAME_STEP, **env_arguments(policy)
+    )
+    obs, _ = venv.reset(seed=0, options={"target_x": target, "initial_state": x0})
+    policy.reset(n)
+    a = GRID[:, None].astype(np.float32)
+    ret, discount = np.zeros(n), np.ones(n)
+    open_ = np.ones(n, bool)
+    while open_.any():
+        a[~open_] = 0.0
+        obs, rew, term, trunc, info = venv.step(a)
+        ret[open_] += discount[open_] * np.asarray(rew)[open_]
+        discount[open_] *= model.gamma
+        cut = open_ & np.asarray(trunc) & ~np.asarray(term)
+        if cut.any():
+            last = np.stack([info["final_obs"][i] for i in np.flatnonzero(cut)])
+            tail_obs = policy.normalize(last)
+            tail_act, _ = model.predict(tail_obs, deterministic=True)
+            ret[cut] += discount[cut] * critic_value(
+                model,
+                torch.as_tensor(tail_obs, dtype=torch.float32),
+                torch.as_tensor(tail_act, dtype=torch.float32),
+            )
+        open_ &= ~(np.asarray(term) | np.asarray(trunc))
+        a = np.asarray(policy.act(obs, venv), dtype=np.float32)
+    venv.close()
+    return ret
+
+
+def action_gap(
+    policy, run: dict, targets, k: int, rng: np.random.Generator, returns: bool = False
+) -> list[dict]:
+    """Critic and one-step reward over GRID at k flight states, each with the target of
+    the episode it came from; with `returns`, also the return each action earns."""
     model = policy.model
+    states = run["flight_states"]
     if len(states) == 0:
         return []
     pick = rng.choice(len(states), size=min(k, len(states)), replace=False)
@@ -280,7 +325,7 @@ def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Gener
     rows = []
     for j in pick:
         x0 = states[j]
-        target = float(targets[j % len(targets)])
+        target = float(targets[run["flight_state_episode"][j]])
         env = env_class(policy.env_id)(target_x=target, **env_kw)
         obs, _ = env.reset(seed=0, options={"initial_state": x0})
         r = []
@@ -292,17 +337,26 @@ def action_gap(policy, states: np.ndarray, targets, k: int, rng: np.random.Gener
         o = torch.as_tensor(policy.normalize(obs[None]), dtype=torch.float32).repeat(len(GRID), 1)
         act = torch.as_tensor(GRID[:, None], dtype=torch.float32)
         q = critic_value(model, o, act)
-        rows.append(
-            {
-                "omega": float(x0[5]),
-                "theta": float(x0[2]),
-                "reward_range": float(np.ptp(r)),
-                "q_range": float(np.ptp(q)),
-                "reward_argmax": float(GRID[int(np.argmax(r))]),
-                "q_argmax": float(GRID[int(np.argmax(q))]),
-                "agree": bool(abs(np.argmax(r) - np.argmax(q)) <= 1),
-            }
-        )
+        row: dict[str, object] = {
+            "omega": float(x0[5]),
+            "theta": float(x0[2]),
+            "reward_range": float(np.ptp(r)),
+            "q_range": float(np.ptp(q)),
+            "reward_argmax": float(GRID[int(np.argmax(r))]),
+            "q_argmax": float(GRID[int(np.argmax(q))]),
+            "agree": bool(abs(np.argmax(r) - np.argmax(q)) <= 1),
+        }
+        if returns:
+            g = action_returns(policy, x0, target)
+            row.update(
+                return_range=float(np.ptp(g)),
+                return_argmax=float(GRID[int(np.argmax(g))]),
+                q_agrees_with_return=bool(abs(np.argmax(g) - np.argmax(q)) <= 1),
+                q_minus_return=[float(v) for v in q - g],
+                q=[float(v) for v in q],
+                returns=[float(v) for v in g],
+            )
+        rows.append(row)
     return rows
 
 
@@ -311,6 +365,11 @@ def main(argv=None) -> int:
     ap.add_argument("--model", type=Path, required=True, help="an SB3 .zip saved by train.py")
     ap.add_argument("--episodes", type=int, default=40)
     ap.add_argument("--gap-states", type=int, default=8)
+    ap.add_argument(
+        "--gap-returns",
+        action="store_true",
+        help="also play each grid action out with the actor: the return the critic estimates",
+    )
     ap.add_argument("--seed", type=int, default=2015, help="the targets' seed")
     ap.add_argument("--out", type=Path, required=True, help="the JSON to write")
     args = ap.parse_args(argv)
@@ -343,7 +402,12 @@ def main(argv=None) -> int:
         "corr_opening_target": opening_corr,
         "by_side": by_side(run, targets),
         "action_gap": action_gap(
-            policy, run["flight_states"], targets, args.gap_states, np.random.default_rng(args.seed)
+            policy,
+            run,
+            targets,
+            args.gap_states,
+            np.random.default_rng(args.seed),
+            returns=args.gap_returns,
         ),
     }
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -354,6 +418,11 @@ def main(argv=None) -> int:
             f"  flight state omega {g['omega']:+.2f}: reward range {g['reward_range']:.3f}, "
             f"Q range {g['q_range']:.3f}, argmax r {g['reward_argmax']:+.1f} Q "
             f"{g['q_argmax']:+.1f}"
+            + (
+                f", return range {g['return_range']:.3f} argmax {g['return_argmax']:+.1f}"
+                if "return_range" in g
+                else ""
+            )
         )
     return 0
 
