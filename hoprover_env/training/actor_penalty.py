@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import torch
 from stable_baselines3.common.torch_layers import create_mlp
+from stable_baselines3.sac.policies import MultiInputPolicy as SACMultiInputPolicy
 from stable_baselines3.sac.policies import SACPolicy
 
 from hoprover_env.training.critics import LayerNormSACPolicy
@@ -158,14 +159,21 @@ class MeanPenaltyLayerNormSACPolicy(_MeanPenalty, LayerNormSACPolicy):
     """SAC's MlpPolicy with layer-normalised critics and the actor's options."""
 
 
+class MeanPenaltyMultiInputSACPolicy(_MeanPenalty, SACMultiInputPolicy):
+    """SAC's MultiInputPolicy (Dict observations: goal envs, HER) with the actor's options."""
+
+
 # (algo, critic_layer_norm) -> policy class
 MEAN_PENALTY_POLICIES: dict[tuple[str, bool], type] = {
     ("sac", False): MeanPenaltySACPolicy,
     ("sac", True): MeanPenaltyLayerNormSACPolicy,
 }
+# algo -> policy class for Dict observations (SB3's "MultiInputPolicy"), with the actor's options
+MULTI_INPUT_POLICIES: dict[str, type] = {"sac": MeanPenaltyMultiInputSACPolicy}
 
 try:  # TQC and CrossQ come with sb3-contrib (the contrib extra); SAC does not need it
     from sb3_contrib.crossq.policies import CrossQPolicy
+    from sb3_contrib.tqc.policies import MultiInputPolicy as TQCMultiInputPolicy
     from sb3_contrib.tqc.policies import TQCPolicy
 except ImportError:
     pass
@@ -177,5 +185,9 @@ else:
     class MeanPenaltyCrossQPolicy(_MeanPenalty, CrossQPolicy):
         """CrossQ's MlpPolicy with the actor's mean penalised."""
 
+    class MeanPenaltyMultiInputTQCPolicy(_MeanPenalty, TQCMultiInputPolicy):
+        """TQC's MultiInputPolicy with the actor's options."""
+
     MEAN_PENALTY_POLICIES[("tqc", False)] = MeanPenaltyTQCPolicy
+    MULTI_INPUT_POLICIES["tqc"] = MeanPenaltyMultiInputTQCPolicy
     MEAN_PENALTY_POLICIES[("crossq", False)] = MeanPenaltyCrossQPolicy

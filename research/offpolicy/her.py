@@ -29,6 +29,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -61,7 +62,8 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     the same (SystemExit naming the key otherwise)."""
     import gymnasium as gym
 
-    from hoprover_env.training.sb3_agents import HOPROVER_POLICY_KEYS, hyper_keys, policy_keys
+    from hoprover_env.training.config_types import HYPER_TYPES, POLICY_TYPES
+    from hoprover_env.training.sb3_agents import ACTOR_OPTION_KEYS, hyper_keys, policy_keys
 
     with open(path) as f:
         cfg = yaml.safe_load(f)
@@ -71,8 +73,9 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     if unknown:
         raise SystemExit(f"error: {path}: unknown config keys {sorted(unknown)}")
     own = {"replay_buffer_class", "replay_buffer_kwargs", "learning_rate_end"}
-    # train.py's own policy classes; this driver builds SB3's MultiInputPolicy
-    hoprover_keys = HOPROVER_POLICY_KEYS | {"features_extractor"}
+    # SB3's MultiInputPolicy builds its own extractor and has no layer-normalised critics;
+    # the actor's options come with a MultiInputPolicy of hoprover's (make_model)
+    hoprover_keys = {"critic_layer_norm", "features_extractor"}
     for section, valid in (
         ("hyperparams", hyper_keys(cfg["algo"]) - own),
         ("policy", policy_keys(cfg["algo"]) - hoprover_keys),
@@ -81,6 +84,21 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
         bad = sorted(set(cfg.get(section) or {}) - valid)
         if bad:
             raise SystemExit(f"error: {path}: unknown config key '{section}.{bad[0]}'")
+    for section, kinds in (("policy", POLICY_TYPES), ("hyperparams", HYPER_TYPES)):
+        for key, value in (cfg.get(section) or {}).items():
+            test, expected = kinds.get(key, (lambda v: True, ""))
+            if not test(value):
+                raise SystemExit(
+                    f"error: {path}: {section}.{key} must be {expected}, got {value!r}"
+                )
+    if any((cfg.get("policy") or {}).get(k) for k in ACTOR_OPTION_KEYS):
+        from hoprover_env.training.actor_penalty import MULTI_INPUT_POLICIES
+
+        if cfg["algo"] not in MULTI_INPUT_POLICIES:
+            raise SystemExit(
+                f"error: {path}: the actor's options ({', '.join(ACTOR_OPTION_KEYS)}) come "
+                f"with a Dict-observation policy for {sorted(MULTI_INPUT_POLICIES)} only"
+            )
     try:
         env = gym.make(ENV_ID, **(cfg.get("env") or {})).unwrapped
     except (TypeError, ValueError) as exc:
@@ -102,14 +120,22 @@ def make_model(cfg: dict, venv):
     import torch.nn as nn
     from stable_baselines3 import HerReplayBuffer
 
-    from hoprover_env.training.sb3_agents import ACTIVATIONS, algo_class
+    from hoprover_env.training.sb3_agents import ACTIVATIONS, ACTOR_OPTION_KEYS, algo_class
 
     policy = dict(cfg.get("policy") or {})
     if "activation_fn" in policy:
         policy["activation_fn"] = getattr(nn, ACTIVATIONS[policy["activation_fn"]])
+    policy_class: Any = "MultiInputPolicy"
+    if any(policy.get(key) for key in ACTOR_OPTION_KEYS):  # as train.py's make_agent chooses
+        from hoprover_env.training.actor_penalty import MULTI_INPUT_POLICIES
+
+        policy_class = MULTI_INPUT_POLICIES[cfg["algo"]]
+    for key in ACTOR_OPTION_KEYS:
+        if not policy.get(key):
+            policy.pop(key, None)
     her = {"copy_info_dict": True, **(cfg.get("her") or {})}
     return algo_class(cfg["algo"])(
-        "MultiInputPolicy",
+        policy_class,
         venv,
         replay_buffer_class=HerReplayBuffer,
         replay_buffer_kwargs=her,

@@ -77,6 +77,9 @@ def test_the_recorded_her_configs_are_valid(path):
         ("her", {"n_goals": 4}, "her.n_goals"),
         ("env", {"flight_strat": 0.5}, "flight_strat"),
         ("hyperparams", {"gamma": 0.99}, "shaping discount"),
+        ("hyperparams", {"batch_size": 25.6}, "hyperparams.batch_size must be a positive"),
+        ("policy", {"actor_lr_scale": 0.0}, "policy.actor_lr_scale must be a finite number > 0"),
+        ("policy", {"critic_layer_norm": True}, "policy.critic_layer_norm"),
     ],
 )
 def test_a_bad_key_or_discount_is_refused_by_name(tmp_path, section, bad, match):
@@ -92,3 +95,54 @@ def _bad(tmp_path) -> str:
     path = tmp_path / "bad.yaml"
     path.write_text(yaml.safe_dump({"algo": "sac", "replay": 1}))
     return str(path)
+
+
+def test_the_actor_options_refused_where_no_dict_policy_has_them(tmp_path):
+    cfg = yaml.safe_load((Path(her.__file__).parent / "sac_her_as_sac.yaml").read_text())
+    cfg["algo"] = "crossq"
+    cfg["hyperparams"] = {"gamma": 0.995}
+    path = tmp_path / "crossq.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    with pytest.raises(SystemExit, match="Dict-observation policy"):
+        her.load_config(str(path), None, None)
+
+
+def test_the_actor_options_reach_the_dict_policy_and_its_optimiser(tmp_path):
+    """configs/sac.yaml's actor options under HER: hoprover's MultiInputPolicy with the
+    penalty and the actor's rate, stepping the actor with a tenth of the critics' rate
+    and surviving save and load; without them, SB3's own MultiInputPolicy."""
+    import torch
+    from stable_baselines3 import SAC
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.utils import update_learning_rate
+
+    cfg = her.load_config(
+        str(Path(her.__file__).parent / "sac_her_as_sac.yaml"), seed=0, timesteps=None
+    )
+    cfg["policy"]["net_arch"] = [16, 16]
+    cfg["hyperparams"] |= {"buffer_size": 1000, "learning_starts": 10}
+    venv = make_vec_env(her.ENV_ID, n_envs=1, env_kwargs={"keep_going": True})
+    model = her.make_model(cfg, venv)
+    assert type(model.policy).__name__ == "MeanPenaltyMultiInputSACPolicy"
+    assert (model.policy.actor_lr_scale, model.policy.actor_mean_reg) == (0.1, 1e-3)
+    actor, critic = model.actor, model.critic
+    obs = {k: torch.randn(8, *sp.shape) for k, sp in venv.observation_space.spaces.items()}
+    a0, c0 = actor.latent_pi[0].weight.clone(), critic.qf0[0].weight.clone()
+    for opt in (actor.optimizer, critic.optimizer):
+        update_learning_rate(opt, 1e-3)
+        opt.zero_grad()
+    actor(obs, deterministic=True).square().sum().backward()
+    critic(obs, torch.zeros(8, 1))[0].square().sum().backward()
+    actor.optimizer.step()
+    critic.optimizer.step()
+    # Adam's first step moves each weight by about its rate: 1e-4 for the actor, 1e-3 for
+    # the critics (weights whose gradient is zero do not move)
+    da = (actor.latent_pi[0].weight - a0).abs()
+    dc = (critic.qf0[0].weight - c0).abs()
+    assert da.max().item() == pytest.approx(1e-4, rel=1e-3)
+    assert dc.max().item() == pytest.approx(1e-3, rel=1e-3)
+    model.save(tmp_path / "m.zip")
+    loaded = SAC.load(tmp_path / "m.zip", env=venv)
+    assert loaded.policy.actor_lr_scale == 0.1
+    plain = {**cfg, "policy": {"net_arch": [16, 16]}}
+    assert type(her.make_model(plain, venv).policy).__module__.startswith("stable_baselines3")
