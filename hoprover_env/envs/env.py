@@ -186,20 +186,30 @@ class HopRoverEnv(gym.Env):
         self._done = bool(terminated or truncated)
         return self._obs.copy(), float(reward), bool(terminated), bool(truncated), self._info(n_ev)
 
+    def end_cause(self) -> str | None:
+        """Why the last step ended the episode: "broken" (a break, or the kernel stopping
+        on an error, which ends an episode as a break does), "time" (the episode's clock ran
+        out, even where the judge's success came in that same last step), "success";
+        None before reset and while the episode runs."""
+        if self._s.size == 0 or not self._done:
+            return None
+        if self._s[core.S_BROKEN] != 0.0 or self._s[core.S_ERROR] != 0.0:
+            return "broken"
+        if self._s[core.S_T] >= self._e[E_T_TOTAL]:
+            return "time"
+        return "success"
+
     def continue_episode(self) -> None:
         """Let an episode that ended in success go on: the rover keeps its state and the
         judge its TTRTP, so the next step pays no second bonus (a goal-conditioned
         learner that keeps going after success, hoprover_env/envs/goal.py). A rover that
-        broke or ran out of time stays ended (ResetNeeded)."""
-        if self._s.size == 0 or not self._done:
+        broke or ran out of time stays ended (ResetNeeded; `end_cause` tells which)."""
+        cause = self.end_cause()
+        if cause is None:
             raise gym.error.ResetNeeded(
                 "continue_episode() follows a step that ended the episode in success"
             )
-        if (
-            self._s[core.S_BROKEN] != 0.0
-            or self._s[core.S_ERROR] != 0.0
-            or self._s[core.S_T] >= self._e[E_T_TOTAL]
-        ):
+        if cause != "success":
             raise gym.error.ResetNeeded(
                 "the episode ended in a break or at the time limit: call reset()"
             )

@@ -45,8 +45,10 @@ success radius.
 
 ## Episode end
 
-Terminated on success (unless `keep_going`) or when the rover breaks; truncated at
-`episode_time`, HopRoverRL-v1's (bootstrapped). `keep_going=True` pays the bonus at
+Terminated on success (unless `keep_going`) or when the rover breaks (or the kernel
+stops on an error, which the base env ends and pays as a break: `info["broken"]` is true
+then here); truncated at `episode_time`, HopRoverRL-v1's (bootstrapped), also where the
+contest's judge counted its success in that last step. `keep_going=True` pays the bonus at
 every step that ends in success and goes on, so that a goal relabelled from a later
 state of the episode stays reachable from the states before it.
 
@@ -135,12 +137,19 @@ class HopRoverGoalEnv(gym.Env):
 
     def step(self, action):
         obs, _, terminated, truncated, info = self.base.step(action)
+        info = dict(info)
+        cause = self.base.end_cause()
+        if cause == "broken" and not info["broken"]:
+            # the kernel stopped on an error: the base env ends it (and pays it) as a break,
+            # so its transitions read as broken here too, relabelled or not
+            info["broken"] = np.True_
         broken = bool(info["broken"])
-        if terminated and not broken:  # the judge's success: the goal is not its
+        if cause == "success":  # the judge's success, with time left: the goal is not its
             self.base.continue_episode()
             terminated = False
+        elif cause == "time":  # the judge's success in the last step: the clock ends it
+            terminated, truncated = False, True
         out = self._observe(obs)
-        info = dict(info)
         info["previous_achieved_goal"] = self._achieved
         info["goal_free_reward"] = float(sum(info[f"reward_{t}"] for t in _FREE_TERMS))
         info["at_rest"] = int(info["state"]) == MODE_F

@@ -90,6 +90,46 @@ def test_success_at_rest_in_the_band_and_keep_going():
         gym.make("HopRoverGoal-v1", band_weight=0.5)
 
 
+def test_the_judges_success_in_the_last_step_ends_the_episode_by_the_clock():
+    # at rest on its target the judge's 5 s dwell ends in the third 2 s step, the last one
+    # of a 6 s episode: the episode cannot go on, and it is the clock that ends it (this
+    # raised ResetNeeded in a validation run of HER)
+    env = gym.make("HopRoverGoal-v1", keep_going=True, episode_time=6.0)
+    goal = env.unwrapped
+    env.reset(seed=0, options={"target_x": 0.0})
+    for _ in range(3):
+        nxt, r, term, trunc, info = env.step(np.zeros(1, np.float32))
+    assert info["ttrtp"] == pytest.approx(5.0) and goal.base.end_cause() == "time"
+    assert (term, trunc) == (False, True)
+    assert goal.compute_truncated(nxt["achieved_goal"], nxt["desired_goal"], info)
+    assert not goal.compute_terminated(nxt["achieved_goal"], nxt["desired_goal"], info)
+    assert goal.compute_reward(nxt["achieved_goal"], nxt["desired_goal"], info) == r
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(np.zeros(1, np.float32))
+
+
+def test_a_kernel_error_ends_the_episode_as_a_break_does(monkeypatch):
+    from hoprover_env import core
+
+    env = gym.make("HopRoverGoal-v1", keep_going=True)
+    goal = env.unwrapped
+    env.reset(seed=0, options={"target_x": 0.5})
+    real_step = goal.base.step
+
+    def step_that_stops(action):  # as the kernel stopping on an event budget leaves it
+        obs, _, _, _, info = real_step(action)
+        goal.base._s[core.S_ERROR] = core.ERR_BUDGET
+        goal.base._done = True
+        return obs, -1.0, True, False, info
+
+    monkeypatch.setattr(goal.base, "step", step_that_stops)
+    nxt, r, term, trunc, info = env.step(np.zeros(1, np.float32))
+    assert goal.base.end_cause() == "broken" and info["broken"]
+    assert (term, trunc) == (True, False)
+    assert goal.compute_terminated(nxt["achieved_goal"], nxt["desired_goal"], info)
+    assert goal.compute_reward(nxt["achieved_goal"], nxt["desired_goal"], info) == r
+
+
 @pytest.mark.slow  # trains SAC with hindsight replay
 @pytest.mark.parametrize("n_envs", [1, 2])
 def test_sb3_her_trains_on_the_goal_env(n_envs):
