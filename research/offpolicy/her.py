@@ -117,22 +117,17 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
 
 
 def make_model(cfg: dict, venv):
-    import torch.nn as nn
     from stable_baselines3 import HerReplayBuffer
 
-    from hoprover_env.training.sb3_agents import ACTIVATIONS, ACTOR_OPTION_KEYS, algo_class
+    from hoprover_env.training.sb3_agents import ACTOR_OPTION_KEYS, algo_class, policy_kwargs
 
-    policy = dict(cfg.get("policy") or {})
-    if "activation_fn" in policy:
-        policy["activation_fn"] = getattr(nn, ACTIVATIONS[policy["activation_fn"]])
+    # train.py's own reading of the section: activation by name, unset actor options dropped
+    policy = policy_kwargs({"policy": cfg.get("policy") or {}})
     policy_class: Any = "MultiInputPolicy"
     if any(policy.get(key) for key in ACTOR_OPTION_KEYS):  # as train.py's make_agent chooses
         from hoprover_env.training.actor_penalty import MULTI_INPUT_POLICIES
 
         policy_class = MULTI_INPUT_POLICIES[cfg["algo"]]
-    for key in ACTOR_OPTION_KEYS:
-        if not policy.get(key):
-            policy.pop(key, None)
     her = {"copy_info_dict": True, **(cfg.get("her") or {})}
     return algo_class(cfg["algo"])(
         policy_class,
