@@ -1,7 +1,8 @@
-"""Three options of squashed-Gaussian actors: a penalty on the pre-tanh mean (SAC, TQC,
-CrossQ; a config's `policy.actor_mean_reg`), a LayerNorm after each hidden layer (SAC,
-TQC; `policy.actor_layer_norm`) and a learning rate of the actor's own (SAC, TQC, CrossQ;
-`policy.actor_lr_scale`).
+"""Three options of actors: a penalty on the pre-tanh mean (SAC, TQC, CrossQ; a config's
+`policy.actor_mean_reg`), a LayerNorm after each hidden layer (SAC, TQC;
+`policy.actor_layer_norm`) and a learning rate of the actor's own (SAC, TQC, CrossQ and
+TD3; `policy.actor_lr_scale`). The first two concern squashed-Gaussian actors; the third
+any actor with an optimiser of its own.
 
 SB3's squashed-Gaussian actor acts with tanh(mu(s)). When |mu| grows past about 10,
 tanh's slope (1 - tanh(mu)^2) is 0 in float32, so the critic's gradient no longer
@@ -38,8 +39,8 @@ state alone. This is the LayerNorm of the actor in the large-network agents of
 Nauman et al. (2024, BRO) and Lee et al. (2024, SimBa), here after each hidden linear
 layer of SB3's MLP, as `policy.critic_layer_norm` does for the critics.
 
-The actor's learning rate (`actor_lr_scale`). SB3's SAC, TQC and CrossQ step the actor
-and the critics with one learning rate. With Adam, which moves each weight by about the
+The actor's learning rate (`actor_lr_scale`). SB3's SAC, TQC, CrossQ and TD3 step the
+actor and the critics with one learning rate. With Adam, which moves each weight by about the
 learning rate whatever the gradient's scale, the actor's rate decides how fast its units
 turn off: on HopRoverRL-v1, of the 173-177 units of a SAC actor's last hidden layer
 recycled at once (training/redo.py), 163-175 were dormant again after 300 updates at an
@@ -60,8 +61,9 @@ import torch
 from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.sac.policies import MultiInputPolicy as SACMultiInputPolicy
 from stable_baselines3.sac.policies import SACPolicy
+from stable_baselines3.td3.policies import TD3Policy
 
-from hoprover_env.training.critics import LayerNormSACPolicy
+from hoprover_env.training.critics import LayerNormSACPolicy, LayerNormTD3Policy
 
 
 def penalise_mean(actor: torch.nn.Module, weight: float) -> None:
@@ -110,28 +112,41 @@ def normalise_hidden_layers(actor: torch.nn.Module) -> None:
     actor.latent_pi = torch.nn.Sequential(*layers).to(device)
 
 
-class _MeanPenalty:
-    """Mixin for an SB3 policy class: its actor's pre-tanh mean is penalised with
-    `actor_mean_reg`, its hidden layers normalised with `actor_layer_norm`, and its
-    learning rate scaled by `actor_lr_scale`."""
+class _ActorRate:
+    """Mixin for an SB3 policy class whose actor has an optimiser of its own: it steps
+    with `actor_lr_scale` times the rate the algorithm gives it."""
 
-    def __init__(
-        self,
-        *args,
-        actor_mean_reg: float = 0.0,
-        actor_layer_norm: bool = False,
-        actor_lr_scale: float = 1.0,
-        **kwargs,
-    ):
-        # set before the base class builds the actor (in its __init__, through make_actor)
-        self.actor_mean_reg = float(actor_mean_reg)
-        self.actor_layer_norm = bool(actor_layer_norm)
+    def __init__(self, *args, actor_lr_scale: float = 1.0, **kwargs):
         self.actor_lr_scale = float(actor_lr_scale)
         super().__init__(*args, **kwargs)
 
     def _build(self, lr_schedule) -> None:
         super()._build(lr_schedule)  # type: ignore[misc]
         scale_learning_rate(self.actor.optimizer, self.actor_lr_scale)  # type: ignore[attr-defined]
+
+    def _get_constructor_parameters(self) -> dict:
+        return {
+            **super()._get_constructor_parameters(),  # type: ignore[misc]
+            "actor_lr_scale": self.actor_lr_scale,
+        }
+
+
+class _MeanPenalty(_ActorRate):
+    """Mixin for an SB3 squashed-Gaussian policy class: its actor's pre-tanh mean is
+    penalised with `actor_mean_reg`, its hidden layers normalised with
+    `actor_layer_norm`, and its learning rate scaled by `actor_lr_scale`."""
+
+    def __init__(
+        self,
+        *args,
+        actor_mean_reg: float = 0.0,
+        actor_layer_norm: bool = False,
+        **kwargs,
+    ):
+        # set before the base class builds the actor (in its __init__, through make_actor)
+        self.actor_mean_reg = float(actor_mean_reg)
+        self.actor_layer_norm = bool(actor_layer_norm)
+        super().__init__(*args, **kwargs)
 
     def make_actor(self, features_extractor=None):
         actor = super().make_actor(features_extractor)  # type: ignore[misc]
@@ -143,10 +158,9 @@ class _MeanPenalty:
 
     def _get_constructor_parameters(self) -> dict:
         return {
-            **super()._get_constructor_parameters(),  # type: ignore[misc]
+            **super()._get_constructor_parameters(),
             "actor_mean_reg": self.actor_mean_reg,
             "actor_layer_norm": self.actor_layer_norm,
-            "actor_lr_scale": self.actor_lr_scale,
         }
 
 
@@ -163,10 +177,21 @@ class MeanPenaltyMultiInputSACPolicy(_MeanPenalty, SACMultiInputPolicy):
     """SAC's MultiInputPolicy (Dict observations: goal envs, HER) with the actor's options."""
 
 
-# (algo, critic_layer_norm) -> policy class
-MEAN_PENALTY_POLICIES: dict[tuple[str, bool], type] = {
+class ActorRateTD3Policy(_ActorRate, TD3Policy):
+    """TD3's MlpPolicy with the actor's own learning rate (its deterministic actor has no
+    Gaussian mean to penalise)."""
+
+
+class ActorRateLayerNormTD3Policy(_ActorRate, LayerNormTD3Policy):
+    """TD3's MlpPolicy with layer-normalised critics and the actor's own learning rate."""
+
+
+# (algo, critic_layer_norm) -> the policy class that takes the actor's options
+ACTOR_OPTION_POLICIES: dict[tuple[str, bool], type] = {
     ("sac", False): MeanPenaltySACPolicy,
     ("sac", True): MeanPenaltyLayerNormSACPolicy,
+    ("td3", False): ActorRateTD3Policy,
+    ("td3", True): ActorRateLayerNormTD3Policy,
 }
 # algo -> policy class for Dict observations (SB3's "MultiInputPolicy"), with the actor's options
 MULTI_INPUT_POLICIES: dict[str, type] = {"sac": MeanPenaltyMultiInputSACPolicy}
@@ -188,6 +213,6 @@ else:
     class MeanPenaltyMultiInputTQCPolicy(_MeanPenalty, TQCMultiInputPolicy):
         """TQC's MultiInputPolicy with the actor's options."""
 
-    MEAN_PENALTY_POLICIES[("tqc", False)] = MeanPenaltyTQCPolicy
+    ACTOR_OPTION_POLICIES[("tqc", False)] = MeanPenaltyTQCPolicy
     MULTI_INPUT_POLICIES["tqc"] = MeanPenaltyMultiInputTQCPolicy
-    MEAN_PENALTY_POLICIES[("crossq", False)] = MeanPenaltyCrossQPolicy
+    ACTOR_OPTION_POLICIES[("crossq", False)] = MeanPenaltyCrossQPolicy

@@ -12,8 +12,8 @@ A config has these sections (every key is checked; a typo is an error that names
     policy: {...}                   # policy_kwargs: net_arch, activation_fn, log_std_init,
                                     # and the algorithm's own (n_quantiles, lstm_hidden_size);
                                     # critic_layer_norm (SAC, TD3), actor_mean_reg
-                                    # and actor_lr_scale (SAC, TQC, CrossQ) and
-                                    # actor_layer_norm (SAC, TQC) are hoprover's
+                                    # (SAC, TQC, CrossQ), actor_lr_scale (those and
+                                    # TD3) and actor_layer_norm (SAC, TQC) are hoprover's
     hyperparams: {...}              # keyword arguments of the algorithm (PPO, SAC, ...)
     pretrain: {...}                 # optional behaviour cloning (PPO): expert, episodes, epochs
     init_from: terrain              # optional: start from this model's weights and its
@@ -105,6 +105,8 @@ POLICY_KEYS = {
 LAYER_NORM_ALGOS = {"sac", "td3"}
 # the algorithms whose actor's pre-tanh mean hoprover can penalise (training/actor_penalty.py)
 MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
+# the algorithms whose actor hoprover can step at a rate of its own (the same module)
+ACTOR_RATE_ALGOS = {"sac", "tqc", "crossq", "td3"}
 # the algorithms whose actor's hidden layers hoprover can normalise (the same module; CrossQ's
 # actor has batch normalisation of its own)
 ACTOR_LAYER_NORM_ALGOS = {"sac", "tqc"}
@@ -201,7 +203,9 @@ def policy_keys(algo: str) -> set:
     if algo in LAYER_NORM_ALGOS:
         params.add("critic_layer_norm")  # hoprover's: a policy class of its own
     if algo in MEAN_PENALTY_ALGOS:
-        params.update({"actor_mean_reg", "actor_lr_scale"})  # hoprover's: a class of its own
+        params.add("actor_mean_reg")  # hoprover's: a class of its own
+    if algo in ACTOR_RATE_ALGOS:
+        params.add("actor_lr_scale")  # the same class
     if algo in ACTOR_LAYER_NORM_ALGOS:
         params.add("actor_layer_norm")  # the same class
     return POLICY_KEYS & params
@@ -503,9 +507,9 @@ def make_agent(cfg: dict, venv, tensorboard_log: str | None = None, device: str 
     policy: Any = SB3_ALGOS[cfg["algo"]][2]
     layer_norm = bool(cfg["policy"].get("critic_layer_norm"))
     if any(cfg["policy"].get(key) for key in ACTOR_OPTION_KEYS):
-        from hoprover_env.training.actor_penalty import MEAN_PENALTY_POLICIES
+        from hoprover_env.training.actor_penalty import ACTOR_OPTION_POLICIES
 
-        policy = MEAN_PENALTY_POLICIES[(cfg["algo"], layer_norm)]
+        policy = ACTOR_OPTION_POLICIES[(cfg["algo"], layer_norm)]
     elif layer_norm:
         from hoprover_env.training.critics import LAYER_NORM_POLICIES
 

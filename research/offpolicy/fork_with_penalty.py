@@ -43,12 +43,12 @@ def fork(run: Path, out: Path, weight: float) -> Path:
     except ConfigError as exc:
         shutil.rmtree(out / "checkpoints")
         raise SystemExit(f"error: {exc}") from None
-    from hoprover_env.training.actor_penalty import MEAN_PENALTY_POLICIES
+    from hoprover_env.training.actor_penalty import ACTOR_OPTION_POLICIES
 
     cls = algo_class(cfg["algo"])
     # the penalised policy class with the checkpoint's weights: SB3 rebuilds the policy
     # from the class and kwargs saved in the zip, which these replace
-    policy_class = MEAN_PENALTY_POLICIES[
+    policy_class = ACTOR_OPTION_POLICIES[
         (cfg["algo"], bool(cfg["policy"].get("critic_layer_norm")))
     ]
     model = cls.load(

@@ -19,31 +19,40 @@ def _agent(tmp_path, algo: str, scale: float | None):
     return make_agent(cfg, HopRoverSB3VecEnv(2, env_id="HopRoverRL-v1"))
 
 
+def _first_weight(actor) -> torch.nn.Parameter:
+    # SAC's and TQC's actors: an MLP then a Gaussian head; TD3's: one MLP, `mu`
+    return actor.latent_pi[0].weight if hasattr(actor, "latent_pi") else actor.mu[0].weight
+
+
+def _act(actor, obs) -> torch.Tensor:
+    return actor(obs, deterministic=True) if hasattr(actor, "latent_pi") else actor(obs)
+
+
 def _step_deltas(model, obs) -> tuple[torch.Tensor, torch.Tensor]:
     """One Adam step of the actor and of the critic at SB3's rate 1e-3, on losses of the
     same batch; the change of each one's first weight matrix."""
     from stable_baselines3.common.utils import update_learning_rate
 
     actor, critic = model.actor, model.critic
-    a0, c0 = actor.latent_pi[0].weight.clone(), critic.qf0[0].weight.clone()
+    a0, c0 = _first_weight(actor).clone(), critic.qf0[0].weight.clone()
     for opt in (actor.optimizer, critic.optimizer):
         update_learning_rate(opt, 1e-3)
         opt.zero_grad()
-    actor(obs, deterministic=True).square().sum().backward()
+    _act(actor, obs).square().sum().backward()
     critic(obs, torch.zeros(len(obs), 1))[0].square().sum().backward()
     actor.optimizer.step()
     critic.optimizer.step()
-    return actor.latent_pi[0].weight - a0, critic.qf0[0].weight - c0
+    return _first_weight(actor) - a0, critic.qf0[0].weight - c0
 
 
-@pytest.mark.parametrize("algo", ["sac", "tqc"])
+@pytest.mark.parametrize("algo", ["sac", "tqc", "td3"])
 def test_the_actor_steps_with_its_multiple_of_the_rate(tmp_path, algo):
     torch.manual_seed(3)
     plain = _agent(tmp_path, algo, None)
     torch.manual_seed(3)
     scaled = _agent(tmp_path, algo, 0.1)
     obs = torch.randn(32, plain.observation_space.shape[0])
-    assert torch.equal(plain.actor.latent_pi[0].weight, scaled.actor.latent_pi[0].weight)
+    assert torch.equal(_first_weight(plain.actor), _first_weight(scaled.actor))
     if algo == "tqc":  # TQC's critic returns quantiles, not a tuple of Q-values
         return _check_tqc(plain, scaled, obs)
     (pa, pc), (sa, sc) = _step_deltas(plain, obs), _step_deltas(scaled, obs)
@@ -70,17 +79,18 @@ def _check_tqc(plain, scaled, obs):
     torch.testing.assert_close(deltas[1], 0.1 * deltas[0], rtol=1e-4, atol=1e-9)
 
 
-def test_the_scale_survives_save_and_load(tmp_path):
-    from stable_baselines3 import SAC
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_the_scale_survives_save_and_load(tmp_path, algo):
+    from hoprover_env.training.sb3_agents import algo_class
 
     torch.manual_seed(5)
-    model = _agent(tmp_path, "sac", 0.25)
+    model = _agent(tmp_path, algo, 0.25)
     model.save(tmp_path / "m.zip")
-    loaded = SAC.load(tmp_path / "m.zip")
+    loaded = algo_class(algo).load(tmp_path / "m.zip")
     assert loaded.policy.actor_lr_scale == 0.25
     obs = torch.randn(16, model.observation_space.shape[0])
     torch.manual_seed(5)
-    fresh = _agent(tmp_path, "sac", None)
+    fresh = _agent(tmp_path, algo, None)
     fresh.policy.load_state_dict(loaded.policy.state_dict())
     (fa, _), (la, _) = _step_deltas(fresh, obs), _step_deltas(loaded, obs)
     torch.testing.assert_close(la, 0.25 * fa, rtol=1e-4, atol=1e-9)
@@ -89,7 +99,7 @@ def test_the_scale_survives_save_and_load(tmp_path):
 @pytest.mark.parametrize(
     ("algo", "policy", "message"),
     [
-        ("td3", {"actor_lr_scale": 0.1}, "unknown config key 'policy.actor_lr_scale'"),
+        ("td3", {"actor_mean_reg": 1e-3}, "unknown config key 'policy.actor_mean_reg'"),
         ("ppo", {"actor_lr_scale": 0.1}, "unknown config key 'policy.actor_lr_scale'"),
         ("sac", {"actor_lr_scale": 0.0}, "policy.actor_lr_scale"),
         ("sac", {"actor_lr_scale": "low"}, "policy.actor_lr_scale"),
