@@ -61,6 +61,7 @@ import torch
 from stable_baselines3.common.torch_layers import create_mlp
 from stable_baselines3.sac.policies import MultiInputPolicy as SACMultiInputPolicy
 from stable_baselines3.sac.policies import SACPolicy
+from stable_baselines3.td3.policies import MultiInputPolicy as TD3MultiInputPolicy
 from stable_baselines3.td3.policies import TD3Policy
 
 from hoprover_env.training.critics import LayerNormSACPolicy, LayerNormTD3Policy
@@ -186,6 +187,11 @@ class ActorRateLayerNormTD3Policy(_ActorRate, LayerNormTD3Policy):
     """TD3's MlpPolicy with layer-normalised critics and the actor's own learning rate."""
 
 
+class ActorRateMultiInputTD3Policy(_ActorRate, TD3MultiInputPolicy):
+    """TD3's MultiInputPolicy (Dict observations: goal envs, HER) with the actor's own
+    learning rate."""
+
+
 # (algo, critic_layer_norm) -> the policy class that takes the actor's options
 ACTOR_OPTION_POLICIES: dict[tuple[str, bool], type] = {
     ("sac", False): MeanPenaltySACPolicy,
@@ -194,7 +200,10 @@ ACTOR_OPTION_POLICIES: dict[tuple[str, bool], type] = {
     ("td3", True): ActorRateLayerNormTD3Policy,
 }
 # algo -> policy class for Dict observations (SB3's "MultiInputPolicy"), with the actor's options
-MULTI_INPUT_POLICIES: dict[str, type] = {"sac": MeanPenaltyMultiInputSACPolicy}
+MULTI_INPUT_POLICIES: dict[str, type] = {
+    "sac": MeanPenaltyMultiInputSACPolicy,
+    "td3": ActorRateMultiInputTD3Policy,
+}
 
 try:  # TQC and CrossQ come with sb3-contrib (the contrib extra); SAC does not need it
     from sb3_contrib.crossq.policies import CrossQPolicy

@@ -106,7 +106,7 @@ LAYER_NORM_ALGOS = {"sac", "td3"}
 # the algorithms whose actor's pre-tanh mean hoprover can penalise (training/actor_penalty.py)
 MEAN_PENALTY_ALGOS = {"sac", "tqc", "crossq"}
 # the algorithms whose actor hoprover can step at a rate of its own (the same module)
-ACTOR_RATE_ALGOS = {"sac", "tqc", "crossq", "td3"}
+ACTOR_RATE_ALGOS = MEAN_PENALTY_ALGOS | {"td3"}
 # the algorithms whose actor's hidden layers hoprover can normalise (the same module; CrossQ's
 # actor has batch normalisation of its own)
 ACTOR_LAYER_NORM_ALGOS = {"sac", "tqc"}
@@ -377,8 +377,8 @@ def validate(cfg: dict) -> None:
     _check_keys("evaluation", cfg["evaluation"], EVAL_KEYS)
     _check_keys("checkpoint", cfg["checkpoint"], CHECKPOINT_KEYS)
     for key in ("n_envs", "timesteps"):
-        _check_value(key, cfg[key], POS_INT)
-    _check_value("seed", cfg["seed"], INT)
+        check_value(key, cfg[key], POS_INT)
+    check_value("seed", cfg["seed"], INT)
     for section, types in (
         ("normalize", NORMALIZE_TYPES),
         ("policy", POLICY_TYPES),
@@ -391,7 +391,7 @@ def validate(cfg: dict) -> None:
     ):
         for key, value in (cfg.get(section) or {}).items():
             if key in types:
-                _check_value(f"{section}.{key}", value, types[key])
+                check_value(f"{section}.{key}", value, types[key])
     pol = cfg["policy"]
     if pol.get("shared_lstm") and (
         pol.get("enable_critic_lstm", True) or not pol.get("share_features_extractor", True)
@@ -423,7 +423,9 @@ def _check_redo(cfg: dict) -> None:
             )
 
 
-def _check_value(key: str, value, kind) -> None:
+def check_value(key: str, value, kind) -> None:
+    """ConfigError naming `key` unless `kind` (a (test, "what it must be") pair of
+    training/config_types.py) accepts `value`."""
     test, expected = kind
     if not test(value):
         hint = ""

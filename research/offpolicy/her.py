@@ -63,7 +63,13 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     import gymnasium as gym
 
     from hoprover_env.training.config_types import HYPER_TYPES, POLICY_TYPES
-    from hoprover_env.training.sb3_agents import ACTOR_OPTION_KEYS, hyper_keys, policy_keys
+    from hoprover_env.training.sb3_agents import (
+        ACTOR_OPTION_KEYS,
+        ConfigError,
+        check_value,
+        hyper_keys,
+        policy_keys,
+    )
 
     with open(path) as f:
         cfg = yaml.safe_load(f)
@@ -86,11 +92,11 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
             raise SystemExit(f"error: {path}: unknown config key '{section}.{bad[0]}'")
     for section, kinds in (("policy", POLICY_TYPES), ("hyperparams", HYPER_TYPES)):
         for key, value in (cfg.get(section) or {}).items():
-            test, expected = kinds.get(key, (lambda v: True, ""))
-            if not test(value):
-                raise SystemExit(
-                    f"error: {path}: {section}.{key} must be {expected}, got {value!r}"
-                )
+            if key in kinds:
+                try:
+                    check_value(f"{section}.{key}", value, kinds[key])
+                except ConfigError as exc:
+                    raise SystemExit(f"error: {path}: {exc}") from None
     if any((cfg.get("policy") or {}).get(k) for k in ACTOR_OPTION_KEYS):
         from hoprover_env.training.actor_penalty import MULTI_INPUT_POLICIES
 

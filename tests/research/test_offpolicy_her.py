@@ -77,8 +77,8 @@ def test_the_recorded_her_configs_are_valid(path):
         ("her", {"n_goals": 4}, "her.n_goals"),
         ("env", {"flight_strat": 0.5}, "flight_strat"),
         ("hyperparams", {"gamma": 0.99}, "shaping discount"),
-        ("hyperparams", {"batch_size": 25.6}, "hyperparams.batch_size must be a positive"),
-        ("policy", {"actor_lr_scale": 0.0}, "policy.actor_lr_scale must be a finite number > 0"),
+        ("hyperparams", {"batch_size": 25.6}, "'hyperparams.batch_size' must be a positive"),
+        ("policy", {"actor_lr_scale": 0.0}, "'policy.actor_lr_scale' must be a finite number > 0"),
         ("policy", {"critic_layer_norm": True}, "policy.critic_layer_norm"),
     ],
 )
@@ -107,42 +107,52 @@ def test_the_actor_options_refused_where_no_dict_policy_has_them(tmp_path):
         her.load_config(str(path), None, None)
 
 
-def test_the_actor_options_reach_the_dict_policy_and_its_optimiser(tmp_path):
-    """configs/sac.yaml's actor options under HER: hoprover's MultiInputPolicy with the
-    penalty and the actor's rate, stepping the actor with a tenth of the critics' rate
-    and surviving save and load; without them, SB3's own MultiInputPolicy."""
+@pytest.mark.parametrize("algo", ["sac", "td3"])
+def test_the_actor_options_reach_the_dict_policy_and_its_optimiser(tmp_path, algo):
+    """The actor options of configs/sac.yaml (and the actor's rate, TD3's one option)
+    under HER: hoprover's MultiInputPolicy, stepping the actor with a tenth of the
+    critics' rate and surviving save and load; without them, SB3's own MultiInputPolicy."""
     import torch
-    from stable_baselines3 import SAC
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.utils import update_learning_rate
+
+    from hoprover_env.training.sb3_agents import algo_class
 
     cfg = her.load_config(
         str(Path(her.__file__).parent / "sac_her_as_sac.yaml"), seed=0, timesteps=None
     )
     cfg["policy"]["net_arch"] = [16, 16]
     cfg["hyperparams"] |= {"buffer_size": 1000, "learning_starts": 10}
+    if algo == "td3":  # a deterministic actor: no mean to penalise, no entropy
+        cfg["algo"] = "td3"
+        del cfg["policy"]["actor_mean_reg"], cfg["hyperparams"]["ent_coef"]
     venv = make_vec_env(her.ENV_ID, n_envs=1, env_kwargs={"keep_going": True})
     model = her.make_model(cfg, venv)
-    assert type(model.policy).__name__ == "MeanPenaltyMultiInputSACPolicy"
-    assert (model.policy.actor_lr_scale, model.policy.actor_mean_reg) == (0.1, 1e-3)
+    expected = {"sac": "MeanPenaltyMultiInputSACPolicy", "td3": "ActorRateMultiInputTD3Policy"}
+    assert type(model.policy).__name__ == expected[algo]
+    assert model.policy.actor_lr_scale == 0.1
+    if algo == "sac":
+        assert model.policy.actor_mean_reg == 1e-3
     actor, critic = model.actor, model.critic
     obs = {k: torch.randn(8, *sp.shape) for k, sp in venv.observation_space.spaces.items()}
-    a0, c0 = actor.latent_pi[0].weight.clone(), critic.qf0[0].weight.clone()
+    first_actor_layer = actor.latent_pi[0] if algo == "sac" else actor.mu[0]
+    a0, c0 = first_actor_layer.weight.clone(), critic.qf0[0].weight.clone()
     for opt in (actor.optimizer, critic.optimizer):
         update_learning_rate(opt, 1e-3)
         opt.zero_grad()
-    actor(obs, deterministic=True).square().sum().backward()
+    act = actor(obs, deterministic=True) if algo == "sac" else actor(obs)
+    act.square().sum().backward()
     critic(obs, torch.zeros(8, 1))[0].square().sum().backward()
     actor.optimizer.step()
     critic.optimizer.step()
     # Adam's first step moves each weight by about its rate: 1e-4 for the actor, 1e-3 for
     # the critics (weights whose gradient is zero do not move)
-    da = (actor.latent_pi[0].weight - a0).abs()
+    da = (first_actor_layer.weight - a0).abs()
     dc = (critic.qf0[0].weight - c0).abs()
     assert da.max().item() == pytest.approx(1e-4, rel=1e-3)
     assert dc.max().item() == pytest.approx(1e-3, rel=1e-3)
     model.save(tmp_path / "m.zip")
-    loaded = SAC.load(tmp_path / "m.zip", env=venv)
+    loaded = algo_class(algo).load(tmp_path / "m.zip", env=venv)
     assert loaded.policy.actor_lr_scale == 0.1
     plain = {**cfg, "policy": {"net_arch": [16, 16]}}
     assert type(her.make_model(plain, venv).policy).__module__.startswith("stable_baselines3")
