@@ -11,9 +11,9 @@ at +1 or -1 for good. The entropy bonus does not pull it back either, since SB3 
 the tanh correction of the log-probability with an epsilon. On HopRoverRL-v1 this froze
 one SAC seed's opening action at rest at -1 (mu between -1400 and -2000 from 350 k steps
 on, for every target) while its critic preferred -0.25 to -0.75
-(docs/studies/off-policy.md). The SAC authors' own code penalised the Gaussian's mean
-towards zero for this reason (rlkit's SAC: `policy_mean_reg_weight`, 1e-3 by default);
-this is that penalty:
+(docs/studies/off-policy/actor-units.md). The SAC authors' own code penalised the
+Gaussian's mean towards zero for this reason (rlkit's SAC: `policy_mean_reg_weight`, 1e-3
+by default); this is that penalty:
 
     actor loss += actor_mean_reg * mean over the batch (and action dimensions) of mu(s)^2
 
@@ -32,10 +32,10 @@ kind of state while it serves the others. On HopRoverRL-v1 every SAC actor measu
 0-2 of the 256 units of its last hidden layer active at the contest's start from 50 k
 steps on: its opening there was the output layer's bias, the same for every target and
 moved by the training of every other state, and when that bias fell below the tipping
-torque the rover never launched (docs/studies/off-policy.md, "The opening is the output
-layer's bias"). Normalised over its units, each state's pre-activations have mean beta and
-spread gamma whatever the input, so a layer cannot turn all of its units off for one
-state alone. This is the LayerNorm of the actor in the large-network agents of
+torque the rover never launched (docs/studies/off-policy/actor-units.md, "The opening is
+the output layer's bias"). Normalised over its units, each state's pre-activations have
+mean beta and spread gamma whatever the input, so a layer cannot turn all of its units off
+for one state alone. This is the LayerNorm of the actor in the large-network agents of
 Nauman et al. (2024, BRO) and Lee et al. (2024, SimBa), here after each hidden linear
 layer of SB3's MLP, as `policy.critic_layer_norm` does for the critics.
 
@@ -45,11 +45,11 @@ learning rate whatever the gradient's scale, the actor's rate decides how fast i
 turn off: on HopRoverRL-v1, of the 173-177 units of a SAC actor's last hidden layer
 recycled at once (training/redo.py), 163-175 were dormant again after 300 updates at an
 actor rate of 1e-3, 114-117 at 3e-4 and 37-43 at 1e-4, the critics at 1e-3 in every
-case (docs/studies/off-policy.md, "Why recycled units die"). The option multiplies the
-actor's rate alone, at every step and whatever the schedule: 0.1 gives the actor a tenth
-of the critics' rate, as DDPG's authors did (1e-4 and 1e-3). It is applied by hooks around
-the actor optimiser's step, since the algorithms set every optimiser's rate to the one
-schedule before each update.
+case (docs/studies/off-policy/actor-units.md, "Why recycled units die"). The option
+multiplies the actor's rate alone, at every step and whatever the schedule: 0.1 gives the
+actor a tenth of the critics' rate, as DDPG's authors did (1e-4 and 1e-3). It is applied
+by hooks around the actor optimiser's step, since the algorithms set every optimiser's
+rate to the one schedule before each update.
 
 A model saved with one of these policies names the class in its zip, so loading it needs
 hoprover installed, as every hoprover model does.

@@ -13,9 +13,9 @@ A ReLU unit whose input is negative for every state passes no gradient, so once 
 off it stays off. On HopRoverRL-v1, SAC's actor had 162 of the 256 units of its last
 hidden layer tau-dormant (tau 0.025) at 50 k steps and 230 at 1 M, with 0-2 active at the
 contest's start: its opening there was the output layer's bias, one action for every
-target (docs/studies/off-policy.md, "It is the dormant-neuron phenomenon"). ReDo gives
-such units back to the learner: every `freq` steps it scores each hidden unit of the
-actor on a batch of the replay buffer's states, and for each dormant one
+target (docs/studies/off-policy/actor-units.md, "It is the dormant-neuron phenomenon").
+ReDo gives such units back to the learner: every `freq` steps it scores each hidden unit
+of the actor on a batch of the replay buffer's states, and for each dormant one
 
 - draws its incoming weights and bias afresh from the layer's initialiser (torch's
   default for nn.Linear, which SB3's off-policy actors keep),

@@ -1,5 +1,5 @@
 """research/offpolicy/noise_at_rest.py and exploration/summarize.py: the measurements
-behind "Exploration noise at rest" in docs/studies/off-policy.md."""
+behind "Exploration noise at rest" in docs/studies/off-policy/exploration.md."""
 
 from __future__ import annotations
 
