@@ -379,19 +379,17 @@ def validate(cfg: dict) -> None:
     for key in ("n_envs", "timesteps"):
         check_value(key, cfg[key], POS_INT)
     check_value("seed", cfg["seed"], INT)
-    for section, types in (
-        ("normalize", NORMALIZE_TYPES),
-        ("policy", POLICY_TYPES),
-        ("hyperparams", HYPER_TYPES),
-        ("pretrain", PRETRAIN_TYPES),
-        ("demonstrations", DEMONSTRATION_TYPES),
-        ("redo", REDO_TYPES),
-        ("evaluation", EVAL_TYPES),
-        ("checkpoint", CHECKPOINT_TYPES),
-    ):
-        for key, value in (cfg.get(section) or {}).items():
-            if key in types:
-                check_value(f"{section}.{key}", value, types[key])
+    check_sections(
+        cfg,
+        normalize=NORMALIZE_TYPES,
+        policy=POLICY_TYPES,
+        hyperparams=HYPER_TYPES,
+        pretrain=PRETRAIN_TYPES,
+        demonstrations=DEMONSTRATION_TYPES,
+        redo=REDO_TYPES,
+        evaluation=EVAL_TYPES,
+        checkpoint=CHECKPOINT_TYPES,
+    )
     pol = cfg["policy"]
     if pol.get("shared_lstm") and (
         pol.get("enable_critic_lstm", True) or not pol.get("share_features_extractor", True)
@@ -421,6 +419,15 @@ def _check_redo(cfg: dict) -> None:
                 f"config section 'redo' cannot recycle the units of an actor with "
                 f"{key}.{option}: true (training/redo.py says why)"
             )
+
+
+def check_sections(cfg: dict, **sections: dict) -> None:
+    """check_value on every key of each named section of `cfg` that its table of
+    training/config_types.py knows (keys it does not know are _check_keys' business)."""
+    for section, types in sections.items():
+        for key, value in (cfg.get(section) or {}).items():
+            if key in types:
+                check_value(f"{section}.{key}", value, types[key])
 
 
 def check_value(key: str, value, kind) -> None:

@@ -66,7 +66,7 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
     from hoprover_env.training.sb3_agents import (
         ACTOR_OPTION_KEYS,
         ConfigError,
-        check_value,
+        check_sections,
         hyper_keys,
         policy_keys,
     )
@@ -90,13 +90,10 @@ def load_config(path: str, seed: int | None, timesteps: int | None) -> dict:
         bad = sorted(set(cfg.get(section) or {}) - valid)
         if bad:
             raise SystemExit(f"error: {path}: unknown config key '{section}.{bad[0]}'")
-    for section, kinds in (("policy", POLICY_TYPES), ("hyperparams", HYPER_TYPES)):
-        for key, value in (cfg.get(section) or {}).items():
-            if key in kinds:
-                try:
-                    check_value(f"{section}.{key}", value, kinds[key])
-                except ConfigError as exc:
-                    raise SystemExit(f"error: {path}: {exc}") from None
+    try:
+        check_sections(cfg, policy=POLICY_TYPES, hyperparams=HYPER_TYPES)
+    except ConfigError as exc:
+        raise SystemExit(f"error: {path}: {exc}") from None
     if any((cfg.get("policy") or {}).get(k) for k in ACTOR_OPTION_KEYS):
         from hoprover_env.training.actor_penalty import MULTI_INPUT_POLICIES
 
