@@ -361,7 +361,7 @@ def test_a_restarted_pretraining_reuses_its_collections(tmp_path, monkeypatch, c
     assert len(calls) == 5  # demonstrations and the round again
 
 
-@pytest.mark.parametrize("algo", ["sac", "td3"])
+@pytest.mark.parametrize("algo", ["sac", "td3", "tqc"])
 def test_off_policy_configs_train_and_resume(tmp_path, algo):
     cfg = yaml.safe_load(open(f"configs/{algo}.yaml"))
     cfg.update(
